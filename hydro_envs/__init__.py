@@ -1,0 +1,31 @@
+"""hydro-envs: Gymnasium environments for friction-aware control of fluid-power actuators.
+
+Importing the package registers the environments with Gymnasium::
+
+    import gymnasium as gym
+    import hydro_envs  # noqa: F401
+
+    env = gym.make("hydro_envs/ServoCylinderPosition-v0")
+    venv = gym.make_vec("hydro_envs/ServoCylinderPosition-v0", num_envs=1024,
+                        vectorization_mode="vector_entry_point")
+"""
+
+from __future__ import annotations
+
+from gymnasium.envs.registration import register, registry
+
+__version__ = "0.1.0"
+
+_ENVS = {
+    "hydro_envs/ServoCylinderPosition-v0": dict(
+        entry_point="hydro_envs.envs.servo_cylinder:ServoCylinderPositionEnv",
+        vector_entry_point="hydro_envs.envs.servo_cylinder:ServoCylinderPositionVectorEnv",
+        max_episode_steps=2000,
+    ),
+}
+
+for _id, _kw in _ENVS.items():
+    if _id not in registry:
+        register(id=_id, **_kw)
+
+__all__ = ["__version__"]

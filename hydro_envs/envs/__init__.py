@@ -1,0 +1,1 @@
+"""Gymnasium environments (single and native vector) and the SB3 adapter."""

@@ -1,0 +1,76 @@
+"""Reference generators for tracking tasks.
+
+Each generator returns a whole episode's reference as an array sampled at the env step, drawn
+from the env's ``np.random.Generator`` so the same seed gives the same reference. Values lie in
+``[low, high]``; the kinds are chosen so their peak rate stays below what the plant can follow
+(the caller passes ``max_rate``, e.g. 80 % of the servo cylinder's no-load speed).
+
+Kinds: ``steps`` (random levels held 0.2-0.6 s), ``smooth`` (sum of four random sines,
+0.1-1.5 Hz), ``sine`` (one sine, 0.2-2 Hz), ``chirp`` (linear chirp 0.1 -> 3 Hz over the
+episode). ``mixed`` picks one of them per episode.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+__all__ = ["REFERENCE_KINDS", "generate_reference"]
+
+REFERENCE_KINDS = ("steps", "smooth", "sine", "chirp")
+
+
+def _limit_amplitude(amp: float, freq: float, max_rate: float) -> float:
+    """Largest amplitude <= amp whose sine at ``freq`` has peak rate <= max_rate."""
+    return min(amp, max_rate / (2.0 * math.pi * freq))
+
+
+def generate_reference(
+    kind: str,
+    rng: np.random.Generator,
+    n: int,
+    dt: float,
+    low: float,
+    high: float,
+    max_rate: float,
+) -> np.ndarray:
+    """Reference of ``n`` samples at spacing ``dt`` within ``[low, high]``."""
+    if kind == "mixed":
+        kind = REFERENCE_KINDS[int(rng.integers(len(REFERENCE_KINDS)))]
+    if not (high > low and n > 0 and dt > 0 and max_rate > 0):
+        raise ValueError(f"reference needs high > low, n > 0, dt > 0, max_rate > 0; got {low}, {high}, {n}, {dt}, {max_rate}")
+    t = dt * np.arange(n)
+    mid = 0.5 * (low + high)
+    half = 0.5 * (high - low)
+    if kind == "steps":
+        out = np.empty(n)
+        k = 0
+        while k < n:
+            hold = int(round(rng.uniform(0.2, 0.6) / dt))
+            out[k : k + hold] = rng.uniform(low, high)
+            k += hold
+        return out
+    if kind == "smooth":
+        freqs = rng.uniform(0.1, 1.5, 4)
+        phases = rng.uniform(0.0, 2.0 * math.pi, 4)
+        weights = rng.uniform(0.5, 1.0, 4)
+        y = np.zeros(n)
+        for f, ph, w in zip(freqs, phases, weights):
+            y += w * np.sin(2.0 * math.pi * f * t + ph)
+        # scale so that both the excursion and the rate respect the limits
+        peak = float(np.max(np.abs(y))) or 1.0
+        rate = float(np.sum(weights * 2.0 * math.pi * freqs))
+        amp = min(rng.uniform(0.3, 1.0) * half / peak, max_rate / rate)
+        return mid + amp * y
+    if kind == "sine":
+        f = rng.uniform(0.2, 2.0)
+        amp = _limit_amplitude(rng.uniform(0.2, 1.0) * half, f, max_rate)
+        return mid + amp * np.sin(2.0 * math.pi * f * t + rng.uniform(0.0, 2.0 * math.pi))
+    if kind == "chirp":
+        f0, f1 = 0.1, 3.0
+        duration = max(t[-1], dt)
+        amp = _limit_amplitude(rng.uniform(0.3, 0.8) * half, f1, max_rate)
+        phase = 2.0 * math.pi * (f0 * t + 0.5 * (f1 - f0) / duration * t**2)
+        return mid + amp * np.sin(phase)
+    raise ValueError(f"unknown reference kind {kind!r}; allowed: {REFERENCE_KINDS + ('mixed',)}")

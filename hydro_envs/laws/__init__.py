@@ -1,0 +1,136 @@
+"""Physics laws of hydro-envs: small pure numba kernels on float64 scalars, SI units.
+
+Every public function is ``@numba.njit(cache=True)``, takes every argument explicitly and
+cites its seed paper (``/work/shared/seeds/<file>`` + equation number) in its docstring.
+
+friction (:mod:`hydro_envs.laws.friction`)
+    tanh_sign(v, v_eps)                               003 eq (12)
+    coulomb_friction(v, f_c, v_eps)                   002 eq (1), 003 eq (11)
+    viscous_friction(v, b)                            002 eq (1), 003 eq (11)
+    stribeck_exponential(v, f_c, f_s, v_s, b, v_eps)  002 eq (1)
+    stribeck_gaussian(v, f_c, f_s, v_s, b, v_eps)     003 eqs (11)-(12), v_eps = 1/beta
+    dahl_friction_rate(v, f, f_c, sigma0)             001 eq (1), sigma0 = gamma f_c^2
+    dahl_friction_step_exact(f, v, f_c, sigma0, dt)   001 eq (1), closed form
+    lugre_g(v, f_c, f_s, v_s)                         LuGre (003 ref [30], 002 ref [6])
+    lugre_bristle_rate(v, z, f_c, f_s, v_s, sigma0)   LuGre
+    lugre_friction(v, z, zdot, sigma0, sigma1, sigma2)  LuGre
+    lugre_bristle_step_exact(z, v, f_c, f_s, v_s, sigma0, dt)  LuGre, NOTES.md numerics
+    karnopp_friction(v, f_applied, f_c, f_s, b, dv)   002 eq (1) stick branch, Karnopp
+
+orifice (:mod:`hydro_envs.laws.orifice`)
+    regularized_signed_sqrt(dp, dp_tr)                Modelica regRoot / Hopsan (NOTES.md)
+    orifice_flow(cd, area, dp, rho, dp_tr)            002 eqs (3)-(4), 003 eqs (1)-(2)
+    spool_edge_opening(x_v, x_lap)                    Hopsan valve laps (NOTES.md)
+    underlap_orifice_opening(x_v, u_lap)              003 eq (3)
+    circular_orifice_area(x, r)                       004 eq (2)
+    pneumatic_critical_ratio(kappa)                   004 c_0 (after eq (4))
+    pneumatic_mass_flow(cd, area, p_up, p_down, t_up, kappa, r_gas)      004 eqs (3)-(4)
+    pneumatic_mass_flow_laminar(..., ratio_lam)       same, explicit laminar ratio
+    iso6358_mass_flow(c_sonic, b_crit, p_up, p_down, t_up, t_ref, rho_ref)  ISO 6358
+    iso6358_mass_flow_laminar(..., ratio_lam)         same, explicit laminar ratio
+
+bulk_modulus (:mod:`hydro_envs.laws.bulk_modulus`)
+    constant_bulk_modulus(p, e0)                      002 Table 1
+    ifas_bulk_modulus(p, e0, p0, m, alpha, kappa, p_floor)               003 eq (13)
+    modified_ifas_shape(p_a, p_b, lambda_1, lambda_2, mu, p_lt)          003 eq (19)
+    modified_ifas_shape_is_valid(lambda_1, lambda_2, mu, p_lt)           003 eq (19), Table 2
+    modified_ifas_bulk_modulus(p, p_a, p_b, e0, p0, m, alpha, kappa,
+                               lambda_1, lambda_2, mu, p_lt, p_floor)    003 eqs (15)-(19)
+    fluid_density(p, rho0, p0, beta)                  constant-beta liquid
+
+valve (:mod:`hydro_envs.laws.valve`)
+    second_order_valve_acceleration(x_v, v_v, u, k_v, omega_v, zeta_v)   002 eqs (2)/(8), 003 eq (5)
+    saturate(x, lo, hi)                               Hopsan saturated spool
+
+viscosity (:mod:`hydro_envs.laws.viscosity`)
+    iso_vg_kinematic_viscosity(grade, temperature_c)  ISO 3448 + ASTM D341 + D2270 (VI 100)
+    vi100_viscosity_at_100c(nu40_cst)                 ASTM D2270 H column (mm^2/s helper)
+    dynamic_viscosity(nu, rho)
+
+The modified-IFAS constants printed in 003 Table 2 give a negative modulus at mid stroke;
+the valid default set is documented in :mod:`hydro_envs.laws.bulk_modulus`.
+"""
+
+from hydro_envs.laws.bulk_modulus import (
+    constant_bulk_modulus,
+    fluid_density,
+    ifas_bulk_modulus,
+    modified_ifas_bulk_modulus,
+    modified_ifas_shape,
+    modified_ifas_shape_is_valid,
+)
+from hydro_envs.laws.friction import (
+    coulomb_friction,
+    dahl_friction_rate,
+    dahl_friction_step_exact,
+    karnopp_friction,
+    lugre_bristle_rate,
+    lugre_bristle_step_exact,
+    lugre_friction,
+    lugre_g,
+    stribeck_exponential,
+    stribeck_gaussian,
+    tanh_sign,
+    viscous_friction,
+)
+from hydro_envs.laws.orifice import (
+    PNEUMATIC_LAMINAR_RATIO,
+    circular_orifice_area,
+    iso6358_mass_flow,
+    iso6358_mass_flow_laminar,
+    orifice_flow,
+    pneumatic_critical_ratio,
+    pneumatic_mass_flow,
+    pneumatic_mass_flow_laminar,
+    regularized_signed_sqrt,
+    spool_edge_opening,
+    underlap_orifice_opening,
+)
+from hydro_envs.laws.valve import saturate, second_order_valve_acceleration
+from hydro_envs.laws.viscosity import (
+    dynamic_viscosity,
+    iso_vg_kinematic_viscosity,
+    vi100_viscosity_at_100c,
+)
+
+__all__ = [
+    # friction
+    "tanh_sign",
+    "coulomb_friction",
+    "viscous_friction",
+    "stribeck_exponential",
+    "stribeck_gaussian",
+    "dahl_friction_rate",
+    "dahl_friction_step_exact",
+    "lugre_g",
+    "lugre_bristle_rate",
+    "lugre_friction",
+    "lugre_bristle_step_exact",
+    "karnopp_friction",
+    # orifice
+    "regularized_signed_sqrt",
+    "orifice_flow",
+    "spool_edge_opening",
+    "underlap_orifice_opening",
+    "circular_orifice_area",
+    "pneumatic_critical_ratio",
+    "pneumatic_mass_flow",
+    "pneumatic_mass_flow_laminar",
+    "iso6358_mass_flow",
+    "iso6358_mass_flow_laminar",
+    "PNEUMATIC_LAMINAR_RATIO",
+    # bulk modulus
+    "constant_bulk_modulus",
+    "ifas_bulk_modulus",
+    "modified_ifas_shape",
+    "modified_ifas_shape_is_valid",
+    "modified_ifas_bulk_modulus",
+    "fluid_density",
+    # valve
+    "second_order_valve_acceleration",
+    "saturate",
+    # viscosity
+    "iso_vg_kinematic_viscosity",
+    "vi100_viscosity_at_100c",
+    "dynamic_viscosity",
+]

@@ -1,0 +1,149 @@
+"""Validated physical parameter sets.
+
+Every plant describes its parameters as a frozen dataclass whose fields are declared with
+:func:`physical`: a default value, its SI unit, the physically allowed interval and the
+source of the default (a seed table, a data sheet, or ``"assumed: <reason>"``). Creating an
+instance checks every field and raises :class:`ParameterError` naming the field, the value
+and the allowed range, so a typo in a config never reaches a numba kernel.
+
+Kernels take parameters as a flat ``float64`` array; :meth:`PhysicalParams.to_array` packs
+the fields in declaration order, which is also the column order of a batch ``(n, n_params)``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from typing import Any, ClassVar, Mapping
+
+import numpy as np
+
+__all__ = ["ParameterError", "PhysicalParams", "physical"]
+
+
+class ParameterError(ValueError):
+    """A parameter value is missing, unknown, non-finite or outside its allowed range."""
+
+
+def physical(
+    default: float,
+    unit: str,
+    allowed: tuple[float, float],
+    source: str,
+    *,
+    open_low: bool = False,
+    open_high: bool = False,
+    doc: str = "",
+) -> Any:
+    """Declare a dataclass field holding a physical quantity.
+
+    ``allowed`` is the closed interval of physically meaningful values; ``open_low`` /
+    ``open_high`` make an end exclusive (``mass`` > 0, say).
+    """
+    lo, hi = allowed
+    if not (lo <= default <= hi):  # a defect in the declaration itself
+        raise ParameterError(f"default {default} outside its own allowed range [{lo}, {hi}]")
+    meta = {
+        "unit": unit,
+        "allowed": (float(lo), float(hi)),
+        "open_low": open_low,
+        "open_high": open_high,
+        "source": source,
+        "doc": doc,
+    }
+    return dataclasses.field(default=float(default), metadata=meta)
+
+
+def _interval_text(lo: float, hi: float, open_low: bool, open_high: bool, unit: str) -> str:
+    left = "(" if open_low else "["
+    right = ")" if open_high else "]"
+    return f"{left}{lo:g}, {hi:g}{right} {unit}".rstrip()
+
+
+@dataclasses.dataclass(frozen=True)
+class PhysicalParams:
+    """Base class: field checks, array packing, and construction from mappings."""
+
+    #: Plant name used by configs, channels and the CLI (set by subclasses).
+    plant: ClassVar[str] = ""
+
+    def __post_init__(self) -> None:
+        for f in dataclasses.fields(self):
+            value = getattr(self, f.name)
+            try:
+                value = float(value)
+            except (TypeError, ValueError):
+                raise ParameterError(
+                    f"{type(self).__name__}.{f.name} must be a number, got {value!r}"
+                ) from None
+            object.__setattr__(self, f.name, value)
+            meta = f.metadata
+            lo, hi = meta["allowed"]
+            allowed = _interval_text(lo, hi, meta["open_low"], meta["open_high"], meta["unit"])
+            bad = (
+                not math.isfinite(value)
+                or value < lo
+                or value > hi
+                or (meta["open_low"] and value == lo)
+                or (meta["open_high"] and value == hi)
+            )
+            if bad:
+                raise ParameterError(
+                    f"{type(self).__name__}.{f.name} = {value!r} is outside the allowed "
+                    f"range {allowed}"
+                )
+        self._check_relations()
+
+    def _check_relations(self) -> None:
+        """Cross-field constraints (e.g. static >= Coulomb friction); override."""
+
+    # ------------------------------------------------------------------ packing
+    @classmethod
+    def names(cls) -> tuple[str, ...]:
+        return tuple(f.name for f in dataclasses.fields(cls))
+
+    @classmethod
+    def index(cls, name: str) -> int:
+        return cls.names().index(name)
+
+    def to_array(self) -> np.ndarray:
+        return np.array([getattr(self, n) for n in self.names()], dtype=np.float64)
+
+    @classmethod
+    def from_array(cls, values: np.ndarray) -> "PhysicalParams":
+        values = np.asarray(values, dtype=np.float64)
+        if values.shape != (len(cls.names()),):
+            raise ParameterError(
+                f"{cls.__name__}: expected {len(cls.names())} values, got shape {values.shape}"
+            )
+        return cls(**{n: float(v) for n, v in zip(cls.names(), values)})
+
+    def as_dict(self) -> dict[str, float]:
+        return {n: getattr(self, n) for n in self.names()}
+
+    @classmethod
+    def from_mapping(cls, values: Mapping[str, Any], base: "PhysicalParams | None" = None):
+        """Override fields of ``base`` (default: the nominal set) by name; unknown names raise."""
+        unknown = sorted(set(values) - set(cls.names()))
+        if unknown:
+            raise ParameterError(
+                f"{cls.__name__}: unknown parameter(s) {unknown}; known: {list(cls.names())}"
+            )
+        base = base if base is not None else cls()
+        return dataclasses.replace(base, **{k: values[k] for k in values})
+
+    @classmethod
+    def describe(cls) -> list[dict[str, Any]]:
+        """One row per field: name, default, unit, allowed range, source."""
+        rows = []
+        for f in dataclasses.fields(cls):
+            rows.append(
+                {
+                    "name": f.name,
+                    "default": f.default,
+                    "unit": f.metadata["unit"],
+                    "allowed": f.metadata["allowed"],
+                    "source": f.metadata["source"],
+                }
+            )
+        return rows

@@ -1,0 +1,347 @@
+r"""Valve-controlled double-rod servo cylinder (seed 002, Moog D765 servo-valve).
+
+Source: ``002_af30b681d6ccfd6c.txt`` -- "Neural Network-based Friction Identification in
+Hydraulic Actuators": state-space model eq (8), friction eq (1), Table 1 parameters.
+
+State (SI, pressures absolute)::
+
+    index  name  unit   meaning
+    0      x     m      piston position, 0 at the chamber-1 end, stroke at the other
+    1      v     m/s    piston velocity
+    2      p1    Pa     chamber-1 pressure
+    3      p2    Pa     chamber-2 pressure
+    4      xv    m      valve spool position
+    5      vv    m/s    valve spool velocity
+
+Input: ``u`` [V], servo-valve command, +-10 V for full spool stroke (Table 1: k_v = 0.0279
+mm/V, x_vm = 0.279 mm).
+
+Equations (numbers of 002)::
+
+    x'  = v                                                          (8.1)
+    m v' = A (p1 - p2) - F_f(v) - F_L + F_stop(x, v)                  (7), (8.2)
+    p1' = beta / (A x + V1) * (Q1 - A v)                              (5), (8.3)
+    p2' = beta / (A (L - x) + V2) * (Q2 + A v)                        (6), (8.4)
+    xv'' = -w_v^2 xv - 2 zeta_v w_v xv' + k_v w_v^2 u                 (2), (8.5-6)
+    F_f = (F_C + (F_S - F_C) exp(-|v|/v_S)) sign(v) + d v             (1), with d of (7)
+
+Valve flows (critically lapped, matched, symmetric; Q2 counted *into* chamber 2)::
+
+    Q1 = C_v w sqrt(2/rho) [ xv+ sqrt(p_s - p1) - xv- sqrt(p1 - p_R) ]     (3)
+    Q2 = C_v w sqrt(2/rho) [ xv- sqrt(p_s - p2) - xv+ sqrt(p2 - p_R) ]     (4)
+
+with ``xv+ = max(xv, 0)``, ``xv- = max(-xv, 0)``, the spool opening limited to +-x_vm.
+
+Decisions on the extracted text (see ``shared/seeds/README.md``):
+
+* eq (5) prints the chamber volume as ``A x_p - V1``; physically it is ``A x_p + V1`` (the
+  line volume adds to the swept volume). We use ``+``.
+* eqs (3)-(4) in compact form ``sqrt((Ps-PR)/2 + sgn(xv)((Ps-PR)/2 - P1))`` equal the
+  edge-by-edge form above only for ``P_R = 0``; with absolute pressures we write the edges
+  out. The root is regularised (laminar below ``orifice_transition_pressure``) so reverse
+  flow (p1 > p_s while braking) is allowed and the Jacobian stays finite at zero pressure drop.
+* Table 1's "0.65 cm^3" for zeta_v is a stray unit: zeta_v = 0.65.
+* Table 1 gives no Stribeck parameters (the friction figures are missing from the text); the
+  defaults below are assumed, of the size of the fitting errors E = 2.5-3.1 N of sec. 5.
+
+Guards (``shared/NOTES.md``): chamber pressures never integrate below a cavitation floor
+(derivative clipped at the floor here, state clamped after each sub-step by the integrator),
+chamber volumes never below ``min_chamber_volume``, and end stops at 0 and L act through a
+continuous Hunt-Crossley contact force (:mod:`hydro_envs.laws.contact`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numba as nb
+import numpy as np
+
+from hydro_envs.laws.contact import end_stop_force
+from hydro_envs.laws.friction import stribeck_exponential
+from hydro_envs.laws.orifice import orifice_flow
+from hydro_envs.laws.valve import second_order_valve_acceleration
+from hydro_envs.params import ParameterError, PhysicalParams, physical
+
+__all__ = [
+    "ServoCylinderParams",
+    "STATE_NAMES",
+    "servo_cylinder_rhs",
+    "servo_cylinder_guard",
+    "stiffness_modes",
+    "hydraulic_natural_frequency",
+    "no_load_velocity",
+    "closed_valve_energy",
+]
+
+PLANT = "servo_cylinder"
+STATE_NAMES = ("x", "v", "p1", "p2", "xv", "vv")
+STATE_UNITS = ("m", "m/s", "Pa", "Pa", "m", "m/s")
+N_STATES = 6
+X, V, P1, P2, XV, VV = range(N_STATES)
+
+_ATM = 1.0e5  # Pa, atmosphere used to turn the seed's gauge pressures into absolute ones
+
+
+@dataclasses.dataclass(frozen=True)
+class ServoCylinderParams(PhysicalParams):
+    """Parameters of the seed-002 servo cylinder (SI; pressures absolute).
+
+    Defaults are Table 1 of 002 unless the field's ``source`` says otherwise.
+    """
+
+    plant = PLANT
+
+    supply_pressure: float = physical(
+        13.8e6 + _ATM, "Pa", (2e5, 35e6),
+        "002 sec. 3: operated at about 13.8 MPa (gauge) + 0.1 MPa atmosphere; Table 1 P_s <= 17 MPa",
+    )
+    tank_pressure: float = physical(
+        _ATM, "Pa", (0.0, 5e6),
+        "assumed: tank at atmosphere (002 Table 1: P_R < 0.25 MPa)",
+    )
+    mass: float = physical(12.3, "kg", (0.0, 1e4), "002 Table 1: m", open_low=True)
+    piston_area: float = physical(6.63e-4, "m^2", (0.0, 1.0), "002 Table 1: A", open_low=True)
+    stroke: float = physical(0.0696, "m", (0.0, 10.0), "002 Table 1: L", open_low=True)
+    line_volume_1: float = physical(88.7e-6, "m^3", (0.0, 1.0), "002 Table 1: V1", open_low=True)
+    line_volume_2: float = physical(88.7e-6, "m^3", (0.0, 1.0), "002 Table 1: V2", open_low=True)
+    oil_density: float = physical(847.0, "kg/m^3", (500.0, 1500.0), "002 Table 1: rho_oil")
+    bulk_modulus: float = physical(689e6, "Pa", (1e7, 3e9), "002 Table 1: beta_h")
+    discharge_coefficient: float = physical(
+        0.6, "1", (0.0, 1.0), "002 Table 1: C_v", open_low=True
+    )
+    area_gradient: float = physical(
+        20.75e-3, "m", (0.0, 1.0), "002 Table 1: w = 20.75 mm^2/mm", open_low=True
+    )
+    spool_stroke: float = physical(
+        0.279e-3, "m", (0.0, 0.01), "002 Table 1: x_vm", open_low=True
+    )
+    spool_gain: float = physical(
+        0.0279e-3, "m/V", (0.0, 1e-3), "002 Table 1: k_v = 0.0279 mm/V", open_low=True
+    )
+    valve_natural_frequency: float = physical(
+        2.0 * math.pi * 175.0, "rad/s", (10.0, 2e4), "002 Table 1: omega_v = 175 Hz"
+    )
+    valve_damping: float = physical(
+        0.65, "1", (0.05, 5.0), "002 Table 1: zeta_v (printed unit cm^3 is an extraction defect)"
+    )
+    command_max: float = physical(
+        10.0, "V", (0.0, 100.0), "002 Table 1: x_vm / k_v = 10 V", open_low=True
+    )
+    viscous_friction: float = physical(
+        250.0, "N s/m", (0.0, 1e5), "002 Table 1: d (eq (7)); the F_V v term of eq (1)"
+    )
+    coulomb_friction: float = physical(
+        40.0, "N", (0.0, 1e4), "assumed: 002 Fig. 6-7 missing; tens of N for a 6.63 cm^2 seal set"
+    )
+    static_friction: float = physical(
+        60.0, "N", (0.0, 1e4), "assumed: F_S/F_C = 1.5, typical for lubricated hydraulic seals"
+    )
+    stribeck_velocity: float = physical(
+        0.01, "m/s", (1e-5, 1.0), "assumed: 10 mm/s, inside 002's constant-velocity test range"
+    )
+    friction_sign_velocity: float = physical(
+        1e-3, "m/s", (1e-6, 0.1),
+        "assumed: tanh regularisation of sign(v); NOTES.md stiffness 4.4e3 1/s at 1 mm/s",
+    )
+    load_force: float = physical(0.0, "N", (-1e6, 1e6), "002 eq (7): F_L, no load on the rig")
+    stop_stiffness: float = physical(
+        1e8, "N/m", (1e5, 1e11),
+        "assumed: steel stop, 0.09 mm penetration at full thrust A*p_s",
+    )
+    stop_damping: float = physical(
+        2.0, "s/m", (0.0, 100.0), "assumed: Hunt-Crossley alpha, restitution ~0.3 at 0.5 m/s"
+    )
+    orifice_transition_pressure: float = physical(
+        1e5, "Pa", (1.0, 1e7),
+        "assumed: laminar transition of the regularised root (NOTES.md: 1e5 Pa -> |lambda| 4.1e3 1/s)",
+    )
+    pressure_floor: float = physical(
+        1e3, "Pa", (0.0, 1e5), "assumed: cavitation floor, about the oil's vapour/gas-release pressure"
+    )
+    min_chamber_volume: float = physical(
+        1e-7, "m^3", (0.0, 1.0), "assumed: guard only; line volumes keep chambers >= 88.7 cm^3",
+        open_low=True,
+    )
+
+    def _check_relations(self) -> None:
+        if self.static_friction < self.coulomb_friction:
+            raise ParameterError(
+                f"ServoCylinderParams.static_friction = {self.static_friction} must be >= "
+                f"coulomb_friction = {self.coulomb_friction} (Stribeck: F_S >= F_C)"
+            )
+        if not (self.pressure_floor < self.tank_pressure < self.supply_pressure):
+            raise ParameterError(
+                "ServoCylinderParams: need pressure_floor < tank_pressure < supply_pressure, got "
+                f"{self.pressure_floor}, {self.tank_pressure}, {self.supply_pressure} Pa"
+            )
+        if self.min_chamber_volume >= min(self.line_volume_1, self.line_volume_2):
+            raise ParameterError(
+                "ServoCylinderParams.min_chamber_volume must be below the line volumes "
+                f"({self.min_chamber_volume} >= {min(self.line_volume_1, self.line_volume_2)} m^3)"
+            )
+
+
+# Column indices of the packed parameter array (declaration order of the dataclass).
+(
+    I_PS, I_PT, I_M, I_A, I_L, I_V1, I_V2, I_RHO, I_BETA, I_CD, I_W, I_XVM, I_KV, I_WV,
+    I_ZV, I_UMAX, I_D, I_FC, I_FS, I_VS, I_VEPS, I_FL, I_KSTOP, I_ASTOP, I_DPTR, I_PFLOOR,
+    I_VMIN,
+) = range(27)
+assert ServoCylinderParams.names()[I_VMIN] == "min_chamber_volume"
+N_PARAMS = 27
+
+
+@nb.njit(cache=True)
+def servo_cylinder_rhs(y, u, p, dy):
+    """Time derivative ``dy`` of state ``y`` under command ``u[0]`` [V] (002 eq (8))."""
+    x = y[X]
+    v = y[V]
+    p1 = y[P1]
+    p2 = y[P2]
+    xv = y[XV]
+    vv = y[VV]
+    ps = p[I_PS]
+    pt = p[I_PT]
+    area = p[I_A]
+
+    # Spool opening limited by the spool stroke x_vm (Table 1).
+    xo = min(max(xv, -p[I_XVM]), p[I_XVM])
+    cd = p[I_CD]
+    rho = p[I_RHO]
+    dptr = p[I_DPTR]
+    # Only the two edges on the side the spool moved to are open (critical lap), so only
+    # they are evaluated: Q1 into chamber 1 (3), Q2 into chamber 2 (4).
+    if xo >= 0.0:  # P -> 1 and 2 -> T open, area w * xo
+        q1 = orifice_flow(cd, p[I_W] * xo, ps - p1, rho, dptr)  # (3)
+        q2 = -orifice_flow(cd, p[I_W] * xo, p2 - pt, rho, dptr)  # (4)
+    else:  # P -> 2 and 1 -> T open, area w * |xo|
+        q1 = -orifice_flow(cd, -p[I_W] * xo, p1 - pt, rho, dptr)  # (3)
+        q2 = orifice_flow(cd, -p[I_W] * xo, ps - p2, rho, dptr)  # (4)
+
+    vol1 = max(area * x + p[I_V1], p[I_VMIN])  # (5), "+ V1" (extraction defect fixed)
+    vol2 = max(area * (p[I_L] - x) + p[I_V2], p[I_VMIN])  # (6)
+    dp1 = p[I_BETA] / vol1 * (q1 - area * v)  # (5), (8.3)
+    dp2 = p[I_BETA] / vol2 * (q2 + area * v)  # (6), (8.4)
+    # Cavitation guard: a chamber at the floor cannot lose more pressure.
+    if p1 <= p[I_PFLOOR] and dp1 < 0.0:
+        dp1 = 0.0
+    if p2 <= p[I_PFLOOR] and dp2 < 0.0:
+        dp2 = 0.0
+
+    f_friction = stribeck_exponential(v, p[I_FC], p[I_FS], p[I_VS], p[I_D], p[I_VEPS])  # (1), (7)
+    f_stop = end_stop_force(x, v, 0.0, p[I_L], p[I_KSTOP], p[I_ASTOP])
+    dy[X] = v  # (8.1)
+    dy[V] = (area * (p1 - p2) - f_friction - p[I_FL] + f_stop) / p[I_M]  # (7), (8.2)
+    dy[P1] = dp1
+    dy[P2] = dp2
+    dy[XV] = vv  # (8.5)
+    dy[VV] = second_order_valve_acceleration(xv, vv, u[0], p[I_KV], p[I_WV], p[I_ZV])  # (2), (8.6)
+
+
+@nb.njit(cache=True)
+def servo_cylinder_guard(y, p):
+    """Project the state back onto the physical set after a sub-step; return #clamps."""
+    n = 0
+    if y[P1] < p[I_PFLOOR]:
+        y[P1] = p[I_PFLOOR]
+        n += 1
+    if y[P2] < p[I_PFLOOR]:
+        y[P2] = p[I_PFLOOR]
+        n += 1
+    return n
+
+
+# ---------------------------------------------------------------------------- analysis
+def hydraulic_natural_frequency(params: ServoCylinderParams, x: float) -> float:
+    """Undamped hydraulic natural frequency [rad/s] at position ``x`` with the valve closed.
+
+    ``omega_h^2 = beta A^2 (1/V1 + 1/V2) / m`` (two oil springs in parallel on the mass).
+    """
+    vol1 = params.piston_area * x + params.line_volume_1
+    vol2 = params.piston_area * (params.stroke - x) + params.line_volume_2
+    k_oil = params.bulk_modulus * params.piston_area**2 * (1.0 / vol1 + 1.0 / vol2)
+    return math.sqrt(k_oil / params.mass)
+
+
+def stiffness_modes(params: ServoCylinderParams) -> dict[str, float]:
+    """Upper estimates of the Jacobian eigenvalue magnitudes [1/s] of every fast mode.
+
+    The fixed RK4 sub-step must keep ``h * |lambda| <= 2.78`` for all of them
+    (:func:`hydro_envs.sim.stiffness.rk4_substeps`). Each entry is the worst case over the
+    state space (stroke end, full opening, zero pressure drop, zero velocity):
+
+    * ``valve``: spool poles, ``|lambda| = omega_v``.
+    * ``hydraulic``: oil spring on the mass, largest at the stroke end (smallest volume).
+    * ``orifice``: laminar slope of the regularised root at zero drop, fully open, into the
+      smallest chamber: ``beta / V_min * C_v w x_vm sqrt(2/rho) / sqrt(dp_tr)``.
+    * ``friction``: slope of the regularised Stribeck curve at v = 0, ``(F_S/v_eps + d)/m``.
+    * ``end_stop``: contact spring ``sqrt(k/m)`` plus its damping ``alpha * F_max / m`` at the
+      penetration where the stop holds the full thrust ``F_max = A (p_s - p_floor)``.
+    """
+    a = params.piston_area
+    vol_min = min(params.line_volume_1, params.line_volume_2)
+    omega_h = max(
+        hydraulic_natural_frequency(params, 0.0),
+        hydraulic_natural_frequency(params, params.stroke),
+    )
+    g_lam = (
+        params.discharge_coefficient
+        * params.area_gradient
+        * params.spool_stroke
+        * math.sqrt(2.0 / params.oil_density)
+        / math.sqrt(params.orifice_transition_pressure)
+    )
+    f_max = a * (params.supply_pressure - params.pressure_floor)
+    return {
+        "valve": params.valve_natural_frequency,
+        "hydraulic": omega_h,
+        "orifice": params.bulk_modulus / vol_min * g_lam,
+        "friction": (params.static_friction / params.friction_sign_velocity + params.viscous_friction)
+        / params.mass,
+        "end_stop": math.sqrt(params.stop_stiffness / params.mass)
+        + params.stop_damping * f_max / params.mass,
+    }
+
+
+def no_load_velocity(params: ServoCylinderParams) -> float:
+    """Orifice-law piston speed [m/s] at full spool opening with no load and no friction.
+
+    With p1 - p2 = 0 both metering edges see half the supply-to-tank drop:
+    ``v = C_v w x_vm sqrt(2/rho) sqrt((p_s - p_R)/2) / A`` (from 002 eqs (3)-(5)).
+    """
+    q = (
+        params.discharge_coefficient
+        * params.area_gradient
+        * params.spool_stroke
+        * math.sqrt(2.0 / params.oil_density)
+        * math.sqrt((params.supply_pressure - params.tank_pressure) / 2.0)
+    )
+    return q / params.piston_area
+
+
+def closed_valve_energy(y: np.ndarray, params: ServoCylinderParams, y0: np.ndarray) -> np.ndarray:
+    """Kinetic energy plus fluid energy stored since state ``y0`` [J] (rows of ``y`` are states).
+
+    For a sealed chamber at constant bulk modulus, ``dp = -beta dV / V`` gives
+    ``p(V) = p0 - beta ln(V/V0)`` and the energy stored by compressing it from V0 to V is
+    ``-int p dV = -p0 (V - V0) + beta (V ln(V/V0) - V + V0)``. With the valve closed and no
+    friction the sum over both chambers plus ``m v^2 / 2`` is conserved exactly.
+    """
+    y = np.atleast_2d(y)
+    a = params.piston_area
+    beta = params.bulk_modulus
+
+    def chamber(vol, vol0, p0):
+        return -p0 * (vol - vol0) + beta * (vol * np.log(vol / vol0) - vol + vol0)
+
+    v10 = a * y0[X] + params.line_volume_1
+    v20 = a * (params.stroke - y0[X]) + params.line_volume_2
+    v1 = a * y[:, X] + params.line_volume_1
+    v2 = a * (params.stroke - y[:, X]) + params.line_volume_2
+    return (
+        0.5 * params.mass * y[:, V] ** 2
+        + chamber(v1, v10, y0[P1])
+        + chamber(v2, v20, y0[P2])
+    )
