@@ -146,6 +146,11 @@ class RandomizationSpec:
             for key in ("distribution", "mode", "range", "unit", "source"):
                 if key not in entry:
                     raise RandomizationError(f"{ew}: missing '{key}'")
+            if not isinstance(entry["source"], str) or not entry["source"].strip():
+                raise RandomizationError(
+                    f"{ew}.source must say where the nominal value and the range come from "
+                    f"(a seed table, a data sheet or 'assumed: <reason>'), got {entry['source']!r}"
+                )
             dist, mode = entry["distribution"], entry["mode"]
             if dist not in _DISTRIBUTIONS:
                 raise RandomizationError(f"{ew}.distribution = {dist!r}; allowed {_DISTRIBUTIONS}")
@@ -158,7 +163,10 @@ class RandomizationSpec:
             if (
                 not isinstance(rng, (list, tuple))
                 or len(rng) != 2
-                or not all(isinstance(r, (int, float)) and math.isfinite(r) for r in rng)
+                or not all(
+                    isinstance(r, (int, float)) and not isinstance(r, bool) and math.isfinite(r)
+                    for r in rng
+                )
             ):
                 raise RandomizationError(f"{ew}.range must be two finite numbers [low, high], got {rng!r}")
             low, high = float(rng[0]), float(rng[1])

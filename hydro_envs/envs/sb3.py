@@ -11,8 +11,9 @@ SB3's ``DummyVecEnv``)::
     venv = make_sb3_vec_env("hydro_envs/ServoCylinderPosition-v0", n_envs=16, seed=0)
     model = stable_baselines3.PPO("MlpPolicy", venv).learn(10_000)
 
-Seeding follows SB3: ``venv.seed(s)`` makes the next ``reset()`` seed copy ``i`` with
-``s + i``.
+Seeding and options follow SB3: ``venv.seed(s)`` makes the next ``reset()`` seed copy ``i``
+with ``s + i``; ``venv.set_options(...)`` passes reset options (``params``, ``state``,
+``reference``) to the next ``reset()`` only.
 """
 
 from __future__ import annotations
@@ -46,18 +47,27 @@ class SB3VecEnv(VecEnv):
             vector_env.num_envs, vector_env.single_observation_space, vector_env.single_action_space
         )
         self._actions: np.ndarray | None = None
-        self._next_seed: int | None = None
 
     # -------------------------------------------------------------- VecEnv API
     def reset(self) -> np.ndarray:
-        seed = self._next_seed
-        self._next_seed = None
-        obs, _ = self.venv.reset(seed=seed)
+        """Reset all copies with the seeds of :meth:`seed` and the options of
+        :meth:`set_options` (SB3's contract: both apply to this reset only)."""
+        seeds = list(self._seeds)
+        groups: dict[str, list[int]] = {}
+        for i, opt in enumerate(self._options):
+            groups.setdefault(repr(sorted(opt.items())) if opt else "", []).append(i)
+        obs = None
+        for members in groups.values():
+            opt = dict(self._options[members[0]])
+            if len(groups) > 1:  # copies with different options: reset them group by group
+                mask = np.zeros(self.num_envs, dtype=bool)
+                mask[members] = True
+                opt["reset_mask"] = mask
+            obs, _ = self.venv.reset(seed=seeds, options=opt or None)
+        self._reset_seeds()
+        self._reset_options()
+        self.reset_infos = [{} for _ in range(self.num_envs)]
         return obs
-
-    def seed(self, seed: int | None = None) -> Sequence[None | int]:
-        self._next_seed = seed
-        return [None if seed is None else seed + i for i in range(self.num_envs)]
 
     def step_async(self, actions: np.ndarray) -> None:
         self._actions = np.asarray(actions)

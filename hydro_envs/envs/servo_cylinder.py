@@ -73,37 +73,51 @@ REF_BAND = (0.1, 0.9)
 REF_RATE_FRACTION = 0.6
 
 
-@nb.njit(cache=True)
-def _observe(Y, P, REF, K, NOISE, last_a, prev_a, quant, e_scale, rate_pen, preview, obs, reward, meas):
-    """Sensor outputs, observation and reward of every copy after a step (or a reset)."""
+@nb.njit(cache=True, error_model="numpy", inline="always")
+def _observe_copy(i, Y, P, REF, K, NOISE, last_a, prev_a, quant, e_scale, rate_pen, preview, obs_low, obs_high, obs, reward, meas):
+    """Sensor outputs, observation and reward of copy ``i`` after a step (or a reset)."""
     n_ref = REF.shape[1]
     n_noise = NOISE.shape[1]
+    k = K[i]
+    half = 0.5 * P[i, plant.I_L]
+    ps = P[i, plant.I_PS]
+    r = REF[i, min(k, n_ref - 1)]
+    j = k % n_noise
+    x_m = Y[i, plant.X] + NOISE[i, j, 0]
+    if quant > 0.0:
+        x_m = quant * math.floor(x_m / quant + 0.5)
+    p1_m = Y[i, plant.P1] + NOISE[i, j, 1]
+    p2_m = Y[i, plant.P2] + NOISE[i, j, 2]
+    meas[i, 0] = x_m
+    meas[i, 1] = p1_m
+    meas[i, 2] = p2_m
+    obs[i, 0] = (r - x_m) / e_scale
+    obs[i, 1] = (r - half) / half
+    for m in range(preview.shape[0]):
+        obs[i, 2 + m] = (REF[i, min(k + preview[m], n_ref - 1)] - half) / half
+    c = 2 + preview.shape[0]
+    obs[i, c] = (x_m - half) / half
+    obs[i, c + 1] = p1_m / ps
+    obs[i, c + 2] = p2_m / ps
+    obs[i, c + 3] = last_a[i]
+    # sensors saturate at their range: the observation never leaves observation_space
+    for m in range(obs.shape[1]):
+        obs[i, m] = min(max(obs[i, m], obs_low[m]), obs_high[m])
+    e = (r - Y[i, plant.X]) / e_scale
+    da = last_a[i] - prev_a[i]
+    reward[i] = -(e * e) - rate_pen * da * da
+
+
+@nb.njit(cache=True, error_model="numpy")
+def _observe_serial(Y, P, REF, K, NOISE, last_a, prev_a, quant, e_scale, rate_pen, preview, obs_low, obs_high, obs, reward, meas):
     for i in range(Y.shape[0]):
-        k = K[i]
-        half = 0.5 * P[i, plant.I_L]
-        ps = P[i, plant.I_PS]
-        r = REF[i, min(k, n_ref - 1)]
-        j = k % n_noise
-        x_m = Y[i, plant.X] + NOISE[i, j, 0]
-        if quant > 0.0:
-            x_m = quant * math.floor(x_m / quant + 0.5)
-        p1_m = Y[i, plant.P1] + NOISE[i, j, 1]
-        p2_m = Y[i, plant.P2] + NOISE[i, j, 2]
-        meas[i, 0] = x_m
-        meas[i, 1] = p1_m
-        meas[i, 2] = p2_m
-        obs[i, 0] = (r - x_m) / e_scale
-        obs[i, 1] = (r - half) / half
-        for m in range(preview.shape[0]):
-            obs[i, 2 + m] = (REF[i, min(k + preview[m], n_ref - 1)] - half) / half
-        c = 2 + preview.shape[0]
-        obs[i, c] = (x_m - half) / half
-        obs[i, c + 1] = p1_m / ps
-        obs[i, c + 2] = p2_m / ps
-        obs[i, c + 3] = last_a[i]
-        e = (r - Y[i, plant.X]) / e_scale
-        da = last_a[i] - prev_a[i]
-        reward[i] = -(e * e) - rate_pen * da * da
+        _observe_copy(i, Y, P, REF, K, NOISE, last_a, prev_a, quant, e_scale, rate_pen, preview, obs_low, obs_high, obs, reward, meas)
+
+
+@nb.njit(cache=True, error_model="numpy", parallel=True)
+def _observe_parallel(Y, P, REF, K, NOISE, last_a, prev_a, quant, e_scale, rate_pen, preview, obs_low, obs_high, obs, reward, meas):
+    for i in nb.prange(Y.shape[0]):
+        _observe_copy(i, Y, P, REF, K, NOISE, last_a, prev_a, quant, e_scale, rate_pen, preview, obs_low, obs_high, obs, reward, meas)
 
 
 def _check_reference_array(ref: Any, stroke: float) -> np.ndarray:
@@ -202,6 +216,9 @@ class ServoCylinderBatch:
         self.reward = np.zeros(n)
         self.meas = np.zeros((n, 3))
         self.preview = np.array(PREVIEW_STEPS, dtype=np.int64)
+        space = observation_space(self.base_params.stroke, self.error_scale)
+        self.obs_low = space.low.astype(np.float64)
+        self.obs_high = space.high.astype(np.float64)
         self.params: list[ServoCylinderParams] = [self.base_params] * n
         self.rngs: list[np.random.Generator | None] = [None] * n
 
@@ -265,9 +282,10 @@ class ServoCylinderBatch:
         self.rngs[i] = rng
 
     def observe(self) -> None:
-        _observe(
+        (_observe_parallel if self.parallel else _observe_serial)(
             self.Y, self.P, self.REF, self.K, self.NOISE, self.last_a, self.prev_a, self.quant,
-            self.error_scale, self.rate_pen, self.preview, self.obs, self.reward, self.meas,
+            self.error_scale, self.rate_pen, self.preview, self.obs_low, self.obs_high,
+            self.obs, self.reward, self.meas,
         )
 
     def advance(self, actions: np.ndarray) -> None:
@@ -292,15 +310,21 @@ class ServoCylinderBatch:
         }
 
 
-def _observation_space() -> spaces.Box:
-    # Positions lie in [-1, 1] plus the end-stop penetration; the error in +-L/error_scale;
-    # pressures are absolute and may exceed supply while braking: bounds only where physical.
-    low = np.full(OBS_DIM, -np.inf, dtype=np.float32)
-    high = np.full(OBS_DIM, np.inf, dtype=np.float32)
+def observation_space(stroke: float, error_scale: float) -> spaces.Box:
+    """Finite bounds = the sensors' measuring ranges; observations are clipped to them.
+
+    The reference and its preview lie inside the stroke ([-1, 1] normalised, enforced when a
+    reference is generated or passed in); the measured position gets a 20 % margin ([-1.2, 1.2]:
+    stop penetration and noise); the error spans that excursion over ``error_scale``; pressure
+    transducers read 0 to twice the supply pressure (absolute); the action is in [-1, 1].
+    """
     c = 2 + len(PREVIEW_STEPS)
-    low[1:c] = -1.0
-    high[1:c] = 1.0
-    low[c + 1 : c + 3] = 0.0
+    e_max = 1.2 * stroke / error_scale
+    low = np.full(OBS_DIM, -1.0, dtype=np.float32)
+    high = np.full(OBS_DIM, 1.0, dtype=np.float32)
+    low[0], high[0] = -e_max, e_max
+    low[c], high[c] = -1.2, 1.2
+    low[c + 1 : c + 3], high[c + 1 : c + 3] = 0.0, 2.0
     low[c + 3], high[c + 3] = -1.0, 1.0
     return spaces.Box(low, high, dtype=np.float32)
 
@@ -327,7 +351,7 @@ class ServoCylinderPositionEnv(gym.Env):
         self.render_mode = render_mode
         self._batch = ServoCylinderBatch(1, parallel=False, **kwargs)
         self.action_space = spaces.Box(-1.0, 1.0, (1,), dtype=np.float32)
-        self.observation_space = _observation_space()
+        self.observation_space = observation_space(self._batch.base_params.stroke, self._batch.error_scale)
         self.dt = DT
         self.plant_name = plant.PLANT
         self._params_info: dict[str, float] = {}
@@ -431,7 +455,9 @@ class ServoCylinderPositionVectorEnv(VectorEnv):
         kwargs.setdefault("episode_steps", self.max_episode_steps)
         self._batch = ServoCylinderBatch(self.num_envs, parallel=True, **kwargs)
         self.single_action_space = spaces.Box(-1.0, 1.0, (1,), dtype=np.float32)
-        self.single_observation_space = _observation_space()
+        self.single_observation_space = observation_space(
+            self._batch.base_params.stroke, self._batch.error_scale
+        )
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self.dt = DT
@@ -448,7 +474,12 @@ class ServoCylinderPositionVectorEnv(VectorEnv):
 
     def _refresh_params_info(self) -> None:
         names = ServoCylinderParams.names()
-        self._params_info = {name: self._batch.P[:, j].copy() for j, name in enumerate(names)}
+        info = {}
+        for j, name in enumerate(names):
+            col = self._batch.P[:, j].copy()
+            col.setflags(write=False)  # shared between steps until the next reset: read-only
+            info[name] = col
+        self._params_info = info
 
     def _state_info(self) -> dict[str, np.ndarray]:
         return {name: self._batch.Y[:, j].copy() for j, name in enumerate(STATE_NAMES)}
@@ -479,7 +510,7 @@ class ServoCylinderPositionVectorEnv(VectorEnv):
         self._needs_reset[:] = False
         self._reset_done = True
         self._refresh_params_info()
-        return b.obs.astype(np.float32), {"state": self._state_info(), "params": self._params_info}
+        return b.obs.astype(np.float32), {"state": self._state_info(), "params": dict(self._params_info)}
 
     def step(self, actions: Any):
         if not self._reset_done:
@@ -517,7 +548,7 @@ class ServoCylinderPositionVectorEnv(VectorEnv):
                 b.observe()
                 obs = b.obs.astype(np.float32)
                 self._refresh_params_info()
-        info["params"] = self._params_info
+        info["params"] = dict(self._params_info)
         return obs, reward, terminated, truncated, info
 
     def channel_values(self) -> dict[str, np.ndarray]:

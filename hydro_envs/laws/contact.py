@@ -18,7 +18,7 @@ import numba as nb
 __all__ = ["end_stop_force", "hunt_crossley_force"]
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, error_model="numpy")
 def hunt_crossley_force(delta: float, delta_rate: float, k: float, alpha: float) -> float:
     """Compressive contact force [N] for penetration ``delta`` [m] >= 0 at rate [m/s].
 
@@ -30,7 +30,7 @@ def hunt_crossley_force(delta: float, delta_rate: float, k: float, alpha: float)
     return f if f > 0.0 else 0.0
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, error_model="numpy")
 def end_stop_force(x: float, v: float, x_min: float, x_max: float, k: float, alpha: float) -> float:
     """Net force [N] on a body at position ``x`` [m], velocity ``v`` from stops at x_min, x_max.
 

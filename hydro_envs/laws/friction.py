@@ -1,6 +1,6 @@
 """Friction laws for hydraulic and pneumatic pistons (pure numba scalar kernels).
 
-Every function here is a small pure ``@numba.njit(cache=True)`` function of float64
+Every function here is a small pure ``@numba.njit(cache=True, error_model="numpy")`` function of float64
 scalars, in SI units (m, m/s, N, N s/m, N/m, s).  Sign convention: the returned
 friction force *opposes* motion, i.e. a plant writes ``m a = F_drive - F_friction``.
 
@@ -29,7 +29,7 @@ import math
 import numba
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def tanh_sign(v, v_eps):
     """Smooth sign function ``tanh(v / v_eps)``; exact sign when ``v_eps <= 0``.
 
@@ -58,7 +58,7 @@ def tanh_sign(v, v_eps):
     return 0.0
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def coulomb_friction(v, f_c, v_eps):
     """Coulomb friction ``F = f_c * tanh_sign(v, v_eps)``.
 
@@ -69,7 +69,7 @@ def coulomb_friction(v, f_c, v_eps):
     return f_c * tanh_sign(v, v_eps)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def viscous_friction(v, b):
     """Viscous friction ``F = b v``.
 
@@ -80,7 +80,7 @@ def viscous_friction(v, b):
     return b * v
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def stribeck_exponential(v, f_c, f_s, v_s, b, v_eps):
     """Exponential Stribeck friction, sliding branch of 002 eq (1).
 
@@ -98,7 +98,7 @@ def stribeck_exponential(v, f_c, f_s, v_s, b, v_eps):
     return mag * tanh_sign(v, v_eps) + b * v
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def stribeck_gaussian(v, f_c, f_s, v_s, b, v_eps):
     """Gaussian Stribeck friction with tanh sign, 003 eqs (11)-(12).
 
@@ -121,7 +121,7 @@ def stribeck_gaussian(v, f_c, f_s, v_s, b, v_eps):
     return mag * tanh_sign(v, v_eps) + b * v
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def dahl_friction_rate(v, f, f_c, sigma0):
     """Time derivative of the modified Dahl friction force, 001 eq (1).
 
@@ -160,7 +160,7 @@ def dahl_friction_rate(v, f, f_c, sigma0):
     return sigma0 * v * u * abs(u)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def dahl_friction_step_exact(f, v, f_c, sigma0, dt):
     """Exact update of the 001 eq (1) Dahl force over ``dt`` at frozen velocity ``v``.
 
@@ -187,7 +187,7 @@ def dahl_friction_step_exact(f, v, f_c, sigma0, dt):
     return s * f_c * (1.0 - u)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def lugre_g(v, f_c, f_s, v_s):
     """LuGre Stribeck curve ``g(v) = f_c + (f_s - f_c) exp(-(v / v_s)^2)``.
 
@@ -199,7 +199,7 @@ def lugre_g(v, f_c, f_s, v_s):
     return f_c + (f_s - f_c) * math.exp(-r * r)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def lugre_bristle_rate(v, z, f_c, f_s, v_s, sigma0):
     """LuGre bristle deflection rate ``dz/dt = v - sigma0 |v| z / g(v)``.
 
@@ -213,7 +213,7 @@ def lugre_bristle_rate(v, z, f_c, f_s, v_s, sigma0):
     return v - sigma0 * abs(v) * z / lugre_g(v, f_c, f_s, v_s)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def lugre_friction(v, z, zdot, sigma0, sigma1, sigma2):
     """LuGre friction force ``F = sigma0 z + sigma1 zdot + sigma2 v``.
 
@@ -224,7 +224,7 @@ def lugre_friction(v, z, zdot, sigma0, sigma1, sigma2):
     return sigma0 * z + sigma1 * zdot + sigma2 * v
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def lugre_bristle_step_exact(z, v, f_c, f_s, v_s, sigma0, dt):
     """Exact LuGre bristle update over ``dt`` at frozen velocity ``v``.
 
@@ -250,7 +250,7 @@ def lugre_bristle_step_exact(z, v, f_c, f_s, v_s, sigma0, dt):
     return z * e + v * dt * phi
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def karnopp_friction(v, f_applied, f_c, f_s, b, dv):
     """Karnopp stick/slip friction.
 

@@ -34,7 +34,7 @@ PNEUMATIC_LAMINAR_RATIO = 0.999
 # --------------------------------------------------------------------------------------
 # incompressible orifice
 # --------------------------------------------------------------------------------------
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def regularized_signed_sqrt(dp, dp_tr):
     """Regularised signed square root ``dp / (dp^2 + dp_tr^2)^(1/4)``.
 
@@ -61,7 +61,7 @@ def regularized_signed_sqrt(dp, dp_tr):
     return dp / math.sqrt(math.sqrt(dp * dp + dp_tr * dp_tr))
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def orifice_flow(cd, area, dp, rho, dp_tr):
     """Turbulent orifice volume flow with a laminar core.
 
@@ -76,7 +76,7 @@ def orifice_flow(cd, area, dp, rho, dp_tr):
     return cd * area * math.sqrt(2.0 / rho) * regularized_signed_sqrt(dp, dp_tr)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def spool_edge_opening(x_v, x_lap):
     """Opening of one metering edge of a lapped spool, Hopsan style.
 
@@ -94,7 +94,7 @@ def spool_edge_opening(x_v, x_lap):
     return 0.0
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def underlap_orifice_opening(x_v, u_lap):
     """Opening function ``sgt(x_v, U)`` of the underlapped valve, 003 eq (3).
 
@@ -117,7 +117,7 @@ def underlap_orifice_opening(x_v, u_lap):
     return x_v + u_lap
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def circular_orifice_area(x, r):
     """Area of a circular port of radius r uncovered by a straight spool edge, 004 eq (2).
 
@@ -149,7 +149,7 @@ def circular_orifice_area(x, r):
 # --------------------------------------------------------------------------------------
 # compressible orifice
 # --------------------------------------------------------------------------------------
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def _nozzle_flow_function(ratio, kappa, ratio_lam):
     """Dimensionless flow function psi(p_down/p_up) of 004 eqs (3)-(4) with laminar tail."""
     crit = (2.0 / (kappa + 1.0)) ** (kappa / (kappa - 1.0))
@@ -166,7 +166,7 @@ def _nozzle_flow_function(ratio, kappa, ratio_lam):
     return psi_lam * (1.0 - ratio) / (1.0 - ratio_lam)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def pneumatic_critical_ratio(kappa):
     """Critical pressure ratio ``c_0 = (2/(kappa+1))^(kappa/(kappa-1))`` (004, after eq (4)).
 
@@ -176,7 +176,7 @@ def pneumatic_critical_ratio(kappa):
     return (2.0 / (kappa + 1.0)) ** (kappa / (kappa - 1.0))
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def pneumatic_mass_flow_laminar(cd, area, p_up, p_down, t_up, kappa, r_gas, ratio_lam):
     """004 eqs (3)-(4) compressible orifice mass flow with an explicit laminar ratio.
 
@@ -200,7 +200,7 @@ def pneumatic_mass_flow_laminar(cd, area, p_up, p_down, t_up, kappa, r_gas, rati
     return s * cd * area * pu / math.sqrt(r_gas * t_up) * psi
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def pneumatic_mass_flow(cd, area, p_up, p_down, t_up, kappa, r_gas):
     """Compressible (isentropic nozzle) orifice mass flow, 004 eqs (3)-(4).
 
@@ -239,7 +239,7 @@ def pneumatic_mass_flow(cd, area, p_up, p_down, t_up, kappa, r_gas):
                                        PNEUMATIC_LAMINAR_RATIO)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def iso6358_mass_flow_laminar(c_sonic, b_crit, p_up, p_down, t_up, t_ref, rho_ref, ratio_lam):
     """ISO 6358 mass flow with an explicit laminar ratio (see :func:`iso6358_mass_flow`)."""
     if p_up >= p_down:
@@ -265,7 +265,7 @@ def iso6358_mass_flow_laminar(c_sonic, b_crit, p_up, p_down, t_up, t_ref, rho_re
     return s * m_choked * math.sqrt(1.0 - y * y) * (1.0 - ratio) / (1.0 - ratio_lam)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def iso6358_mass_flow(c_sonic, b_crit, p_up, p_down, t_up, t_ref, rho_ref):
     """ISO 6358 pneumatic component flow (sonic conductance C, critical ratio b).
 

@@ -15,7 +15,7 @@ from __future__ import annotations
 import numba
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def second_order_valve_acceleration(x_v, v_v, u, k_v, omega_v, zeta_v):
     """Spool acceleration of the second-order valve model.
 
@@ -31,7 +31,7 @@ def second_order_valve_acceleration(x_v, v_v, u, k_v, omega_v, zeta_v):
     return -omega_v * omega_v * x_v - 2.0 * zeta_v * omega_v * v_v + k_v * omega_v * omega_v * u
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def saturate(x, lo, hi):
     """Clip ``x`` to [lo, hi] (spool stroke limits, command limits).
 

@@ -193,7 +193,7 @@ assert ServoCylinderParams.names()[I_VMIN] == "min_chamber_volume"
 N_PARAMS = 27
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, error_model="numpy")
 def servo_cylinder_rhs(y, u, p, dy):
     """Time derivative ``dy`` of state ``y`` under command ``u[0]`` [V] (002 eq (8))."""
     x = y[X]
@@ -240,7 +240,7 @@ def servo_cylinder_rhs(y, u, p, dy):
     dy[VV] = second_order_valve_acceleration(xv, vv, u[0], p[I_KV], p[I_WV], p[I_ZV])  # (2), (8.6)
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, error_model="numpy")
 def servo_cylinder_guard(y, p):
     """Project the state back onto the physical set after a sub-step; return #clamps."""
     n = 0

@@ -37,7 +37,7 @@ __all__ = [
 SERVO_CYLINDER = 0
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, error_model="numpy", inline="always")
 def plant_rhs(plant_id, y, u, p, dy):
     """Evaluate the right-hand side of plant ``plant_id`` into ``dy``."""
     if plant_id == SERVO_CYLINDER:
@@ -46,7 +46,7 @@ def plant_rhs(plant_id, y, u, p, dy):
         raise ValueError("unknown plant id")
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, error_model="numpy", inline="always")
 def plant_guard(plant_id, y, p):
     """Project ``y`` onto the plant's physical set; return the number of clamped states."""
     if plant_id == SERVO_CYLINDER:
@@ -54,7 +54,7 @@ def plant_guard(plant_id, y, p):
     return 0
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, error_model="numpy")
 def rk4_substeps(plant_id, y, u, p, h, n_sub, work):
     """Advance ``y`` in place by ``n_sub`` RK4 steps of ``h`` seconds; return guard clamps.
 
@@ -86,14 +86,14 @@ def rk4_substeps(plant_id, y, u, p, h, n_sub, work):
     return clamps
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, error_model="numpy")
 def step_batch_serial(plant_id, Y, U, P, dt, NSUB, W, clamps):
     """Advance every copy by one env step of ``dt`` seconds in ``NSUB[i]`` sub-steps (serial)."""
     for i in range(Y.shape[0]):
         clamps[i] += rk4_substeps(plant_id, Y[i], U[i], P[i], dt / NSUB[i], NSUB[i], W[i])
 
 
-@nb.njit(cache=True, parallel=True)
+@nb.njit(cache=True, parallel=True, error_model="numpy")
 def step_batch_parallel(plant_id, Y, U, P, dt, NSUB, W, clamps):
     """Advance every copy by one env step of ``dt`` seconds in ``NSUB[i]`` sub-steps (threads)."""
     for i in nb.prange(Y.shape[0]):

@@ -1,0 +1,202 @@
+"""Step rate, kernel cost, accuracy against Radau and memory of the servo-cylinder env.
+
+Prints (no pass/fail; targets from the foundation issue in brackets):
+
+* single-env steps/s through ``gymnasium.make`` with random actions, CartPole-v1's in the
+  same run, and their ratio                                   [ratio >= 0.5]
+* 1024-copy native vector env env-steps/s and gymnasium's vectorised CartPole  [>= 2 M/s]
+* kernel time per RK4 sub-step per copy (serial, and parallel over the batch)
+* position and pressure NRMSE against Radau (rtol 1e-10) over 2 s of random step commands
+  with end-stop contact, at the default sub-step               [<= 1e-4, <= 1e-3]
+* peak resident memory of a process running the 1024-copy env  [< 1 GiB]
+
+Usage: ``python bench/step_rate.py [--quick]``. Timings are the best of ``--repeats`` runs.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import resource
+import subprocess
+import sys
+import time
+
+import numpy as np
+
+ENV_ID = "hydro_envs/ServoCylinderPosition-v0"
+
+
+def single_env_rate(env_id: str, steps: int) -> float:
+    import gymnasium as gym
+
+    import hydro_envs  # noqa: F401  (registers the envs)
+
+    env = gym.make(env_id)
+    env.reset(seed=0)
+    env.action_space.seed(0)
+    actions = [env.action_space.sample() for _ in range(steps)]
+    for a in actions[:200]:  # warm-up (compilation, caches)
+        env.step(a)
+    env.reset(seed=0)
+    t0 = time.perf_counter()
+    for a in actions:
+        _, _, terminated, truncated, _ = env.step(a)
+        if terminated or truncated:
+            env.reset()
+    return steps / (time.perf_counter() - t0)
+
+
+def vector_env_rate(env_id: str, n: int, steps: int) -> float:
+    import gymnasium as gym
+
+    import hydro_envs  # noqa: F401
+
+    venv = gym.make_vec(env_id, num_envs=n, vectorization_mode="vector_entry_point")
+    venv.reset(seed=0)
+    rng = np.random.default_rng(0)
+    space = venv.single_action_space
+    if hasattr(space, "n"):
+        actions = rng.integers(0, space.n, (steps, n))
+    else:
+        actions = rng.uniform(space.low, space.high, (steps, n) + space.shape).astype(space.dtype)
+    for k in range(20):
+        venv.step(actions[k])
+    t0 = time.perf_counter()
+    for k in range(steps):
+        venv.step(actions[k])
+    return steps * n / (time.perf_counter() - t0)
+
+
+def kernel_time_per_substep(n: int, steps: int) -> tuple[float, float]:
+    from hydro_envs.plants import servo_cylinder as sc
+    from hydro_envs.sim.kernels import SERVO_CYLINDER, step_batch_parallel, step_batch_serial
+
+    p = sc.ServoCylinderParams()
+    P = np.tile(p.to_array(), (n, 1))
+    rng = np.random.default_rng(0)
+    result = []
+    for kernel in (step_batch_serial, step_batch_parallel):
+        Y = np.zeros((n, sc.N_STATES))
+        Y[:, sc.X] = rng.uniform(0.2, 0.8, n) * p.stroke
+        Y[:, sc.P1] = Y[:, sc.P2] = 0.5 * (p.supply_pressure + p.tank_pressure)
+        U = rng.uniform(-3, 3, (n, 1))
+        W = np.zeros((n, 5, sc.N_STATES))
+        c = np.zeros(n, dtype=np.int64)
+        nsub = np.full(n, 3, dtype=np.int64)
+        kernel(SERVO_CYLINDER, Y, U, P, 1e-3, nsub, W, c)
+        t0 = time.perf_counter()
+        for _ in range(steps):
+            kernel(SERVO_CYLINDER, Y, U, P, 1e-3, nsub, W, c)
+        result.append((time.perf_counter() - t0) / (steps * n * 3))
+    return result[0], result[1]
+
+
+def radau_nrmse(seconds: float = 2.0, seed: int = 3) -> dict[str, float]:
+    from hydro_envs.plants import servo_cylinder as sc
+    from hydro_envs.sim.kernels import SERVO_CYLINDER, step_batch_serial
+    from hydro_envs.sim.reference import reference_rollout
+    from hydro_envs.sim.stiffness import rk4_substeps
+
+    p = sc.ServoCylinderParams()
+    dt = 1e-3
+    n = int(round(seconds / dt))
+    rng = np.random.default_rng(seed)
+    cmds = np.repeat(rng.uniform(-p.command_max, p.command_max, n // 150 + 1), 150)[:n]
+    y0 = np.zeros(sc.N_STATES)
+    y0[sc.X] = 0.5 * p.stroke
+    y0[sc.P1] = y0[sc.P2] = 0.5 * (p.supply_pressure + p.tank_pressure)
+    n_sub = rk4_substeps(sc.stiffness_modes(p), dt)[0]
+    Y, P = y0[None].copy(), p.to_array()[None]
+    W, c, ns = np.zeros((1, 5, 6)), np.zeros(1, dtype=np.int64), np.array([n_sub])
+    fixed = [y0.copy()]
+    for u in cmds:
+        step_batch_serial(SERVO_CYLINDER, Y, np.array([[u]]), P, dt, ns, W, c)
+        fixed.append(Y[0].copy())
+    fixed = np.array(fixed)
+    atol = np.array([1e-13, 1e-10, 1e-3, 1e-3, 1e-15, 1e-11])
+    t0 = time.perf_counter()
+    ref = reference_rollout(SERVO_CYLINDER, y0, cmds[:, None], P[0], dt, rtol=1e-10, atol=atol)
+    t_ref = time.perf_counter() - t0
+
+    def nrmse(a, b):
+        return float(np.sqrt(np.mean((a - b) ** 2)) / (b.max() - b.min()))
+
+    return {
+        "n_sub": n_sub,
+        "position": nrmse(fixed[:, sc.X], ref[:, sc.X]),
+        "pressure": max(nrmse(fixed[:, sc.P1], ref[:, sc.P1]), nrmse(fixed[:, sc.P2], ref[:, sc.P2])),
+        "stop_contacts": int(np.sum(np.diff((ref[:, sc.X] > p.stroke) | (ref[:, sc.X] < 0.0)) == 1)),
+        "radau_seconds": t_ref,
+    }
+
+
+def _memory_child(n: int, steps: int) -> None:
+    import gymnasium as gym
+
+    import hydro_envs  # noqa: F401
+
+    venv = gym.make_vec(ENV_ID, num_envs=n, vectorization_mode="vector_entry_point")
+    venv.reset(seed=0)
+    a = np.zeros((n, 1), dtype=np.float32)
+    for _ in range(steps):
+        venv.step(a)
+    print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss)  # KiB on Linux
+
+
+def peak_rss_mib(n: int, steps: int) -> float:
+    out = subprocess.run(
+        [sys.executable, __file__, "--memory-child", str(n), str(steps)],
+        check=True, capture_output=True, text=True,
+    )
+    return int(out.stdout.strip().splitlines()[-1]) / 1024.0
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--quick", action="store_true", help="fewer steps (smoke run)")
+    ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--memory-child", nargs=2, type=int, help=argparse.SUPPRESS)
+    args = ap.parse_args()
+    if args.memory_child:
+        _memory_child(*args.memory_child)
+        return
+
+    import gymnasium as gym
+
+    import hydro_envs  # noqa: F401
+    import numba
+
+    single_steps = 5_000 if args.quick else 30_000
+    vec_steps = 100 if args.quick else 1_000
+    n = 1024
+    print(f"machine: {os.cpu_count()} CPUs, numba {numba.__version__} ({numba.get_num_threads()} threads), "
+          f"gymnasium {gym.__version__}, numpy {np.__version__}")
+
+    best = lambda f: max(f() for _ in range(args.repeats))  # noqa: E731
+    servo = best(lambda: single_env_rate(ENV_ID, single_steps))
+    cart = best(lambda: single_env_rate("CartPole-v1", single_steps))
+    print(f"single env (gym.make, random actions): servo {servo:,.0f} steps/s, CartPole-v1 {cart:,.0f} "
+          f"steps/s, ratio {servo / cart:.2f}  [target >= 0.5]")
+
+    vservo = best(lambda: vector_env_rate(ENV_ID, n, vec_steps))
+    vcart = best(lambda: vector_env_rate("CartPole-v1", n, vec_steps))
+    print(f"vector env ({n} copies): servo {vservo / 1e6:.2f} M env-steps/s, CartPole-v1 vector "
+          f"{vcart / 1e6:.2f} M env-steps/s  [target >= 2 M/s]")
+
+    ser, par = min((kernel_time_per_substep(n, 200 if not args.quick else 20) for _ in range(args.repeats)),
+                   key=lambda t: t[1])
+    print(f"kernel: {ser * 1e9:.0f} ns per RK4 sub-step per copy serial, {par * 1e9:.0f} ns parallel "
+          f"({n} copies, {numba.get_num_threads()} threads)")
+
+    acc = radau_nrmse()
+    print(f"accuracy vs Radau (rtol 1e-10), 2 s random steps, {acc['stop_contacts']} stop contacts, "
+          f"default {acc['n_sub']} sub-steps/ms: position NRMSE {acc['position']:.2e} [<= 1e-4], "
+          f"pressure NRMSE {acc['pressure']:.2e} [<= 1e-3]  (Radau took {acc['radau_seconds']:.1f} s)")
+
+    rss = peak_rss_mib(n, 200 if args.quick else 2000)
+    print(f"peak resident memory of the {n}-copy run: {rss:.0f} MiB  [< 1024 MiB]")
+
+
+if __name__ == "__main__":
+    main()
