@@ -44,24 +44,18 @@ from __future__ import annotations
 import math
 from typing import Any, Mapping
 
-import gymnasium as gym
 import numba as nb
 import numpy as np
 from gymnasium import spaces
-from gymnasium.utils import seeding
-from gymnasium.vector import AutoresetMode, VectorEnv
-from gymnasium.vector.utils import batch_space
 
+from hydro_envs.envs.base import BatchedEnv, BatchedVectorEnv, PlantBatch, check_nonnegative
 from hydro_envs.envs.references import REFERENCE_KINDS, generate_reference
 from hydro_envs.envs.render import render_cylinder
-from hydro_envs.params import ParameterError
 from hydro_envs.plants import servo_cylinder as plant
-from hydro_envs.plants.servo_cylinder import STATE_NAMES, ServoCylinderParams
-from hydro_envs.randomization import RandomizationSpec, load_randomization
-from hydro_envs.sim.kernels import SERVO_CYLINDER, step_batch_parallel, step_batch_serial
-from hydro_envs.sim.stiffness import DEFAULT_SAFETY, rk4_substeps
+from hydro_envs.plants.servo_cylinder import ServoCylinderParams
+from hydro_envs.sim.kernels import SERVO_CYLINDER
 
-__all__ = ["ServoCylinderPositionEnv", "ServoCylinderPositionVectorEnv", "ServoCylinderBatch"]
+__all__ = ["ServoCylinderPositionEnv", "ServoCylinderPositionVectorEnv", "ServoCylinderBatch", "observation_space"]
 
 DT = 1e-3
 EPISODE_STEPS = 2000
@@ -99,12 +93,12 @@ def _observe_copy(i, Y, P, REF, K, NOISE, last_a, prev_a, quant, e_scale, rate_p
     obs[i, c] = (x_m - half) / half
     obs[i, c + 1] = p1_m / ps
     obs[i, c + 2] = p2_m / ps
-    obs[i, c + 3] = last_a[i]
+    obs[i, c + 3] = last_a[i, 0]
     # sensors saturate at their range: the observation never leaves observation_space
     for m in range(obs.shape[1]):
         obs[i, m] = min(max(obs[i, m], obs_low[m]), obs_high[m])
     e = (r - Y[i, plant.X]) / e_scale
-    da = last_a[i] - prev_a[i]
+    da = last_a[i, 0] - prev_a[i, 0]
     reward[i] = -(e * e) - rate_pen * da * da
 
 
@@ -134,182 +128,6 @@ def _check_reference_array(ref: Any, stroke: float) -> np.ndarray:
     return arr
 
 
-class ServoCylinderBatch:
-    """State of ``n`` independent servo-cylinder episodes, stepped by one kernel call.
-
-    The single env is this batch with ``n = 1`` (serial kernel); the vector env uses the
-    parallel kernel. Each copy draws its episode (parameters, reference, initial state,
-    sensor noise) from its own ``np.random.Generator``, so copy ``i`` of a vector env reset
-    with seed ``s`` reproduces a single env reset with seed ``s + i``.
-    """
-
-    def __init__(
-        self,
-        n: int,
-        *,
-        parallel: bool,
-        randomize: bool = True,
-        randomization: str | RandomizationSpec | None = None,
-        params: Mapping[str, float] | ServoCylinderParams | None = None,
-        reference: str = "mixed",
-        episode_steps: int = EPISODE_STEPS,
-        position_quantization: float = 3e-5,
-        position_noise_std: float = 0.0,
-        pressure_noise_std: float = 0.0,
-        error_scale: float = 0.01,
-        action_rate_penalty: float = 0.01,
-        safety: float = DEFAULT_SAFETY,
-    ) -> None:
-        if n < 1:
-            raise ValueError(f"number of copies must be >= 1, got {n}")
-        if reference not in REFERENCE_KINDS + ("mixed",):
-            raise ValueError(f"reference = {reference!r}; allowed {REFERENCE_KINDS + ('mixed',)}")
-        for name, value in (
-            ("position_quantization", position_quantization),
-            ("position_noise_std", position_noise_std),
-            ("pressure_noise_std", pressure_noise_std),
-        ):
-            if not (math.isfinite(value) and value >= 0.0):
-                raise ValueError(f"{name} must be finite and >= 0, got {value}")
-        if not (math.isfinite(error_scale) and error_scale > 0.0):
-            raise ValueError(f"error_scale must be > 0 m, got {error_scale}")
-        if not (math.isfinite(action_rate_penalty) and action_rate_penalty >= 0.0):
-            raise ValueError(f"action_rate_penalty must be >= 0, got {action_rate_penalty}")
-        if int(episode_steps) < 1:
-            raise ValueError(f"episode_steps must be >= 1, got {episode_steps}")
-        if isinstance(params, ServoCylinderParams):
-            self.base_params = params
-        else:
-            self.base_params = ServoCylinderParams.from_mapping(params or {})
-        if randomize:
-            self.spec = (
-                randomization
-                if isinstance(randomization, RandomizationSpec)
-                else load_randomization(plant.PLANT, ServoCylinderParams, randomization)
-            )
-        else:
-            self.spec = None
-        self.n = n
-        self.parallel = parallel
-        self.reference_kind = reference
-        self.episode_steps = int(episode_steps)
-        self.quant = float(position_quantization)
-        self.noise_std = (float(position_noise_std), float(pressure_noise_std), float(pressure_noise_std))
-        self.error_scale = float(error_scale)
-        self.rate_pen = float(action_rate_penalty)
-        self.safety = float(safety)
-
-        n_ref = self.episode_steps + max(PREVIEW_STEPS) + 1
-        n_noise = n_ref if any(self.noise_std) else 1
-        self.Y = np.zeros((n, plant.N_STATES))
-        self.U = np.zeros((n, 1))
-        self.P = np.tile(self.base_params.to_array(), (n, 1))
-        self.W = np.zeros((n, 5, plant.N_STATES))
-        self.clamps = np.zeros(n, dtype=np.int64)
-        self.NSUB = np.full(n, self.substeps_for(self.base_params), dtype=np.int64)
-        self.REF = np.zeros((n, n_ref))
-        self.NOISE = np.zeros((n, n_noise, 3))
-        self.K = np.zeros(n, dtype=np.int64)
-        self.last_a = np.zeros(n)
-        self.prev_a = np.zeros(n)
-        self.obs = np.zeros((n, OBS_DIM))
-        self.reward = np.zeros(n)
-        self.meas = np.zeros((n, 3))
-        self.preview = np.array(PREVIEW_STEPS, dtype=np.int64)
-        space = observation_space(self.base_params.stroke, self.error_scale)
-        self.obs_low = space.low.astype(np.float64)
-        self.obs_high = space.high.astype(np.float64)
-        self.params: list[ServoCylinderParams] = [self.base_params] * n
-        self.rngs: list[np.random.Generator | None] = [None] * n
-
-    def substeps_for(self, p: ServoCylinderParams) -> int:
-        """RK4 sub-steps per env step for parameter set ``p`` (stiffness bound)."""
-        return rk4_substeps(plant.stiffness_modes(p), DT, self.safety)[0]
-
-    # ----------------------------------------------------------------- episodes
-    def reset_copy(self, i: int, rng: np.random.Generator, options: Mapping[str, Any] | None) -> None:
-        """Draw copy ``i``'s episode from ``rng`` and put it at step 0."""
-        options = dict(options or {})
-        unknown = set(options) - {"params", "state", "reference"}
-        if unknown:
-            raise ValueError(f"unknown reset option(s) {sorted(unknown)}; allowed: params, state, reference")
-        p = self.spec.sample(rng, self.base_params) if self.spec is not None else self.base_params
-        if options.get("params"):
-            p = ServoCylinderParams.from_mapping(options["params"], base=p)
-        self.params[i] = p
-        self.NSUB[i] = self.substeps_for(p)
-        self.P[i] = p.to_array()
-        L = p.stroke
-        lo, hi = REF_BAND[0] * L, REF_BAND[1] * L
-        # initial rest state: piston in the middle half, chambers at the null pressure
-        y = np.zeros(plant.N_STATES)
-        y[plant.X] = rng.uniform(0.25 * L, 0.75 * L)
-        y[plant.P1] = y[plant.P2] = 0.5 * (p.supply_pressure + p.tank_pressure)
-        for name, value in (options.get("state") or {}).items():
-            if name not in STATE_NAMES:
-                raise ValueError(f"options['state'] has unknown state {name!r}; allowed {STATE_NAMES}")
-            if not math.isfinite(float(value)):
-                raise ValueError(f"options['state'][{name!r}] must be finite, got {value}")
-            y[STATE_NAMES.index(name)] = float(value)
-        if not (0.0 <= y[plant.X] <= L):
-            raise ValueError(f"options['state']['x'] = {y[plant.X]} m lies outside the stroke [0, {L}] m")
-        for name in ("p1", "p2"):
-            if y[STATE_NAMES.index(name)] < p.pressure_floor:
-                raise ValueError(
-                    f"options['state'][{name!r}] = {y[STATE_NAMES.index(name)]} Pa is below the "
-                    f"pressure floor {p.pressure_floor} Pa (pressures are absolute)"
-                )
-        self.Y[i] = y
-        ref_opt = options.get("reference")
-        n_ref = self.REF.shape[1]
-        if ref_opt is None or isinstance(ref_opt, str):
-            kind = self.reference_kind if ref_opt is None else ref_opt
-            rate = REF_RATE_FRACTION * plant.no_load_velocity(p)
-            self.REF[i] = generate_reference(kind, rng, n_ref, DT, lo, hi, rate)
-        else:
-            arr = _check_reference_array(ref_opt, L)
-            m = min(arr.size, n_ref)
-            self.REF[i, :m] = arr[:m]
-            self.REF[i, m:] = arr[m - 1]
-        if self.NOISE.shape[1] > 1:
-            self.NOISE[i] = rng.standard_normal((self.NOISE.shape[1], 3)) * np.array(self.noise_std)
-        self.K[i] = 0
-        self.U[i] = 0.0
-        self.last_a[i] = 0.0
-        self.prev_a[i] = 0.0
-        self.clamps[i] = 0
-        self.W[i] = 0.0
-        self.rngs[i] = rng
-
-    def observe(self) -> None:
-        (_observe_parallel if self.parallel else _observe_serial)(
-            self.Y, self.P, self.REF, self.K, self.NOISE, self.last_a, self.prev_a, self.quant,
-            self.error_scale, self.rate_pen, self.preview, self.obs_low, self.obs_high,
-            self.obs, self.reward, self.meas,
-        )
-
-    def advance(self, actions: np.ndarray) -> None:
-        """Apply ``actions`` (shape ``(n,)``, already checked and clipped) for one env step."""
-        self.prev_a[:] = self.last_a
-        self.last_a[:] = actions
-        self.U[:, 0] = actions * self.P[:, plant.I_UMAX]
-        kernel = step_batch_parallel if self.parallel else step_batch_serial
-        kernel(SERVO_CYLINDER, self.Y, self.U, self.P, DT, self.NSUB, self.W, self.clamps)
-        self.K += 1
-        self.observe()
-
-    def state_dict(self, i: int) -> dict[str, float]:
-        return dict(zip(STATE_NAMES, self.Y[i].tolist()))
-
-    def channel_values(self, i: int) -> dict[str, float]:
-        return {
-            "u": float(self.U[i, 0]),
-            "x": float(self.meas[i, 0]),
-            "p1": float(self.meas[i, 1]),
-            "p2": float(self.meas[i, 2]),
-        }
-
-
 def observation_space(stroke: float, error_scale: float) -> spaces.Box:
     """Finite bounds = the sensors' measuring ranges; observations are clipped to them.
 
@@ -329,228 +147,128 @@ def observation_space(stroke: float, error_scale: float) -> spaces.Box:
     return spaces.Box(low, high, dtype=np.float32)
 
 
-def _check_actions(action: Any, n: int) -> np.ndarray:
-    """Validate and clip actions to ``(n,)`` float64; NaN/inf or a wrong shape raise."""
-    arr = np.asarray(action, dtype=np.float64)
-    if arr.size != n or (arr.ndim > 1 and arr.shape != (n, 1)) or (n == 1 and arr.ndim > 1):
-        raise ValueError(f"action must have shape ({n}, 1) or ({n},) with values in [-1, 1], got shape {arr.shape}")
-    arr = arr.reshape(n)
-    if not np.all(np.isfinite(arr)):
-        raise ValueError(f"action must be finite (allowed range [-1, 1]), got {arr[~np.isfinite(arr)][:4]}")
-    return np.clip(arr, -1.0, 1.0)
+class ServoCylinderBatch(PlantBatch):
+    """Servo-cylinder position-tracking episodes (see the module docstring)."""
 
-
-class ServoCylinderPositionEnv(gym.Env):
-    __doc__ = __doc__
-
-    metadata = {"render_modes": ["rgb_array"], "render_fps": 50}
-
-    def __init__(self, render_mode: str | None = None, **kwargs: Any) -> None:
-        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
-            raise ValueError(f"render_mode = {render_mode!r}; allowed {self.metadata['render_modes']} or None")
-        self.render_mode = render_mode
-        self._batch = ServoCylinderBatch(1, parallel=False, **kwargs)
-        self.action_space = spaces.Box(-1.0, 1.0, (1,), dtype=np.float32)
-        self.observation_space = observation_space(self._batch.base_params.stroke, self._batch.error_scale)
-        self.dt = DT
-        self.plant_name = plant.PLANT
-        self._params_info: dict[str, float] = {}
-        self._history: list[tuple[float, float]] = []
-
-    @property
-    def params(self) -> ServoCylinderParams:
-        return self._batch.params[0]
-
-    @property
-    def n_substeps(self) -> int:
-        """RK4 sub-steps per env step for this episode's parameters."""
-        return int(self._batch.NSUB[0])
-
-    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
-        super().reset(seed=seed)
-        b = self._batch
-        b.reset_copy(0, self.np_random, options)
-        b.observe()
-        self._params_info = b.params[0].as_dict()
-        self._history = [(b.REF[0, 0], b.Y[0, plant.X])]
-        return b.obs[0].astype(np.float32), {"state": b.state_dict(0), "params": dict(self._params_info)}
-
-    def step(self, action: Any):
-        b = self._batch
-        if b.rngs[0] is None:
-            raise gym.error.ResetNeeded("call reset() before step()")
-        # fast path for the common (1,) float array; anything else goes through the checker
-        if type(action) is np.ndarray and action.shape == (1,):
-            a = float(action[0])
-            if not math.isfinite(a):
-                raise ValueError(f"action must be finite (allowed range [-1, 1]), got {a}")
-            a = -1.0 if a < -1.0 else (1.0 if a > 1.0 else a)
-        else:
-            a = float(_check_actions(action, 1)[0])
-        b.prev_a[0] = b.last_a[0]
-        b.last_a[0] = a
-        b.U[0, 0] = a * b.P[0, plant.I_UMAX]
-        step_batch_serial(SERVO_CYLINDER, b.Y, b.U, b.P, DT, b.NSUB, b.W, b.clamps)
-        b.K[0] += 1
-        b.observe()
-        if self.render_mode is not None:
-            self._history.append((b.REF[0, min(b.K[0], b.REF.shape[1] - 1)], b.Y[0, plant.X]))
-        info = {"state": dict(zip(STATE_NAMES, b.Y[0].tolist())), "params": dict(self._params_info)}
-        return b.obs[0].astype(np.float32), float(b.reward[0]), False, False, info
-
-    def channel_values(self) -> dict[str, float]:
-        """Sensor outputs in SI units, keyed by the measured-data channel names."""
-        return self._batch.channel_values(0)
-
-    @property
-    def guard_clamps(self) -> int:
-        """How often the pressure floor had to clamp a chamber this episode."""
-        return int(self._batch.clamps[0])
-
-    def render(self):
-        if self.render_mode != "rgb_array":
-            return None
-        b = self._batch
-        p = b.params[0]
-        hist = np.array(self._history[-500:])
-        return render_cylinder(
-            x=b.Y[0, plant.X],
-            reference=b.REF[0, min(b.K[0], b.REF.shape[1] - 1)],
-            stroke=p.stroke,
-            p1=b.Y[0, plant.P1] / p.supply_pressure,
-            p2=b.Y[0, plant.P2] / p.supply_pressure,
-            valve=b.last_a[0],
-            history=hist,
-        )
-
-
-class ServoCylinderPositionVectorEnv(VectorEnv):
-    """``num_envs`` servo-cylinder episodes stepped by one parallel kernel call.
-
-    Gymnasium 1.x vector semantics: ``autoreset_mode`` NEXT_STEP (default; the step after a
-    copy's episode ended resets it and returns its first observation with reward 0) or
-    SAME_STEP (the ending copy is reset in the same step; its last observation is in
-    ``info["final_obs"]`` under mask ``info["_final_obs"]``). Each copy is truncated after
-    ``max_episode_steps``. ``info`` holds ``state`` and ``params`` as dicts of arrays.
-    """
-
-    metadata = {"render_modes": [], "autoreset_mode": AutoresetMode.NEXT_STEP}
+    plant = plant
+    params_cls = ServoCylinderParams
+    kernel_id = SERVO_CYLINDER
+    dt = DT
+    episode_steps_default = EPISODE_STEPS
+    obs_dim = OBS_DIM
+    task_options = ("reference",)
 
     def __init__(
         self,
-        num_envs: int = 1,
-        max_episode_steps: int = EPISODE_STEPS,
-        autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP,
-        render_mode: str | None = None,
+        n: int,
+        *,
+        parallel: bool,
+        reference: str = "mixed",
+        position_quantization: float = 3e-5,
+        position_noise_std: float = 0.0,
+        pressure_noise_std: float = 0.0,
+        error_scale: float = 0.01,
+        action_rate_penalty: float = 0.01,
         **kwargs: Any,
     ) -> None:
-        if render_mode is not None:
-            raise ValueError("the vector env does not render; use the single env with render_mode='rgb_array'")
-        self.autoreset_mode = AutoresetMode(autoreset_mode)
-        if self.autoreset_mode not in (AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP):
-            raise ValueError(f"autoreset_mode {self.autoreset_mode} not supported; use NEXT_STEP or SAME_STEP")
-        self.metadata = {**type(self).metadata, "autoreset_mode": self.autoreset_mode}
-        self.num_envs = int(num_envs)
-        self.max_episode_steps = int(max_episode_steps)
-        kwargs.setdefault("episode_steps", self.max_episode_steps)
-        self._batch = ServoCylinderBatch(self.num_envs, parallel=True, **kwargs)
-        self.single_action_space = spaces.Box(-1.0, 1.0, (1,), dtype=np.float32)
-        self.single_observation_space = observation_space(
-            self._batch.base_params.stroke, self._batch.error_scale
+        if reference not in REFERENCE_KINDS + ("mixed",):
+            raise ValueError(f"reference = {reference!r}; allowed {REFERENCE_KINDS + ('mixed',)}")
+        check_nonnegative(
+            position_quantization=position_quantization,
+            position_noise_std=position_noise_std,
+            pressure_noise_std=pressure_noise_std,
+            action_rate_penalty=action_rate_penalty,
         )
-        self.action_space = batch_space(self.single_action_space, self.num_envs)
-        self.observation_space = batch_space(self.single_observation_space, self.num_envs)
-        self.dt = DT
-        self.plant_name = plant.PLANT
-        self.render_mode = None
-        self._needs_reset = np.zeros(self.num_envs, dtype=bool)
-        self._params_info: dict[str, np.ndarray] = {}
-        self._reset_done = False
+        if not (math.isfinite(error_scale) and error_scale > 0.0):
+            raise ValueError(f"error_scale must be > 0 m, got {error_scale}")
+        super().__init__(n, parallel=parallel, **kwargs)
+        self.reference_kind = reference
+        self.quant = float(position_quantization)
+        self.noise_std = np.array([position_noise_std, pressure_noise_std, pressure_noise_std], dtype=float)
+        self.error_scale = float(error_scale)
+        self.rate_pen = float(action_rate_penalty)
+        n_ref = self.episode_steps + max(PREVIEW_STEPS) + 1
+        self.REF = np.zeros((n, n_ref))
+        self.NOISE = np.zeros((n, n_ref if self.noise_std.any() else 1, 3))
+        self.meas = np.zeros((n, 3))
+        self.preview = np.array(PREVIEW_STEPS, dtype=np.int64)
+        space = self.observation_space()
+        self.obs_low = space.low.astype(np.float64)
+        self.obs_high = space.high.astype(np.float64)
 
-    @property
-    def n_substeps(self) -> np.ndarray:
-        """RK4 sub-steps per env step of every copy."""
-        return self._batch.NSUB.copy()
+    def observation_space(self) -> spaces.Box:
+        return observation_space(self.base_params.stroke, self.error_scale)
 
-    def _refresh_params_info(self) -> None:
-        names = ServoCylinderParams.names()
-        info = {}
-        for j, name in enumerate(names):
-            col = self._batch.P[:, j].copy()
-            col.setflags(write=False)  # shared between steps until the next reset: read-only
-            info[name] = col
-        self._params_info = info
-
-    def _state_info(self) -> dict[str, np.ndarray]:
-        return {name: self._batch.Y[:, j].copy() for j, name in enumerate(STATE_NAMES)}
-
-    def reset(self, *, seed: int | list[int] | None = None, options: dict[str, Any] | None = None):
-        b = self._batch
-        # Copy i seeded with seed + i, as SyncVectorEnv seeds its sub-envs: copy i then equals
-        # a single env reset with seed + i. Without a seed, each copy continues its own stream.
-        if isinstance(seed, (list, tuple)):
-            if len(seed) != self.num_envs:
-                raise ValueError(f"seed list must have {self.num_envs} entries, got {len(seed)}")
-            rngs = [seeding.np_random(s)[0] if s is not None else b.rngs[i] for i, s in enumerate(seed)]
-        elif seed is not None:
-            self._np_random, self._np_random_seed = seeding.np_random(seed)
-            rngs = [seeding.np_random(seed + i)[0] for i in range(self.num_envs)]
+    def reset_task(self, i: int, rng: np.random.Generator, p: ServoCylinderParams, options: Mapping[str, Any]) -> None:
+        L = p.stroke
+        # initial rest state: piston in the middle half, chambers at the valve's null pressure
+        y = np.zeros(plant.N_STATES)
+        y[plant.X] = rng.uniform(0.25 * L, 0.75 * L)
+        y[plant.P1] = y[plant.P2] = 0.5 * (p.supply_pressure + p.tank_pressure)
+        self.state_from_options(y, options)
+        if not (0.0 <= y[plant.X] <= L):
+            raise ValueError(f"options['state']['x'] = {y[plant.X]} m lies outside the stroke [0, {L}] m")
+        for name, j in (("p1", plant.P1), ("p2", plant.P2)):
+            if y[j] < p.pressure_floor:
+                raise ValueError(
+                    f"options['state'][{name!r}] = {y[j]} Pa is below the pressure floor "
+                    f"{p.pressure_floor} Pa (pressures are absolute)"
+                )
+        self.Y[i] = y
+        ref_opt = options.get("reference")
+        n_ref = self.REF.shape[1]
+        if ref_opt is None or isinstance(ref_opt, str):
+            kind = self.reference_kind if ref_opt is None else ref_opt
+            rate = REF_RATE_FRACTION * plant.no_load_velocity(p)
+            self.REF[i] = generate_reference(kind, rng, n_ref, DT, REF_BAND[0] * L, REF_BAND[1] * L, rate)
         else:
-            rngs = list(b.rngs)
-        for i in range(self.num_envs):
-            if rngs[i] is None:  # never seeded: draw a seed from the OS entropy pool
-                rngs[i] = seeding.np_random(None)[0]
-        mask = None if options is None else options.get("reset_mask")
-        opts = None if options is None else {k: v for k, v in options.items() if k != "reset_mask"}
-        for i in range(self.num_envs):
-            if mask is not None and not mask[i]:
-                continue
-            b.reset_copy(i, rngs[i], opts)
-        b.observe()
-        self._needs_reset[:] = False
-        self._reset_done = True
-        self._refresh_params_info()
-        return b.obs.astype(np.float32), {"state": self._state_info(), "params": dict(self._params_info)}
+            arr = _check_reference_array(ref_opt, L)
+            m = min(arr.size, n_ref)
+            self.REF[i, :m] = arr[:m]
+            self.REF[i, m:] = arr[m - 1]
+        if self.NOISE.shape[1] > 1:
+            self.NOISE[i] = rng.standard_normal((self.NOISE.shape[1], 3)) * self.noise_std
 
-    def step(self, actions: Any):
-        if not self._reset_done:
-            raise gym.error.ResetNeeded("call reset() before step()")
-        b = self._batch
-        a = _check_actions(actions, self.num_envs)
-        b.advance(a)
-        terminated = np.zeros(self.num_envs, dtype=bool)
-        truncated = b.K >= self.max_episode_steps
-        reward = b.reward.copy()
-        info: dict[str, Any] = {}
-        if self.autoreset_mode == AutoresetMode.NEXT_STEP:
-            redo = np.flatnonzero(self._needs_reset)
-            if redo.size:
-                for i in redo:
-                    b.reset_copy(i, b.rngs[i], None)
-                b.observe()
-                reward[redo] = 0.0
-                truncated[redo] = False
-                self._refresh_params_info()
-            self._needs_reset = terminated | truncated
-            obs = b.obs.astype(np.float32)
-            info["state"] = self._state_info()
-        else:  # SAME_STEP
-            done = np.flatnonzero(terminated | truncated)
-            info["state"] = self._state_info()
-            obs = b.obs.astype(np.float32)
-            if done.size:
-                final = np.zeros_like(obs)
-                final[done] = obs[done]
-                info["final_obs"] = final
-                info["_final_obs"] = terminated | truncated
-                for i in done:
-                    b.reset_copy(i, b.rngs[i], None)
-                b.observe()
-                obs = b.obs.astype(np.float32)
-                self._refresh_params_info()
-        info["params"] = dict(self._params_info)
-        return obs, reward, terminated, truncated, info
+    def apply_actions(self) -> None:
+        # action in [-1, 1] -> valve command in V (full spool stroke at +-command_max)
+        np.multiply(self.last_a[:, 0], self.P[:, plant.I_UMAX], out=self.U[:, 0])
 
-    def channel_values(self) -> dict[str, np.ndarray]:
-        b = self._batch
-        return {"u": b.U[:, 0].copy(), "x": b.meas[:, 0].copy(), "p1": b.meas[:, 1].copy(), "p2": b.meas[:, 2].copy()}
+    def observe(self) -> None:
+        (_observe_parallel if self.parallel else _observe_serial)(
+            self.Y, self.P, self.REF, self.K, self.NOISE, self.last_a, self.prev_a, self.quant,
+            self.error_scale, self.rate_pen, self.preview, self.obs_low, self.obs_high,
+            self.obs, self.reward, self.meas,
+        )
+
+    def channel_values(self, i: int) -> dict[str, float]:
+        return {
+            "u": float(self.U[i, 0]),
+            "x": float(self.meas[i, 0]),
+            "p1": float(self.meas[i, 1]),
+            "p2": float(self.meas[i, 2]),
+        }
+
+    def render_sample(self, i: int) -> tuple[float, float]:
+        return (float(self.REF[i, min(self.K[i], self.REF.shape[1] - 1)]), float(self.Y[i, plant.X]))
+
+    def render(self, i: int, history: np.ndarray) -> np.ndarray:
+        p = self.params[i]
+        return render_cylinder(
+            x=self.Y[i, plant.X],
+            reference=self.render_sample(i)[0],
+            stroke=p.stroke,
+            p1=self.Y[i, plant.P1] / p.supply_pressure,
+            p2=self.Y[i, plant.P2] / p.supply_pressure,
+            valve=self.last_a[i, 0],
+            history=history,
+        )
+
+
+class ServoCylinderPositionEnv(BatchedEnv):
+    __doc__ = __doc__
+    batch_cls = ServoCylinderBatch
+
+
+class ServoCylinderPositionVectorEnv(BatchedVectorEnv):
+    __doc__ = BatchedVectorEnv.__doc__
+    batch_cls = ServoCylinderBatch
