@@ -2,15 +2,16 @@
 
 Prints (no pass/fail; targets from the foundation issue in brackets):
 
-* single-env steps/s through ``gymnasium.make`` with random actions, CartPole-v1's in the
-  same run, and their ratio                                   [ratio >= 0.5]
-* 1024-copy native vector env env-steps/s and gymnasium's vectorised CartPole  [>= 2 M/s]
-* kernel time per RK4 sub-step per copy (serial, and parallel over the batch)
-* position and pressure NRMSE against Radau (rtol 1e-10) over 2 s of random step commands
+* for every registered ``hydro_envs/`` env: single-env steps/s through ``gymnasium.make``
+  with random actions, as a ratio to CartPole-v1's in the same run  [ratio >= 0.5], and
+  1024-copy native vector env env-steps/s beside gymnasium's vectorised CartPole
+  [servo cylinder >= 2 M/s]
+* servo cylinder: kernel time per RK4 sub-step per copy (serial, and parallel over the batch)
+* servo cylinder: position and pressure NRMSE against Radau (rtol 1e-10) over 2 s of random step commands
   with end-stop contact, at the default sub-step               [<= 1e-4, <= 1e-3]
-* peak resident memory of a process running the 1024-copy env  [< 1 GiB]
+* peak resident memory of a process running the 1024-copy servo env  [< 1 GiB]
 
-Usage: ``python bench/step_rate.py [--quick]``. Timings are the best of ``--repeats`` runs.
+Usage: ``python bench/step_rate.py [--quick] [--env ID ...]``. Timings are the best of ``--repeats`` runs.
 """
 
 from __future__ import annotations
@@ -37,7 +38,9 @@ def single_env_rate(env_id: str, steps: int) -> float:
     env.action_space.seed(0)
     actions = [env.action_space.sample() for _ in range(steps)]
     for a in actions[:200]:  # warm-up (compilation, caches)
-        env.step(a)
+        _, _, terminated, truncated, _ = env.step(a)
+        if terminated or truncated:
+            env.reset()
     env.reset(seed=0)
     t0 = time.perf_counter()
     for a in actions:
@@ -156,6 +159,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--quick", action="store_true", help="fewer steps (smoke run)")
     ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--env", action="append", help="env id to time (repeatable; default: all hydro_envs ids)")
     ap.add_argument("--memory-child", nargs=2, type=int, help=argparse.SUPPRESS)
     args = ap.parse_args()
     if args.memory_child:
@@ -174,15 +178,18 @@ def main() -> None:
           f"gymnasium {gym.__version__}, numpy {np.__version__}")
 
     best = lambda f: max(f() for _ in range(args.repeats))  # noqa: E731
-    servo = best(lambda: single_env_rate(ENV_ID, single_steps))
+    env_ids = args.env or sorted(k for k in gym.registry if k.startswith("hydro_envs/"))
     cart = best(lambda: single_env_rate("CartPole-v1", single_steps))
-    print(f"single env (gym.make, random actions): servo {servo:,.0f} steps/s, CartPole-v1 {cart:,.0f} "
-          f"steps/s, ratio {servo / cart:.2f}  [target >= 0.5]")
-
-    vservo = best(lambda: vector_env_rate(ENV_ID, n, vec_steps))
     vcart = best(lambda: vector_env_rate("CartPole-v1", n, vec_steps))
-    print(f"vector env ({n} copies): servo {vservo / 1e6:.2f} M env-steps/s, CartPole-v1 vector "
-          f"{vcart / 1e6:.2f} M env-steps/s  [target >= 2 M/s]")
+    print(f"CartPole-v1: single {cart:,.0f} steps/s, vector ({n} copies) {vcart / 1e6:.2f} M env-steps/s")
+    for env_id in env_ids:
+        single = best(lambda: single_env_rate(env_id, single_steps))
+        vec = best(lambda: vector_env_rate(env_id, n, vec_steps))
+        sub = gym.make(env_id).unwrapped
+        sub.reset(seed=0)
+        print(f"{env_id}: single (gym.make, random actions) {single:,.0f} steps/s = {single / cart:.2f}x "
+              f"CartPole [target >= 0.5]; vector ({n} copies) {vec / 1e6:.2f} M env-steps/s "
+              f"[servo target >= 2 M/s]; {sub.n_substeps} RK4 sub-steps per {sub.dt * 1e3:g} ms step")
 
     ser, par = min((kernel_time_per_substep(n, 200 if not args.quick else 20) for _ in range(args.repeats)),
                    key=lambda t: t[1])

@@ -126,7 +126,9 @@ def _servo_cylinder_rows() -> list[ValidationRow]:
 
 
 def run_validation() -> list[ValidationRow]:
-    """Compute every registered validation row."""
+    """Compute every registered validation row (every plant module registers its own)."""
+    import hydro_envs.plants  # noqa: F401  (plant modules register their rows on import)
+
     rows: list[ValidationRow] = []
     for func in _VALIDATORS:
         rows.extend(func())

@@ -1,0 +1,8 @@
+"""Plant models: one module per plant (parameters, state layout, numba right-hand side).
+
+Importing this package imports every plant module, which registers its measured-data
+channels (:mod:`hydro_envs.data.channels`) and its validation rows
+(:mod:`hydro_envs.validation`).
+"""
+
+from hydro_envs.plants import servo_cylinder  # noqa: F401
