@@ -177,25 +177,29 @@ def pneumatic_critical_ratio(kappa):
 
 
 @numba.njit(cache=True, error_model="numpy")
+def _flow_direction(p_a, p_b):
+    """(sign, upstream pressure, downstream/upstream ratio in [0, 1]) for flow a -> b.
+
+    Compressible flow always runs from the higher to the lower pressure: sign +1 for a -> b.
+    """
+    if p_a >= p_b:
+        s, pu, pd = 1.0, p_a, p_b
+    else:
+        s, pu, pd = -1.0, p_b, p_a
+    ratio = pd / pu if pu > 0.0 else 0.0
+    return s, pu, max(ratio, 0.0)
+
+
+@numba.njit(cache=True, error_model="numpy")
 def pneumatic_mass_flow_laminar(cd, area, p_up, p_down, t_up, kappa, r_gas, ratio_lam):
     """004 eqs (3)-(4) compressible orifice mass flow with an explicit laminar ratio.
 
     See :func:`pneumatic_mass_flow`; ``ratio_lam`` in (c_0, 1) is the pressure ratio
     above which the flow is linear in (p_up - p_down).
     """
-    if p_up >= p_down:
-        s = 1.0
-        pu = p_up
-        pd = p_down
-    else:
-        s = -1.0
-        pu = p_down
-        pd = p_up
+    s, pu, ratio = _flow_direction(p_up, p_down)
     if pu <= 0.0:
         return 0.0
-    ratio = pd / pu
-    if ratio < 0.0:
-        ratio = 0.0
     psi = _nozzle_flow_function(ratio, kappa, ratio_lam)
     return s * cd * area * pu / math.sqrt(r_gas * t_up) * psi
 
@@ -242,19 +246,9 @@ def pneumatic_mass_flow(cd, area, p_up, p_down, t_up, kappa, r_gas):
 @numba.njit(cache=True, error_model="numpy")
 def iso6358_mass_flow_laminar(c_sonic, b_crit, p_up, p_down, t_up, t_ref, rho_ref, ratio_lam):
     """ISO 6358 mass flow with an explicit laminar ratio (see :func:`iso6358_mass_flow`)."""
-    if p_up >= p_down:
-        s = 1.0
-        pu = p_up
-        pd = p_down
-    else:
-        s = -1.0
-        pu = p_down
-        pd = p_up
+    s, pu, ratio = _flow_direction(p_up, p_down)
     if pu <= 0.0:
         return 0.0
-    ratio = pd / pu
-    if ratio < 0.0:
-        ratio = 0.0
     m_choked = c_sonic * rho_ref * pu * math.sqrt(t_ref / t_up)
     if ratio <= b_crit:
         return s * m_choked
