@@ -14,13 +14,37 @@ from __future__ import annotations
 
 from gymnasium.envs.registration import register, registry
 
+from hydro_envs._numba_cache import purge_stale_numba_cache
+
+purge_stale_numba_cache()  # before any kernel is compiled or loaded from the cache
+
 __version__ = "0.1.0"
 
 _ENVS = {
+    "hydro_envs/LoadSensing-v0": dict(
+        entry_point="hydro_envs.envs.load_sensing:LoadSensingEnv",
+        vector_entry_point="hydro_envs.envs.load_sensing:LoadSensingVectorEnv",
+        max_episode_steps=2000,
+    ),
     "hydro_envs/ServoCylinderPosition-v0": dict(
         entry_point="hydro_envs.envs.servo_cylinder:ServoCylinderPositionEnv",
         vector_entry_point="hydro_envs.envs.servo_cylinder:ServoCylinderPositionVectorEnv",
         max_episode_steps=2000,
+    ),
+    "hydro_envs/ShakingTable-v0": dict(
+        entry_point="hydro_envs.envs.shaking_table:ShakingTableEnv",
+        vector_entry_point="hydro_envs.envs.shaking_table:ShakingTableVectorEnv",
+        max_episode_steps=6000,
+    ),
+    "hydro_envs/RodlessCylinder-v0": dict(
+        entry_point="hydro_envs.envs.rodless_cylinder:RodlessCylinderEnv",
+        vector_entry_point="hydro_envs.envs.rodless_cylinder:RodlessCylinderVectorEnv",
+        max_episode_steps=2000,
+    ),
+    "hydro_envs/ForceActuator-v0": dict(
+        entry_point="hydro_envs.envs.force_actuator:ForceActuatorEnv",
+        vector_entry_point="hydro_envs.envs.force_actuator:ForceActuatorVectorEnv",
+        max_episode_steps=5000,
     ),
 }
 

@@ -2,8 +2,11 @@
 
 Each row names a published quantity, the value the seed gives (or that follows from the
 seed's printed data by the law the seed states), the value our simulation reproduces, the
-tolerance and whether it passes. ``hydro validate`` prints the table; ``--json`` prints it as
-one JSON object. Later plants add their rows through :func:`register_validation`.
+tolerance and whether it passes. Rows marked ``report_only`` are comparisons an issue asks to
+report with the difference explained (a known deviation of the model from the paper): they
+show their error and never count as pass or fail. ``hydro validate`` prints the table;
+``--json`` prints it as one JSON object. Plants add their rows through
+:func:`register_validation`.
 """
 
 from __future__ import annotations
@@ -22,22 +25,43 @@ class ValidationRow:
     name: str
     published: float
     reproduced: float
-    tolerance: float  # relative
+    tolerance: float  # relative (or absolute, in ``unit``, when ``absolute`` is set)
     unit: str
     source: str
+    #: compare ``|reproduced - published| <= tolerance`` instead of the relative error (for
+    #: published values of 0, e.g. the location of a minimum)
+    absolute: bool = False
+    #: a comparison the issue asks to *report* with the difference explained in ``source``
+    #: (e.g. a known model deviation): shown with its error, never counted as pass or fail
+    report_only: bool = False
 
     @property
     def error(self) -> float:
+        if self.absolute:
+            return abs(self.reproduced - self.published)
         return abs(self.reproduced - self.published) / abs(self.published)
 
     @property
-    def passed(self) -> bool:
+    def within_tolerance(self) -> bool:
         return bool(math.isfinite(self.reproduced) and self.error <= self.tolerance)
+
+    @property
+    def passed(self) -> bool | None:
+        """True/False for checks; None for report-only rows."""
+        return None if self.report_only else self.within_tolerance
+
+    @property
+    def status(self) -> str:
+        if self.report_only:
+            return "REPORT"
+        return "PASS" if self.passed else "FAIL"
 
     def as_dict(self) -> dict:
         d = dataclasses.asdict(self)
-        d["relative_error"] = self.error
+        d["relative_error"] = None if self.absolute else self.error
+        d["error"] = self.error  # absolute rows: |reproduced - published| in ``unit``
         d["passed"] = self.passed
+        d["status"] = self.status
         return d
 
 

@@ -1,0 +1,19 @@
+"""Identification tools that calibrate the hydro-envs plants from measured data.
+
+Modules (import them explicitly; this package imports nothing heavy so that the ``hydro``
+command line stays fast):
+
+* :mod:`identification.experiments` -- virtual experiments on the plants (the constant-velocity
+  friction test of 002 sec. 4, the plant-agnostic constant-velocity test of 004 sec. 3.2),
+  steady-window extraction, excitation signals (PRBS / M-sequences, log sine sweeps), the
+  measured seal-friction data loader.
+* :mod:`identification.friction` -- friction points and fits: Stribeck (exponential 002 eq (1),
+  Gaussian 003 eq (11)) by bounded nonlinear least squares with covariance, the graphical
+  construction of 004 sec. 3.1, per-direction and pressure-dependent variants, Dahl and LuGre
+  fits from time series.
+* :mod:`identification.neural` -- the neural friction models of 002 sec. 5 (feed-forward net
+  trained by Levenberg-Marquardt, RBF net), numpy/numba evaluation and torch export.
+* :mod:`identification.compensators` -- friction feedforward for the servo cylinder (force ->
+  load pressure -> valve command through the orifice law).
+* :mod:`identification.cli` -- ``hydro identify METHOD ...`` (a registry of methods).
+"""

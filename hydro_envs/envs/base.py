@@ -263,17 +263,23 @@ class BatchedEnv(gym.Env):
         b = self._batch
         if b.rngs[0] is None:
             raise gym.error.ResetNeeded("call reset() before step()")
-        # fast path for a float array of the action's shape; anything else is fully checked
-        if type(action) is np.ndarray and action.shape == (self._dim,) and self._dim == 1:
-            a = float(action[0])
-            if not math.isfinite(a):
-                raise ValueError(f"action must be finite (allowed range [-1, 1]), got {a}")
-            b.prev_a[0, 0] = b.last_a[0, 0]
-            b.last_a[0, 0] = -1.0 if a < -1.0 else (1.0 if a > 1.0 else a)
+        # fast path for a float array of the action's shape (scalar checks are much cheaper
+        # than numpy calls on tiny arrays); anything else is fully checked
+        b.prev_a[0] = b.last_a[0]
+        if type(action) is np.ndarray and action.shape == (self._dim,):
+            last = b.last_a[0]
+            for j in range(self._dim):
+                a = float(action[j])
+                if not math.isfinite(a):
+                    b.last_a[0] = b.prev_a[0]
+                    raise ValueError(f"action must be finite (allowed range [-1, 1]), got {action}")
+                last[j] = -1.0 if a < -1.0 else (1.0 if a > 1.0 else a)
         else:
-            a = check_actions(action, 1, self._dim)
-            b.prev_a[0] = b.last_a[0]
-            b.last_a[0] = a[0]
+            try:
+                b.last_a[0] = check_actions(action, 1, self._dim)[0]
+            except ValueError:
+                b.last_a[0] = b.prev_a[0]
+                raise
         b.apply_actions()
         step_batch_serial(b.kernel_id, b.Y, b.U, b.P, b.dt, b.NSUB, b.W, b.clamps)
         b.K[0] += 1

@@ -42,6 +42,40 @@ valve (:mod:`hydro_envs.laws.valve`)
     second_order_valve_acceleration(x_v, v_v, u, k_v, omega_v, zeta_v)   002 eqs (2)/(8), 003 eq (5)
     saturate(x, lo, hi)                               Hopsan saturated spool
 
+pipe (:mod:`hydro_envs.laws.pipe`)
+    pipe_bore_area(d), pipe_inductance(rho, l, d)     000 eq (1)
+    pipe_laminar_resistance(mu, l, d)                 000 eq (2) (printed L = length l)
+    hydraulic_capacitance(volume, beta)               000 eq (3)
+    rlc_flow_derivative(q, p_up, p_down, L, R)        000 eq (5)
+    (pipe.line_transfer_function: exact distributed line, numpy, not re-exported)
+
+pneumatic_chamber (:mod:`hydro_envs.laws.pneumatic_chamber`)
+    chamber_pressure_rate(p, vol, dvol, enthalpy_flow, kappa, r_gas, heat_flow)  004 eqs (10)-(13)
+    chamber_temperature(p, vol, mass, r_gas)          ideal gas (004 before eq (10))
+    gas_internal_energy(p, vol, kappa)                U = p V / (kappa - 1)
+
+stribeck_lugre (:mod:`hydro_envs.laws.stribeck_lugre`)
+    stribeck_exponential_curve(v, f_c, f_s, v_s)      004 sec. 3.1, Table 2
+    lugre_exponential_rate(v, z, f_c, f_s, v_s, sigma0)  LuGre with the 004 curve, Fig. 4
+
+nozzle_fast (:mod:`hydro_envs.laws.nozzle_fast`)
+    nozzle_flow_constants(kappa, ratio_lam)           004 eqs (3)-(4), c_0
+    nozzle_mass_flow_fast(cd_area, p_up, p_down, sqrt_rt_up, ratio_lam, *constants)  same law, pow-free
+
+bulk_modulus_fast (:mod:`hydro_envs.laws.bulk_modulus_fast`)
+    ifas_bulk_modulus_fast(p, e0, p0, m, alpha, kappa, p_floor)          003 eq (13), 2 pow calls
+
+filters (:mod:`hydro_envs.laws.filters`)
+    butterworth_lowpass_sos(order, cutoff_hz, sample_rate_hz)            003 sec. 4 (order 8, 40 Hz);
+        a Python/scipy design helper, import it from hydro_envs.laws.filters (not re-exported)
+    sos_filter_step(sos, zi, x)                       scipy sosfilt recursion, one sample
+    backward_difference(x, x_prev, dt)                003 sec. 4 (differentiated position)
+
+hysteresis (:mod:`hydro_envs.laws.hysteresis`)
+    play_operator(p, u, r)                            001 sec. 3.3 (Preisach / Prandtl-Ishlinskii)
+    pi_threshold_scale(width, reversal_slope, n)      major-loop width -> play thresholds
+    pi_output(u, memory, width, reversal_slope)       Prandtl-Ishlinskii output
+
 viscosity (:mod:`hydro_envs.laws.viscosity`)
     iso_vg_kinematic_viscosity(grade, temperature_c)  ISO 3448 + ASTM D341 + D2270 (VI 100)
     vi100_viscosity_at_100c(nu40_cst)                 ASTM D2270 H column (mm^2/s helper)
@@ -86,7 +120,24 @@ from hydro_envs.laws.orifice import (
     spool_edge_opening,
     underlap_orifice_opening,
 )
+from hydro_envs.laws.pipe import (
+    hydraulic_capacitance,
+    pipe_bore_area,
+    pipe_inductance,
+    pipe_laminar_resistance,
+    rlc_flow_derivative,
+)
+from hydro_envs.laws.pneumatic_chamber import (
+    chamber_pressure_rate,
+    chamber_temperature,
+    gas_internal_energy,
+)
+from hydro_envs.laws.nozzle_fast import nozzle_flow_constants, nozzle_mass_flow_fast
+from hydro_envs.laws.stribeck_lugre import lugre_exponential_rate, stribeck_exponential_curve
+from hydro_envs.laws.hysteresis import pi_output, pi_threshold_scale, play_operator
 from hydro_envs.laws.valve import saturate, second_order_valve_acceleration
+from hydro_envs.laws.bulk_modulus_fast import ifas_bulk_modulus_fast
+from hydro_envs.laws.filters import backward_difference, sos_filter_step
 from hydro_envs.laws.viscosity import (
     dynamic_viscosity,
     iso_vg_kinematic_viscosity,
@@ -126,9 +177,32 @@ __all__ = [
     "modified_ifas_shape_is_valid",
     "modified_ifas_bulk_modulus",
     "fluid_density",
+    "ifas_bulk_modulus_fast",
+    # filters
+    "sos_filter_step",
+    "backward_difference",
     # valve
     "second_order_valve_acceleration",
     "saturate",
+    # pipe
+    "pipe_bore_area",
+    "pipe_inductance",
+    "pipe_laminar_resistance",
+    "hydraulic_capacitance",
+    "rlc_flow_derivative",
+    # pneumatic chamber
+    "chamber_pressure_rate",
+    "chamber_temperature",
+    "gas_internal_energy",
+    # exponential Stribeck / LuGre
+    "stribeck_exponential_curve",
+    "lugre_exponential_rate",
+    "nozzle_flow_constants",
+    "nozzle_mass_flow_fast",
+    # hysteresis
+    "play_operator",
+    "pi_threshold_scale",
+    "pi_output",
     # viscosity
     "iso_vg_kinematic_viscosity",
     "vi100_viscosity_at_100c",

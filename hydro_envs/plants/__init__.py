@@ -6,3 +6,9 @@ channels (:mod:`hydro_envs.data.channels`) and its validation rows
 """
 
 from hydro_envs.plants import servo_cylinder  # noqa: F401
+from hydro_envs.plants import ls_compensator  # noqa: F401
+from hydro_envs.plants import ls_circuit  # noqa: F401
+from hydro_envs.plants import shaking_table  # noqa: F401
+from hydro_envs.plants import slider  # noqa: F401
+from hydro_envs.plants import rodless_cylinder  # noqa: F401
+from hydro_envs.plants import force_actuator  # noqa: F401,E402

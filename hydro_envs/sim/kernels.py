@@ -22,10 +22,22 @@ from __future__ import annotations
 
 import numba as nb
 
+from hydro_envs.plants.ls_circuit import ls_circuit_guard, ls_circuit_rhs
+from hydro_envs.plants.ls_compensator import ls_compensator_guard, ls_compensator_rhs
+from hydro_envs.plants.rodless_cylinder import rodless_cylinder_guard, rodless_cylinder_rhs
+from hydro_envs.plants.force_actuator import force_actuator_guard, force_actuator_rhs
 from hydro_envs.plants.servo_cylinder import servo_cylinder_guard, servo_cylinder_rhs
+from hydro_envs.plants.shaking_table import shaking_table_guard, shaking_table_rhs
+from hydro_envs.plants.slider import slider_guard, slider_rhs
 
 __all__ = [
     "SERVO_CYLINDER",
+    "FORCE_ACTUATOR",
+    "LS_COMPENSATOR",
+    "LS_CIRCUIT",
+    "SHAKING_TABLE",
+    "SLIDER",
+    "RODLESS_CYLINDER",
     "plant_rhs",
     "plant_guard",
     "rk4_substeps",
@@ -35,6 +47,12 @@ __all__ = [
 
 # Plant ids (compile-time constants of the dispatch).
 SERVO_CYLINDER = 0
+FORCE_ACTUATOR = 2
+LS_COMPENSATOR = 3  # LS pump flow compensator + pilot pipe (hydro_envs.plants.ls_compensator)
+LS_CIRCUIT = 5  # load-sensing pump circuit with that compensator (hydro_envs.plants.ls_circuit)
+SHAKING_TABLE = 1
+SLIDER = 6  # generic force-driven slider (hydro_envs.plants.slider)
+RODLESS_CYLINDER = 4  # pneumatic rodless cylinder, seed 004 (hydro_envs.plants.rodless_cylinder)
 
 
 @nb.njit(cache=True, error_model="numpy", inline="always")
@@ -42,6 +60,18 @@ def plant_rhs(plant_id, y, u, p, dy):
     """Evaluate the right-hand side of plant ``plant_id`` into ``dy``."""
     if plant_id == SERVO_CYLINDER:
         servo_cylinder_rhs(y, u, p, dy)
+    elif plant_id == FORCE_ACTUATOR:
+        force_actuator_rhs(y, u, p, dy)
+    elif plant_id == LS_COMPENSATOR:
+        ls_compensator_rhs(y, u, p, dy)
+    elif plant_id == LS_CIRCUIT:
+        ls_circuit_rhs(y, u, p, dy)
+    elif plant_id == SHAKING_TABLE:
+        shaking_table_rhs(y, u, p, dy)
+    elif plant_id == SLIDER:
+        slider_rhs(y, u, p, dy)
+    elif plant_id == RODLESS_CYLINDER:
+        rodless_cylinder_rhs(y, u, p, dy)
     else:
         raise ValueError("unknown plant id")
 
@@ -51,6 +81,18 @@ def plant_guard(plant_id, y, p):
     """Project ``y`` onto the plant's physical set; return the number of clamped states."""
     if plant_id == SERVO_CYLINDER:
         return servo_cylinder_guard(y, p)
+    if plant_id == FORCE_ACTUATOR:
+        return force_actuator_guard(y, p)
+    if plant_id == LS_COMPENSATOR:
+        return ls_compensator_guard(y, p)
+    if plant_id == LS_CIRCUIT:
+        return ls_circuit_guard(y, p)
+    if plant_id == SHAKING_TABLE:
+        return shaking_table_guard(y, p)
+    if plant_id == SLIDER:
+        return slider_guard(y, p)
+    if plant_id == RODLESS_CYLINDER:
+        return rodless_cylinder_guard(y, p)
     return 0
 
 

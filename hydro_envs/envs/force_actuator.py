@@ -1,0 +1,395 @@
+"""``hydro_envs/ForceActuator-v0``: force tracking with the seed-001 high-bandwidth actuator.
+
+Plant: :mod:`hydro_envs.plants.force_actuator` (jet-pipe valve with hysteresis, valve and
+fluid dynamics of eqs (7)-(8), force sensor eqs (2)-(4), Dahl friction with stiction eq (1),
+hydraulic damping eq (5)), piston locked to the mount (blocked force) unless
+``reset(options={"params": {"piston_locked": 0}})``.
+
+**Action** ``Box(-1, 1, (1,), float32)``: valve current as a fraction of the driver range
+``current_max`` (30 mA; the current for full jet deflection is ``rated_current`` = 25 mA).
+Out-of-range actions are clipped; NaN or inf raise ``ValueError``.
+
+**Observation** ``Box(float32, (8,))`` (forces normalised by the maximum thrust
+``A1 p_s = 1340 N``)::
+
+    0     sensed force F_s = k_s x_s (eq (3)), plus optional noise; clipped to [-2, 2]
+    1     reference r
+    2-6   reference preview at +1, +2, +5, +10, +25 steps (0.2 ... 5 ms)
+    7     last action
+
+**Reward** ``-((r - F_s) / error_scale)^2 - action_rate_penalty (a_k - a_{k-1})^2`` with the
+true (noise-free) sensed force after the step; ``error_scale`` = 100 N by default.
+
+**Episode**: 5 kHz control (``dt = 0.2 ms``, the identification rate of 001 sec. 4.5),
+truncated after 5000 steps (1 s) by the registered ``max_episode_steps``; no termination.
+
+**References** (``reference=`` kind, or ``options={"reference": kind | array [N]}``):
+``square`` (001 figs. 11-13: amplitude 50, 200 or 800 N, 2-20 Hz), ``sine`` (10-800 N,
+1-150 Hz, log-uniform), ``chirp`` (1 -> 150 Hz), ``steps`` (levels held 20-200 ms),
+``mixed`` (one of them per episode). All stay inside 85 % of the blocked-force range
+``[-A2 p_s, A1 p_s]``.
+
+**Info** at every step: ``state`` (the 23 plant states in SI / normalised units, see the plant
+module) and ``params`` (this episode's parameter set).
+
+**Numerics**: one compiled kernel call per step; RK4 sub-steps from the drawn parameters'
+stiffness bound (:func:`hydro_envs.plants.force_actuator.stiffness_modes`): 5 for the nominal
+plant (h = 40 us), set by the Dahl friction state.
+
+Closed-loop helpers for the validation rows (:func:`proportional_loop`,
+:func:`closed_loop_frequency_response`, :func:`limit_cycle_sweep`) run proportional force
+control ``i = K_f (r - F_s) / F_max * i_rated`` (Kf between normalised signals, see
+:func:`proportional_loop`) for a whole batch of copies in one parallel numba call.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, Mapping, Sequence
+
+import numba as nb
+import numpy as np
+from gymnasium import spaces
+
+from hydro_envs.envs.base import BatchedEnv, BatchedVectorEnv, PlantBatch, check_nonnegative
+from hydro_envs.envs.render import render_cylinder
+from hydro_envs.plants import force_actuator as plant
+from hydro_envs.plants.force_actuator import ForceActuatorParams
+from hydro_envs.sim.kernels import FORCE_ACTUATOR, rk4_substeps
+from hydro_envs.sim.stiffness import rk4_substeps as substeps_from_modes
+
+__all__ = [
+    "ForceActuatorEnv",
+    "ForceActuatorVectorEnv",
+    "ForceActuatorBatch",
+    "FORCE_REFERENCE_KINDS",
+    "generate_force_reference",
+    "proportional_loop",
+    "closed_loop_frequency_response",
+    "limit_cycle_sweep",
+]
+
+DT = 2e-4
+EPISODE_STEPS = 5000
+PREVIEW_STEPS = (1, 2, 5, 10, 25)
+OBS_DIM = 3 + len(PREVIEW_STEPS)
+REF_FRACTION = 0.85
+FORCE_REFERENCE_KINDS = ("square", "sine", "chirp", "steps")
+SQUARE_AMPLITUDES = (50.0, 200.0, 800.0)  # 001 figs. 11-13
+
+
+def generate_force_reference(kind: str, rng: np.random.Generator, n: int, dt: float, low: float, high: float) -> np.ndarray:
+    """Force reference [N] of ``n`` samples inside ``[low, high]`` (see the module doc)."""
+    if kind == "mixed":
+        kind = FORCE_REFERENCE_KINDS[int(rng.integers(len(FORCE_REFERENCE_KINDS)))]
+    if not (high > low and n > 0 and dt > 0):
+        raise ValueError(f"reference needs high > low, n > 0, dt > 0; got {low}, {high}, {n}, {dt}")
+    t = dt * np.arange(n)
+    half = 0.5 * (high - low)
+
+    def centred(amp: float) -> tuple[float, float]:
+        amp = min(amp, half)
+        return amp, rng.uniform(low + amp, high - amp)
+
+    if kind == "square":
+        amp, mid = centred(float(rng.choice(SQUARE_AMPLITUDES)))
+        f = rng.uniform(2.0, 20.0)
+        phase = rng.uniform(0.0, 1.0)
+        return mid + amp * np.where(((f * t + phase) % 1.0) < 0.5, 1.0, -1.0)
+    if kind == "sine":
+        amp, mid = centred(math.exp(rng.uniform(math.log(10.0), math.log(800.0))))
+        f = math.exp(rng.uniform(math.log(1.0), math.log(150.0)))
+        return mid + amp * np.sin(2.0 * math.pi * f * t + rng.uniform(0.0, 2.0 * math.pi))
+    if kind == "chirp":
+        amp, mid = centred(rng.uniform(50.0, 400.0))
+        f0, f1 = 1.0, 150.0
+        duration = max(t[-1], dt)
+        return mid + amp * np.sin(2.0 * math.pi * (f0 * t + 0.5 * (f1 - f0) / duration * t**2))
+    if kind == "steps":
+        out = np.empty(n)
+        k = 0
+        while k < n:
+            hold = max(1, int(round(rng.uniform(0.02, 0.2) / dt)))
+            out[k : k + hold] = rng.uniform(low, high)
+            k += hold
+        return out
+    raise ValueError(f"unknown reference kind {kind!r}; allowed: {FORCE_REFERENCE_KINDS + ('mixed',)}")
+
+
+@nb.njit(cache=True, error_model="numpy", inline="always")
+def _observe_copy(i, Y, P, REF, K, NOISE, last_a, prev_a, e_scale, rate_pen, preview, obs, reward, meas):
+    n_ref = REF.shape[1]
+    k = K[i]
+    fmax = P[i, plant.I_A1] * P[i, plant.I_PS]
+    f_true = P[i, plant.I_KS] * Y[i, plant.XS]
+    f_m = f_true + NOISE[i, k % NOISE.shape[1]]
+    meas[i] = f_m
+    r = REF[i, min(k, n_ref - 1)]
+    obs[i, 0] = min(max(f_m / fmax, -2.0), 2.0)
+    obs[i, 1] = r / fmax
+    for m in range(preview.shape[0]):
+        obs[i, 2 + m] = REF[i, min(k + preview[m], n_ref - 1)] / fmax
+    obs[i, 2 + preview.shape[0]] = last_a[i, 0]
+    e = (r - f_true) / e_scale
+    da = last_a[i, 0] - prev_a[i, 0]
+    reward[i] = -(e * e) - rate_pen * da * da
+
+
+@nb.njit(cache=True, error_model="numpy")
+def _observe_serial(Y, P, REF, K, NOISE, last_a, prev_a, e_scale, rate_pen, preview, obs, reward, meas):
+    for i in range(Y.shape[0]):
+        _observe_copy(i, Y, P, REF, K, NOISE, last_a, prev_a, e_scale, rate_pen, preview, obs, reward, meas)
+
+
+@nb.njit(cache=True, error_model="numpy", parallel=True)
+def _observe_parallel(Y, P, REF, K, NOISE, last_a, prev_a, e_scale, rate_pen, preview, obs, reward, meas):
+    for i in nb.prange(Y.shape[0]):
+        _observe_copy(i, Y, P, REF, K, NOISE, last_a, prev_a, e_scale, rate_pen, preview, obs, reward, meas)
+
+
+def observation_space() -> spaces.Box:
+    """Sensed force within twice the thrust (sensor range), reference and action in [-1, 1]."""
+    low = np.full(OBS_DIM, -1.0, dtype=np.float32)
+    high = np.full(OBS_DIM, 1.0, dtype=np.float32)
+    low[0], high[0] = -2.0, 2.0
+    return spaces.Box(low, high, dtype=np.float32)
+
+
+class ForceActuatorBatch(PlantBatch):
+    """Force-tracking episodes of the seed-001 actuator (see the module docstring)."""
+
+    plant = plant
+    params_cls = ForceActuatorParams
+    kernel_id = FORCE_ACTUATOR
+    dt = DT
+    episode_steps_default = EPISODE_STEPS
+    obs_dim = OBS_DIM
+    task_options = ("reference",)
+
+    def __init__(
+        self,
+        n: int,
+        *,
+        parallel: bool,
+        reference: str = "mixed",
+        force_noise_std: float = 0.0,
+        error_scale: float = 100.0,
+        action_rate_penalty: float = 0.01,
+        **kwargs: Any,
+    ) -> None:
+        if reference not in FORCE_REFERENCE_KINDS + ("mixed",):
+            raise ValueError(f"reference = {reference!r}; allowed {FORCE_REFERENCE_KINDS + ('mixed',)}")
+        check_nonnegative(force_noise_std=force_noise_std, action_rate_penalty=action_rate_penalty)
+        if not (math.isfinite(error_scale) and error_scale > 0.0):
+            raise ValueError(f"error_scale must be > 0 N, got {error_scale}")
+        super().__init__(n, parallel=parallel, **kwargs)
+        self.reference_kind = reference
+        self.noise_std = float(force_noise_std)
+        self.error_scale = float(error_scale)
+        self.rate_pen = float(action_rate_penalty)
+        n_ref = self.episode_steps + max(PREVIEW_STEPS) + 1
+        self.REF = np.zeros((n, n_ref))
+        self.NOISE = np.zeros((n, n_ref if self.noise_std > 0 else 1))
+        self.meas = np.zeros(n)
+        self.preview = np.array(PREVIEW_STEPS, dtype=np.int64)
+
+    def observation_space(self) -> spaces.Box:
+        return observation_space()
+
+    def reset_task(self, i: int, rng: np.random.Generator, p: ForceActuatorParams, options: Mapping[str, Any]) -> None:
+        y = plant.rest_state(p)
+        self.state_from_options(y, options)
+        q = y[plant.XP] + y[plant.XS]
+        if not (0.0 <= q <= p.stroke):
+            raise ValueError(f"options['state']: piston extension xp + xs = {q} m lies outside the stroke [0, {p.stroke}] m")
+        self.Y[i] = y
+        n_ref = self.REF.shape[1]
+        low, high = REF_FRACTION * p.min_thrust, REF_FRACTION * p.max_thrust
+        ref_opt = options.get("reference")
+        if ref_opt is None or isinstance(ref_opt, str):
+            kind = self.reference_kind if ref_opt is None else ref_opt
+            self.REF[i] = generate_force_reference(kind, rng, n_ref, DT, low, high)
+        else:
+            arr = np.asarray(ref_opt, dtype=np.float64)
+            if arr.ndim != 1 or arr.size == 0 or not np.all(np.isfinite(arr)):
+                raise ValueError("options['reference'] must be a non-empty 1-D array of finite forces [N]")
+            if arr.min() < p.min_thrust or arr.max() > p.max_thrust:
+                raise ValueError(
+                    f"options['reference'] must lie inside the blocked-force range [{p.min_thrust:.0f}, "
+                    f"{p.max_thrust:.0f}] N, got [{arr.min():g}, {arr.max():g}]"
+                )
+            m = min(arr.size, n_ref)
+            self.REF[i, :m] = arr[:m]
+            self.REF[i, m:] = arr[m - 1]
+        if self.NOISE.shape[1] > 1:
+            self.NOISE[i] = rng.standard_normal(self.NOISE.shape[1]) * self.noise_std
+
+    def apply_actions(self) -> None:
+        # action in [-1, 1] -> valve current in A
+        np.multiply(self.last_a[:, 0], self.P[:, plant.I_IMAX], out=self.U[:, 0])
+
+    def observe(self) -> None:
+        (_observe_parallel if self.parallel else _observe_serial)(
+            self.Y, self.P, self.REF, self.K, self.NOISE, self.last_a, self.prev_a, self.error_scale,
+            self.rate_pen, self.preview, self.obs, self.reward, self.meas,
+        )
+
+    def channel_values(self, i: int) -> dict[str, float]:
+        return {"i": float(self.U[i, 0]), "f": float(self.meas[i])}
+
+    def render_sample(self, i: int) -> tuple[float, float]:
+        fmax = self.params[i].max_thrust
+        return (
+            float(self.REF[i, min(self.K[i], self.REF.shape[1] - 1)]) / fmax,
+            float(self.P[i, plant.I_KS] * self.Y[i, plant.XS]) / fmax,
+        )
+
+    def render(self, i: int, history: np.ndarray) -> np.ndarray:
+        # forces drawn on a [-1, 1] x max-thrust axis mapped onto the sketch's stroke
+        ref, f = self.render_sample(i)
+        hist = (np.asarray(history) + 1.0) if np.size(history) else np.zeros((0, 2))
+        p = self.params[i]
+        _, xv = plant.valve_position(self.Y[i], self.P[i])
+        xi = min(max(xv + p.valve_offset, -1.0), 1.0)
+        return render_cylinder(
+            x=f + 1.0,
+            reference=ref + 1.0,
+            stroke=2.0,
+            p1=(1 + xi) ** 2 / (2 * (1 + xi * xi)),
+            p2=(1 - xi) ** 2 / (2 * (1 + xi * xi)),
+            valve=self.last_a[i, 0],
+            history=hist,
+        )
+
+
+class ForceActuatorEnv(BatchedEnv):
+    __doc__ = __doc__
+    batch_cls = ForceActuatorBatch
+
+
+class ForceActuatorVectorEnv(BatchedVectorEnv):
+    __doc__ = BatchedVectorEnv.__doc__
+    batch_cls = ForceActuatorBatch
+
+
+# ------------------------------------------------------------------ closed-loop helpers
+@nb.njit(cache=True, error_model="numpy", parallel=True)
+def _proportional_loop(Y, P, NSUB, REF, KF, dt, OUT, VMAX):
+    n, n_steps = REF.shape
+    for i in nb.prange(n):
+        y = Y[i]
+        work = np.zeros((5, y.shape[0]))
+        u = np.zeros(1)
+        fmax = P[i, plant.I_A1] * P[i, plant.I_PS]
+        i_rated = P[i, plant.I_IR]
+        i_max = P[i, plant.I_IMAX]
+        h = dt / NSUB[i]
+        for k in range(n_steps):
+            fs = P[i, plant.I_KS] * y[plant.XS]
+            OUT[i, k] = fs
+            c = KF[i] * (REF[i, k] - fs) / fmax * i_rated
+            u[0] = min(max(c, -i_max), i_max)
+            rk4_substeps(FORCE_ACTUATOR, y, u, P[i], h, NSUB[i], work)
+            v = abs(y[plant.VS] + y[plant.VP])
+            if v > VMAX[i]:
+                VMAX[i] = v
+
+
+def proportional_loop(
+    params: ForceActuatorParams | Sequence[ForceActuatorParams],
+    reference: np.ndarray,
+    kf: float | np.ndarray,
+    dt: float = DT,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Proportional force control of a batch: returns sensed forces ``(n, steps)`` [N] and each
+    copy's peak relative piston speed [m/s].
+
+    ``i = K_f (r - F_s) / F_max * i_rated`` held over each ``dt`` (the env's 5 kHz loop), clipped
+    to the driver range. 001 does not print the unit of ``K_f`` (its on-board analog card);
+    we read it as the gain between normalised signals: force error as a fraction of the
+    maximum thrust, current as a fraction of the rated current. Row ``j`` of ``reference``
+    runs with ``kf[j]`` and ``params[j]`` (or one set for all) from the rest state.
+    """
+    reference = np.atleast_2d(np.asarray(reference, dtype=np.float64))
+    n = reference.shape[0]
+    plist = [params] * n if isinstance(params, ForceActuatorParams) else list(params)
+    if len(plist) != n:
+        raise ValueError(f"need {n} parameter sets, got {len(plist)}")
+    P = np.stack([q.to_array() for q in plist])
+    Y = np.stack([plant.rest_state(q) for q in plist])
+    NSUB = np.array([substeps_from_modes(plant.stiffness_modes(q), dt)[0] for q in plist], dtype=np.int64)
+    KF = np.broadcast_to(np.asarray(kf, dtype=np.float64), (n,)).copy()
+    out = np.zeros(reference.shape)
+    vmax = np.zeros(n)
+    _proportional_loop(Y, P, NSUB, np.ascontiguousarray(reference), KF, dt, out, vmax)
+    return out, vmax
+
+
+def _first_harmonic(x: np.ndarray, f: float, dt: float, t_start: float) -> complex:
+    t = dt * np.arange(x.size)
+    m = t >= t_start
+    tt = t[m]
+    n_per = math.floor((tt[-1] - tt[0]) * f)
+    keep = tt < tt[0] + n_per / f
+    return complex(2.0 * np.mean(x[m][keep] * np.exp(-2j * math.pi * f * tt[keep])))
+
+
+def closed_loop_frequency_response(
+    params: ForceActuatorParams,
+    kf: float,
+    amplitudes: Sequence[float],
+    frequencies: Sequence[float],
+    bias: float = 0.0,
+    duration: float = 0.5,
+    settle: float = 0.2,
+) -> np.ndarray:
+    """First-harmonic closed-loop response ``F_s / r`` ``(len(amplitudes), len(frequencies))``
+    to sines ``bias + A sin(2 pi f t)`` (one batch copy per amplitude and frequency)."""
+    n = int(round(duration / DT))
+    t = DT * np.arange(n)
+    cases = [(a, f) for a in amplitudes for f in frequencies]
+    ref = np.stack([bias + a * np.sin(2 * math.pi * f * t) for a, f in cases])
+    out, _ = proportional_loop(params, ref, kf)
+    h = [
+        _first_harmonic(out[j] - bias, f, DT, settle) / _first_harmonic(ref[j] - bias, f, DT, settle)
+        for j, (_, f) in enumerate(cases)
+    ]
+    return np.array(h).reshape(len(amplitudes), len(frequencies))
+
+
+def bandwidth(frequencies: np.ndarray, response: np.ndarray, drop_db: float = 3.0) -> float:
+    """First frequency where ``|H| / |H(f_0)|`` falls below ``-drop_db`` (linear interpolation
+    in log frequency); nan if it never does."""
+    mag = 20 * np.log10(np.abs(response) / abs(response[0]))
+    below = np.flatnonzero(mag < -drop_db)
+    if below.size == 0:
+        return float("nan")
+    j = below[0]
+    if j == 0:
+        return float(frequencies[0])
+    f0, f1, m0, m1 = math.log(frequencies[j - 1]), math.log(frequencies[j]), mag[j - 1], mag[j]
+    return float(math.exp(f0 + (f1 - f0) * (-drop_db - m0) / (m1 - m0)))
+
+
+def limit_cycle_sweep(
+    params: ForceActuatorParams,
+    gains: Sequence[float],
+    level: float = 100.0,
+    duration: float = 0.4,
+    window: float = 0.1,
+    threshold: float = 20.0,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Peak-to-peak sensed-force oscillation [N] and its frequency [Hz] over the last
+    ``window`` seconds after a reference step 0 -> ``level`` N, one copy per gain.
+
+    A copy is in a limit cycle when the peak-to-peak amplitude exceeds ``threshold``.
+    """
+    n = int(round(duration / DT))
+    ref = np.full((len(gains), n), float(level))
+    out, _ = proportional_loop(params, ref, np.asarray(gains, dtype=float))
+    w = int(round(window / DT))
+    seg = out[:, -w:]
+    pp = seg.max(axis=1) - seg.min(axis=1)
+    freqs = np.fft.rfftfreq(w, DT)
+    fr = np.array([freqs[np.argmax(np.abs(np.fft.rfft((s - s.mean()) * np.hanning(w))))] for s in seg])
+    return pp, np.where(pp > threshold, fr, np.nan)

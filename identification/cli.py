@@ -1,0 +1,389 @@
+"""``hydro identify METHOD ...``: identification from measured-data files.
+
+A registry of methods: each entry names a method, adds its arguments to its own sub-parser and
+runs it, returning a result mapping with ``parameters``, ``std_errors``, ``units`` and
+``metrics`` (plus anything else worth printing). The common driver prints a table or, with
+``--json``, one JSON object. Adding a method is one :func:`register_method` call::
+
+    register_method("arx", "ARX model from input/output data", _arx_arguments, _arx_run)
+
+This module imports only the standard library at import time (``hydro --help`` stays fast);
+each method imports numpy/scipy and the identification modules when it runs.
+
+Exit codes: 0 success, 1 the data cannot give the model (format error, too few points,
+unidentifiable parameters; the message says why), 2 usage errors.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+__all__ = ["Method", "METHODS", "register_method", "add_identify_parser", "main"]
+
+EXIT_OK = 0
+EXIT_FAIL = 1
+EXIT_USAGE = 2
+
+
+@dataclass(frozen=True)
+class Method:
+    """One ``hydro identify`` method."""
+
+    name: str
+    help: str
+    add_arguments: Callable[[argparse.ArgumentParser], None]
+    run: Callable[[argparse.Namespace], Mapping[str, Any]]
+    description: str = ""
+
+
+#: name -> method, in registration order (the order of ``hydro identify --help``)
+METHODS: dict[str, Method] = {}
+
+
+def register_method(
+    name: str,
+    help: str,
+    add_arguments: Callable[[argparse.ArgumentParser], None],
+    run: Callable[[argparse.Namespace], Mapping[str, Any]],
+    description: str = "",
+) -> Method:
+    """Register (or replace) a method of ``hydro identify``."""
+    m = Method(name, help, add_arguments, run, description or help)
+    METHODS[name] = m
+    return m
+
+
+# ======================================================================================
+# driver
+# ======================================================================================
+
+
+def add_identify_parser(subparsers: Any) -> argparse.ArgumentParser:
+    """Add ``identify`` (with one sub-command per registered method) to ``hydro``'s parser."""
+    p = subparsers.add_parser(
+        "identify",
+        help="identify model parameters from a measured-data file (" + ", ".join(METHODS) + ")",
+        description="Fit a model to measured data and print its parameters with standard "
+        "errors and fit metrics (NRMSE, E = mean absolute error). Methods: "
+        + ", ".join(f"{m.name} ({m.help})" for m in METHODS.values()),
+    )
+    _add_methods(p)
+    p.set_defaults(func=_cmd_identify)
+    return p
+
+
+def _add_methods(p: argparse.ArgumentParser) -> None:
+    sub = p.add_subparsers(dest="method", metavar="METHOD", title="methods")
+    for m in METHODS.values():
+        mp = sub.add_parser(m.name, help=m.help, description=m.description,
+                            formatter_class=argparse.RawDescriptionHelpFormatter)
+        m.add_arguments(mp)
+        mp.add_argument("--json", action="store_true",
+                        help="print one JSON object with parameters, std_errors, units, metrics")
+
+
+def _jsonable(v: Any) -> Any:
+    try:
+        import numpy as np
+    except ImportError:  # pragma: no cover
+        np = None  # type: ignore[assignment]
+    if np is not None:
+        if isinstance(v, np.ndarray):
+            return [_jsonable(x) for x in v.tolist()]
+        if isinstance(v, np.generic):
+            v = v.item()
+    if isinstance(v, bool) or v is None or isinstance(v, (int, str)):
+        return v
+    if isinstance(v, float):
+        return v if math.isfinite(v) else None
+    if isinstance(v, Mapping):
+        return {str(k): _jsonable(x) for k, x in v.items()}
+    if isinstance(v, (list, tuple)):
+        return [_jsonable(x) for x in v]
+    return str(v)
+
+
+def _fmt(v: Any) -> str:
+    if isinstance(v, float):
+        return f"{v:.6g}" if math.isfinite(v) else str(v)
+    return str(v)
+
+
+def _print_text(res: Mapping[str, Any]) -> None:
+    head = [f"{k}: {res[k]}" for k in ("method", "plant", "model", "data") if k in res]
+    print("  ".join(head))
+    params = res.get("parameters", {})
+    se = res.get("std_errors", {})
+    units = res.get("units", {})
+    if params:
+        rows = [[k, _fmt(v), _fmt(se[k]) if k in se else "-", units.get(k, "")]
+                for k, v in params.items()]
+        widths = [max(len(r[i]) for r in rows + [["parameter", "value", "std error", "unit"]])
+                  for i in range(4)]
+        print()
+        for r in [["parameter", "value", "std error", "unit"], ["-" * w for w in widths]] + rows:
+            print("  ".join(c.ljust(w) for c, w in zip(r, widths)).rstrip())
+    metrics = res.get("metrics", {})
+    if metrics:
+        print()
+        print("metrics: " + ", ".join(f"{k} = {_fmt(v)}" for k, v in metrics.items()))
+    for note in res.get("notes", []):
+        print(f"note: {note}")
+
+
+def _err(msg: str) -> None:
+    print(f"hydro identify: error: {msg}", file=sys.stderr)
+
+
+def _cmd_identify(args: argparse.Namespace) -> int:
+    name = getattr(args, "method", None)
+    if name is None:
+        _err("choose a method: " + ", ".join(METHODS))
+        return EXIT_USAGE
+    method = METHODS[name]
+    try:
+        res = dict(method.run(args))
+    except FileNotFoundError as e:
+        _err(str(e))
+        return EXIT_FAIL
+    except (ValueError, KeyError) as e:  # MeasuredDataError, IdentificationError are ValueErrors
+        msg = e.args[0] if isinstance(e, KeyError) and e.args else str(e)
+        _err(f"{type(e).__name__}: {msg}")
+        return EXIT_FAIL
+    res.setdefault("method", name)
+    if getattr(args, "json", False):
+        print(json.dumps(_jsonable(res), allow_nan=False))
+    else:
+        _print_text(res)
+    return EXIT_OK
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Standalone entry point: ``python -m identification.cli METHOD ...``."""
+    parser = argparse.ArgumentParser(prog="python -m identification.cli",
+                                     description="identification methods of hydro-envs")
+    _add_methods(parser)
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as e:
+        code = e.code
+        return code if isinstance(code, int) else (EXIT_OK if code is None else EXIT_USAGE)
+    if getattr(args, "method", None) is None:
+        parser.print_help()
+        return EXIT_USAGE
+    return _cmd_identify(args)
+
+
+# ======================================================================================
+# method: friction
+# ======================================================================================
+
+_FRICTION_PLANTS = ("servo_cylinder", "seal_friction")
+_FRICTION_MODELS = ("stribeck", "stribeck_gaussian", "coulomb_viscous", "coulomb", "neural_ff",
+                    "neural_rbf")
+
+
+def _friction_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--plant", required=True, choices=_FRICTION_PLANTS,
+                   help="servo_cylinder: square-wave constant-velocity test (002 sec. 4; "
+                   "channels u, x, p1, p2); seal_friction: constant-speed strokes (original "
+                   "whitespace files or measured-data CSV)")
+    p.add_argument("--data", required=True, metavar="FILE", help="measured-data file")
+    p.add_argument("--model", default="stribeck", choices=_FRICTION_MODELS,
+                   help="stribeck (002 eq (1)), stribeck_gaussian (003 eq (11)), "
+                   "coulomb_viscous, coulomb, neural_ff / neural_rbf (002 sec. 5); "
+                   "default stribeck")
+    p.add_argument("--asymmetric", action="store_true",
+                   help="fit each direction separately (static models)")
+    p.add_argument("--pressure-dependent", action="store_true",
+                   help="add k_p * p to the Coulomb/static level (static models)")
+    p.add_argument("--area", type=float, default=None, metavar="M2",
+                   help="piston area [m^2] (default: the file's piston_area metadata, else "
+                   "the plant's nominal value)")
+    p.add_argument("--sign-velocity", type=float, default=0.0, metavar="V",
+                   help="fit tanh(v/V) instead of sign(v) (match a simulator's regularisation)")
+    p.add_argument("--unweighted", action="store_true",
+                   help="equal weights (default: each point weighted by the standard error of "
+                   "its window mean)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the neural nets (default 0)")
+    p.add_argument("--drop-rows", type=int, default=15, metavar="N",
+                   help="seal_friction, original format: leading rows to drop (default 15, as "
+                   "the original analysis; 5 for the every-third-row test subset)")
+
+
+def _friction_run(args: argparse.Namespace) -> dict[str, Any]:
+    import numpy as np
+
+    from identification import experiments as ex
+    from identification import friction as fr
+    from hydro_envs.data.measured import load_measured
+
+    if args.plant == "servo_cylinder":
+        from hydro_envs.plants.servo_cylinder import ServoCylinderParams
+
+        data = load_measured(args.data, plant="servo_cylinder", required=("u", "x", "p1", "p2"))
+        area = args.area
+        if area is None:
+            area = float(data.metadata.get("piston_area", ServoCylinderParams().piston_area))
+        pts = ex.friction_points_from_square_wave(data, area)
+    else:
+        data = ex.load_seal_friction(args.data, drop_rows=args.drop_rows)
+        pts = ex.seal_friction_points(data, piston_area=args.area)
+        area = pts.meta["piston_area"]
+    res: dict[str, Any] = {"method": "friction", "plant": args.plant, "model": args.model,
+                           "data": str(args.data), "n_points": len(pts), "area": area}
+    if args.model.startswith("neural"):
+        from identification import neural
+
+        kind = "feedforward" if args.model == "neural_ff" else "rbf"
+        net = neural.fit_neural_friction(pts, kind=kind, seed=args.seed)
+        res["parameters"] = ({"n_hidden": net.n_hidden, "n_weights": net.n_weights}
+                             if kind == "feedforward" else {"n_units": net.n_units})
+        res["std_errors"] = {}
+        res["units"] = {}
+        res["metrics"] = {k: net.metrics[k] for k in ("nrmse", "E", "rmse", "n_points")}
+        res["weights"] = net.to_dict()
+        res["notes"] = [f"E of 002 sec. 5 on the paper's rig: {neural.PAPER_E[kind]} N"]
+        return res
+    sigma = None
+    if not args.unweighted and pts.force_std is not None and pts.n_samples is not None:
+        se = pts.force_std / np.sqrt(pts.n_samples)
+        if np.all(se > 0):
+            sigma = se
+    fit = fr.fit_friction(pts, model=args.model, asymmetric=args.asymmetric,
+                          pressure_dependent=args.pressure_dependent,
+                          sign_velocity=args.sign_velocity, sigma=sigma)
+    m = fit.metrics
+    res["parameters"] = fit.parameters
+    res["std_errors"] = fit.std_errors
+    res["units"] = fit.units
+    res["metrics"] = {"nrmse": m["nrmse"], "E": m["E"], "rmse": m["rmse"],
+                      "n_points": m["n_points"]}
+    res["weighted"] = sigma is not None
+    return res
+
+
+register_method(
+    "friction",
+    "static friction curve from constant-velocity data",
+    _friction_arguments,
+    _friction_run,
+    description="Extract constant-velocity friction points (002 sec. 4 / 004 sec. 3.2) from a "
+    "measured-data file and fit a friction model: Stribeck by bounded nonlinear least squares "
+    "with standard errors from (J^T J)^-1 s^2, or a neural net of 002 sec. 5. Metrics: NRMSE "
+    "= ||F - F_model|| / ||F - mean F||, E = mean |F - F_model| (002 eq (11)).",
+)
+
+
+# ======================================================================================
+# methods: arx, frf, slider (input/output channels of any plant's measured-data file)
+# ======================================================================================
+
+
+def _io_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--plant", required=True, help="plant of the measured-data file (hydro channels PLANT)")
+    p.add_argument("--data", required=True, metavar="FILE", help="measured-data file")
+    p.add_argument("--input", required=True, metavar="CH", help="input channel, e.g. u")
+    p.add_argument("--output", required=True, metavar="CH", help="output channel, e.g. x")
+
+
+def _load_io(args: argparse.Namespace):
+    import numpy as np
+
+    from hydro_envs.data.measured import load_measured
+
+    data = load_measured(args.data, plant=args.plant, required=(args.input, args.output))
+    u = np.asarray(data[args.input], dtype=float)
+    y = np.asarray(data[args.output], dtype=float)
+    return data, u, y
+
+
+def _arx_arguments(p: argparse.ArgumentParser) -> None:
+    _io_arguments(p)
+    p.add_argument("--orders", nargs=3, type=int, metavar=("NA", "NB", "NK"),
+                   help="fixed ARX orders; without it the orders are selected")
+    p.add_argument("--criterion", default="bic", choices=("aic", "bic", "fpe"),
+                   help="order-selection criterion (default bic)")
+    p.add_argument("--max-order", type=int, default=5, help="largest na and nb tried (default 5)")
+    p.add_argument("--max-delay", type=int, default=3, help="largest nk tried (default 3)")
+    p.add_argument("--estimator", default="ls", choices=("ls", "iv"),
+                   help="least squares or instrumental variables (open-loop output noise)")
+
+
+def _arx_run(args: argparse.Namespace) -> dict[str, Any]:
+    from identification.arx import fit_arx, select_arx_order
+
+    data, u, y = _load_io(args)
+    u = u - u.mean()  # ARX has no constant term: fit deviations from the mean
+    y = y - y.mean()
+    dt = data.sample_time
+    n_est = int(0.7 * y.size)  # the last 30 % are held out for the free-run fit
+    if args.orders:
+        model = fit_arx(y[:n_est], u[:n_est], *args.orders, dt=dt, method=args.estimator)
+        notes = []
+    else:
+        sel = select_arx_order(y[:n_est], u[:n_est], range(1, args.max_order + 1),
+                               range(1, args.max_order + 1), range(0, args.max_delay + 1), dt,
+                               criterion=args.criterion, method=args.estimator)
+        model = sel.best
+        notes = [f"orders selected by {args.criterion}: margin over runner-up {sel.margin:.3g}"]
+    res = model.to_json_dict(validation=model.validate(y[n_est:], u[n_est:]))
+    res.update({"plant": args.plant, "data": str(args.data), "model": f"ARX{(model.na, model.nb, model.nk)}",
+                "notes": notes})
+    res["metrics"].update({f"heldout_{k}": v for k, v in res.pop("validation").items()})
+    return res
+
+
+def _frf_arguments(p: argparse.ArgumentParser) -> None:
+    _io_arguments(p)
+    p.add_argument("--fit", default="zoh", choices=("zoh", "magnitude", "continuous"),
+                   help="mass-spring-damper fit of the H1 estimate: the sampled (ZOH) model "
+                   "(default), magnitude only, or continuous (biased for sampled data)")
+    p.add_argument("--derivative", type=int, default=0, choices=(0, 1, 2),
+                   help="output is position (0), velocity (1) or acceleration (2)")
+
+
+def _frf_run(args: argparse.Namespace) -> dict[str, Any]:
+    from identification.frf import identify_msd_from_time_series
+
+    data, u, y = _load_io(args)
+    fit, est = identify_msd_from_time_series(u, y, 1.0 / data.sample_time, method=args.fit,
+                                             derivative=args.derivative)
+    res = fit.to_json_dict()
+    res.update({"plant": args.plant, "data": str(args.data), "model": f"mass-spring-damper ({args.fit})"})
+    return res
+
+
+def _slider_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--data", required=True, metavar="FILE", help="measured-data file of plant slider (f, x)")
+    p.add_argument("--plant", default="slider", choices=("slider",), help="slider (default)")
+    p.add_argument("--stribeck", default="fit", choices=("fit", "fixed", "none"),
+                   help="fit the Stribeck dip in a second stage (default), keep it fixed, or omit it")
+
+
+def _slider_run(args: argparse.Namespace) -> dict[str, Any]:
+    from hydro_envs.data.measured import load_measured
+    from identification.slider import identify_slider_measured
+
+    data = load_measured(args.data, plant="slider")
+    res = identify_slider_measured(data, stribeck=args.stribeck).to_json_dict()
+    res.update({"plant": "slider", "data": str(args.data), "model": "mass + Stribeck friction + offset"})
+    return res
+
+
+register_method("arx", "ARX model with order/delay selection and held-out free-run fit",
+                _arx_arguments, _arx_run)
+register_method("frf", "H1 frequency response and a mass-spring-damper fit",
+                _frf_arguments, _frf_run)
+register_method("slider", "inverse-dynamics least squares of a slider (mass, friction, offset)",
+                _slider_arguments, _slider_run)
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

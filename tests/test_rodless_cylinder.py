@@ -1,0 +1,828 @@
+"""Pneumatic rodless cylinder (seed 004): plant physics and ``hydro_envs/RodlessCylinder-v0``.
+
+Every check compares against something independent of the code under test: the seed's tables
+and equations, the FESTO data sheet's nominal flow, conservation of mass and energy, the
+first law for a filling chamber, the isentropic relations, a stiff Radau reference, the
+numerical Jacobian, an independent solution of the linear model eq (20), measured seal
+friction (X-ring data, CC0), and a single env stepped alongside the vector env.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import warnings
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium.utils.env_checker import check_env
+
+import hydro_envs  # noqa: F401  (registers the env)
+from hydro_envs.laws.friction import stribeck_exponential
+from hydro_envs.laws.orifice import circular_orifice_area, iso6358_mass_flow, pneumatic_critical_ratio
+from hydro_envs.laws.pneumatic_chamber import chamber_pressure_rate
+from hydro_envs.laws.stribeck_lugre import lugre_exponential_rate, stribeck_exponential_curve
+from hydro_envs.params import ParameterError
+from hydro_envs.plants import rodless_cylinder as rc
+from hydro_envs.plants.rodless_cylinder import RodlessCylinderParams
+from hydro_envs.randomization import load_randomization
+from hydro_envs.sim.kernels import RODLESS_CYLINDER, plant_rhs, step_batch_parallel, step_batch_serial
+from hydro_envs.sim.reference import reference_rollout
+from hydro_envs.sim.stiffness import DEFAULT_SAFETY, RK4_REAL_STABILITY_LIMIT, rk4_substeps
+
+ENV_ID = "hydro_envs/RodlessCylinder-v0"
+NOMINAL = RodlessCylinderParams()
+L = NOMINAL.stroke
+HALF = 0.5 * L
+A = rc.piston_area(NOMINAL)
+DT = 1e-3
+STATE_KEYS = rc.STATE_NAMES
+PARAM_NAMES = RodlessCylinderParams.names()
+OBS_DIM = 11
+DATA = Path(__file__).resolve().parent / "data" / "xring257_5bar_7bar_subset.txt"
+
+
+@pytest.fixture(scope="module")
+def spec():
+    return load_randomization("rodless_cylinder", RodlessCylinderParams)
+
+
+def simulate(p, y0, commands, n_sub=None, dt=DT):
+    """Fixed-step kernel rollout under per-step commands [V]; (n+1, 9) states."""
+    return rc._simulate(p, y0, np.asarray(commands, dtype=float), dt, n_sub)
+
+
+def frictionless(p=NOMINAL, **kw):
+    return dataclasses.replace(
+        p, static_friction=0.0, coulomb_friction=0.0, viscous_friction=0.0, bristle_stiffness=0.0,
+        bristle_damping=0.0, **kw,
+    )
+
+
+def sealed(p=NOMINAL, **kw):
+    """Zero-lap valve: at the 5 V centre every edge is closed."""
+    return dataclasses.replace(frictionless(p, **kw), valve_underlap=0.0, spool_stroke=p.port_radius)
+
+
+# ============================================================================ parameters
+def test_nominal_parameters_are_the_seed_tables():
+    p = NOMINAL
+    # Table 2 (sigma from the table, not the conclusions' "3.27 mm/s")
+    assert (p.static_friction, p.coulomb_friction) == (35.48, 15.31)
+    assert p.stribeck_velocity == pytest.approx(3.27e-3)
+    assert p.viscous_friction == pytest.approx(0.31 * 1e3)  # 0.31 N s/mm in N s/m
+    assert p.viscous_friction != pytest.approx(3.27e-3)
+    # Table 1: MYC25G-110L, 0-10 V valve with 5 V centre, 0.6 MPa (gauge) supply
+    assert (p.bore, p.stroke) == (0.025, 0.110)
+    assert A == pytest.approx(4.9087e-4, rel=1e-4)
+    assert (p.command_centre, p.command_max) == (5.0, 10.0)
+    assert p.supply_pressure - p.exhaust_pressure == pytest.approx(0.6e6)
+    assert p.heat_capacity_ratio == 1.4 and p.gas_constant == 287.0
+    # every field documents its source; unknown ones are marked assumed
+    for row in RodlessCylinderParams.describe():
+        assert row["source"].strip(), row["name"]
+    assumed = {r["name"] for r in RodlessCylinderParams.describe() if r["source"].startswith("assumed")}
+    assert {"mass", "dead_volume_a", "port_radius", "valve_underlap", "bristle_stiffness"} <= assumed
+
+
+@pytest.mark.parametrize(
+    "field,value,fragment",
+    [("mass", 0.0, "mass"), ("bore", -0.01, "bore"), ("stroke", float("nan"), "stroke"),
+     ("discharge_coefficient", 1.2, "discharge_coefficient"), ("heat_capacity_ratio", 1.0, "heat_capacity_ratio")],
+)
+def test_invalid_parameter_names_field_and_range(field, value, fragment):
+    with pytest.raises(ParameterError) as exc:
+        RodlessCylinderParams(**{field: value})
+    assert fragment in str(exc.value) and "allowed range" in str(exc.value)
+
+
+def test_cross_field_relations_are_checked():
+    with pytest.raises(ParameterError, match="static_friction"):
+        RodlessCylinderParams(static_friction=10.0)
+    with pytest.raises(ParameterError, match="flow_model"):
+        RodlessCylinderParams(flow_model=0.5)
+    with pytest.raises(ParameterError, match="valve_underlap"):
+        RodlessCylinderParams(valve_underlap=2e-3)
+    with pytest.raises(ParameterError, match="coulomb_friction"):
+        RodlessCylinderParams(static_friction=0.0, coulomb_friction=0.0)  # LuGre needs g > 0
+    with pytest.raises(ParameterError, match="supply_pressure"):
+        RodlessCylinderParams(supply_pressure=9e4)
+    RodlessCylinderParams(static_friction=0.0, coulomb_friction=0.0, bristle_stiffness=0.0)  # ok: static
+
+
+# ============================================================================ laws
+def test_stribeck_form_is_the_exponential_of_the_fig3_construction():
+    fc, fs, vs = NOMINAL.coulomb_friction, NOMINAL.static_friction, NOMINAL.stribeck_velocity
+    # tangent of the curve at 0+ (no viscous term) meets the Coulomb level exactly at v_s
+    h = 1e-9
+    slope = (stribeck_exponential_curve(h, fc, fs, vs) - stribeck_exponential_curve(0.0, fc, fs, vs)) / h
+    assert fs + slope * vs == pytest.approx(fc, rel=1e-5)
+    assert stribeck_exponential_curve(0.0, fc, fs, vs) == fs
+    # steady-state curve = 002-style exponential Stribeck with an exact sign
+    for v in (-0.2, -1e-3, 2e-3, 0.05):
+        assert rc.steady_friction(NOMINAL, v) == pytest.approx(
+            stribeck_exponential(v, fc, fs, vs, NOMINAL.viscous_friction, 0.0), rel=1e-12)
+    # LuGre steady state z = g sign(v) / sigma0 has zero bristle rate
+    s0 = NOMINAL.bristle_stiffness
+    for v in (-0.1, 0.004):
+        z = stribeck_exponential_curve(v, fc, fs, vs) * np.sign(v) / s0
+        assert abs(lugre_exponential_rate(v, z, fc, fs, vs, s0)) < 1e-15
+
+
+def test_chamber_law_reduces_to_seed_eq_13():
+    # eq (13) with T_in = T: mdot = (V dp/dt + kappa p dV/dt) / (R T kappa)
+    p, vol, dvol, T, k, R = 5e5, 3e-5, 2e-5, 310.0, 1.4, 287.0
+    mdot = 1.3e-3
+    dp = chamber_pressure_rate(p, vol, dvol, mdot * T, k, R, 0.0)
+    assert (vol * dp + k * p * dvol) / (R * T * k) == pytest.approx(mdot, rel=1e-13)
+
+
+def test_fast_nozzle_law_equals_the_reference_law():
+    from hydro_envs.laws.nozzle_fast import nozzle_flow_constants, nozzle_mass_flow_fast
+    from hydro_envs.laws.orifice import pneumatic_mass_flow_laminar
+
+    for kappa, rl in ((1.4, 0.999), (1.3, 0.995), (1.67, 0.9999)):
+        consts = nozzle_flow_constants(kappa, rl)
+        assert consts[0] == pytest.approx(pneumatic_critical_ratio(kappa), rel=1e-14)
+        for p_down in np.concatenate([np.linspace(1.0, 9.9e5, 997), [7e5 * rl, 7e5, 7.0001e5]]):
+            for t_up in (180.0, 293.15):
+                ref = pneumatic_mass_flow_laminar(0.7, 2e-6, 7e5, p_down, t_up, kappa, 287.0, rl)
+                fast = nozzle_mass_flow_fast(0.7 * 2e-6, 7e5, p_down, math.sqrt(287.0 * t_up), rl, *consts)
+                assert fast == pytest.approx(ref, rel=1e-12, abs=1e-20)
+
+
+def test_parameter_array_round_trip_with_derived_columns():
+    arr = NOMINAL.to_array()
+    assert arr.shape == (rc.N_PARAMS,) and arr[rc.D_AREA] == pytest.approx(A, rel=1e-15)
+    assert RodlessCylinderParams.from_array(arr) == NOMINAL
+    assert RodlessCylinderParams.from_array(arr[: rc.N_FIELDS]) == NOMINAL
+    with pytest.raises(ParameterError, match="expected"):
+        RodlessCylinderParams.from_array(arr[:5])
+
+
+def test_port_area_of_eq_2_at_full_stroke_is_half_a_port():
+    r, u, xvm = NOMINAL.port_radius, NOMINAL.valve_underlap, NOMINAL.spool_stroke
+    d = r - u  # shoulder half-width of Fig. 8
+    assert xvm == pytest.approx(d)
+    assert circular_orifice_area(xvm + u, r) == pytest.approx(0.5 * math.pi * r * r, rel=1e-12)
+    # eq (2) as printed, at a few x_v in (d - r, d]
+    for xv in (d - r + 1e-5, 0.3e-3, d):
+        printed = r * r * math.acos((d - xv) / r) - (d - xv) * math.sqrt(r * r - (d - xv) ** 2)
+        assert circular_orifice_area(xv + u, r) == pytest.approx(printed, rel=1e-12)
+    assert circular_orifice_area(u - xvm, r) == 0.0  # the opposite edge is shut at full stroke
+
+
+@pytest.mark.parametrize("flow_model", [0.0, 1.0])
+def test_nominal_flow_is_the_mpye5_data_sheet_value(flow_model):
+    # FESTO MPYE-5-M5-010-B: standard nominal flow 100 L/min (6 -> 5 bar gauge, ANR)
+    p = dataclasses.replace(NOMINAL, flow_model=flow_model)
+    assert rc.nominal_flow(p) == pytest.approx(100.0, rel=0.01)
+
+
+def test_iso6358_option_chokes_below_b_and_matches_nozzle_law_shape():
+    p = dataclasses.replace(NOMINAL, flow_model=1.0)
+    area = circular_orifice_area(p.spool_stroke + p.valve_underlap, p.port_radius)
+    ps = p.supply_pressure
+    m_choked = rc._edge_flow_py(p, area, ps, 0.1 * ps, 293.15)
+    assert rc._edge_flow_py(p, area, ps, 0.29 * ps, 293.15) == pytest.approx(m_choked, rel=1e-12)
+    assert m_choked == pytest.approx(p.sonic_conductance * 1.185 * ps, rel=1e-12)  # C rho_ANR p1 at T_ref
+    assert iso6358_mass_flow(1.0, 0.3, ps, 0.5 * ps, 293.15, 293.15, 1.185) < 1.185 * ps
+    # nozzle law chokes at c_0 = 0.528
+    p0 = dataclasses.replace(NOMINAL, flow_model=0.0)
+    c0 = pneumatic_critical_ratio(1.4)
+    assert rc._edge_flow_py(p0, area, ps, 0.5 * c0 * ps, 293.15) == pytest.approx(
+        rc._edge_flow_py(p0, area, ps, c0 * ps, 293.15), rel=1e-12)
+
+
+# ============================================================================ equilibrium, mass, energy
+def test_centre_is_an_equilibrium_with_data_sheet_order_leakage():
+    p = frictionless()
+    y = rc.rest_state(p, HALF)
+    dy = np.empty(rc.N_STATES)
+    plant_rhs(RODLESS_CYLINDER, y, np.array([p.command_centre]), p.to_array(), dy)
+    assert abs(dy[rc.PA]) < 1e-6 * p.supply_pressure and abs(dy[rc.V]) == 0.0
+    assert abs(dy[rc.MA]) < 1e-15
+    p0 = rc.centre_pressure(p)
+    assert 0.75 * p.supply_pressure < p0 < 0.85 * p.supply_pressure
+    # leakage P -> A -> R plus P -> B -> R, in L/min ANR: a few L/min (data-sheet order)
+    area = circular_orifice_area(p.valve_underlap, p.port_radius)
+    leak = 2 * rc._edge_flow_py(p, area, p.supply_pressure, p0, p.supply_temperature) / 1.185 * 60e3
+    assert 3.0 < leak < 10.0
+
+
+def test_closed_valve_conserves_mass_exactly_and_energy():
+    p = sealed(load_force=12.0)
+    y0 = rc.rest_state(p, 0.4 * L, v=0.3, pa=4e5, pb=6e5, ta=300.0, tb=280.0)
+    ys = simulate(p, y0, np.full(400, p.command_centre), n_sub=20)
+    # no flow through a closed valve: each chamber's mass is untouched, bit for bit
+    assert np.all(ys[:, rc.MA] == y0[rc.MA]) and np.all(ys[:, rc.MB] == y0[rc.MB])
+    # kinetic + internal energy + load potential: only boundary work and load work move energy
+    e = rc.total_energy(ys, p)
+    ke = 0.5 * p.mass * ys[:, rc.V] ** 2
+    assert np.max(np.abs(e - e[0])) <= 1e-7 * np.ptp(ke) + 1e-12
+    assert np.ptp(ke) > 0.5 * 0.5 * p.mass * 0.3**2  # energy really moved between gas and slider
+    assert ys[:, rc.Y].min() > 0.0 and ys[:, rc.Y].max() < L  # away from the stops
+    # isentropic chambers (eq (11)): p V^kappa and T V^(kappa-1) stay constant
+    va, vb = rc.chamber_volumes(ys, p)
+    ta, tb = rc.chamber_temperatures(ys, p)
+    k = p.heat_capacity_ratio
+    for pr, vol, t in ((ys[:, rc.PA], va, ta), (ys[:, rc.PB], vb, tb)):
+        assert np.ptp(pr * vol**k) / np.mean(pr * vol**k) < 1e-7
+        assert np.ptp(t * vol ** (k - 1)) / np.mean(t * vol ** (k - 1)) < 1e-7
+
+
+def test_energy_error_converges_at_rk4_rate():
+    p = sealed()
+    y0 = rc.rest_state(p, HALF, v=0.3)
+    drift = []
+    for n_sub in (2, 4):
+        e = rc.total_energy(simulate(p, y0, np.full(200, p.command_centre), n_sub=n_sub), p)
+        drift.append(np.max(np.abs(e - e[0])))
+    assert drift[0] / drift[1] >= 16
+
+
+def test_filling_obeys_the_first_law_with_supply_enthalpy():
+    """Chamber a filled from the supply (A->R shut at full stroke): dU = c_p T_s dm - p dV."""
+    p = dataclasses.replace(NOMINAL, mass=1e4)  # a very heavy slider barely moves
+    y0 = rc.rest_state(p, HALF, pa=1.5e5, pb=1.5e5)
+    dt = 1e-4
+    ys = simulate(p, y0, np.full(400, p.command_max), dt=dt)
+    ys = ys[30:]  # spool settled: the exhaust edge of chamber a is closed
+    xo = ys[:, rc.XV]
+    assert np.all(circular_orifice_area(p.valve_underlap - xo.min(), p.port_radius) == 0.0)
+    assert np.all(ys[:, rc.PA] < p.supply_pressure)  # inflow only
+    va, _ = rc.chamber_volumes(ys, p)
+    k, r_gas, ts = p.heat_capacity_ratio, p.gas_constant, p.supply_temperature
+    du = (ys[:, rc.PA] * va - ys[0, rc.PA] * va[0]) / (k - 1.0)
+    work = np.concatenate([[0.0], np.cumsum(0.5 * (ys[1:, rc.PA] + ys[:-1, rc.PA]) * np.diff(va))])
+    h_in = k * r_gas / (k - 1.0) * ts * (ys[:, rc.MA] - ys[0, rc.MA])
+    assert np.max(np.abs(du + work - h_in)) <= 1e-6 * np.max(np.abs(h_in))
+    assert ys[-1, rc.PA] > 4e5  # really filled
+    ta, _ = rc.chamber_temperatures(ys[-1], p)
+    assert ta[0] > ts + 30.0  # adiabatic filling heats the chamber
+
+
+def test_wall_heat_exchange_returns_a_sealed_chamber_to_wall_temperature():
+    p = sealed(wall_heat_conductance=0.5)  # time constant m c_v / h ~ 0.4 s
+    y0 = rc.rest_state(p, HALF, ta=350.0, tb=250.0)
+    ys = simulate(p, y0, np.full(3000, p.command_centre))
+    ta, tb = rc.chamber_temperatures(ys[-1], p)
+    assert abs(ta[0] - p.supply_temperature) < 1.0 and abs(tb[0] - p.supply_temperature) < 1.0
+    assert ys[-1, rc.MA] == y0[rc.MA]
+
+
+def test_stall_against_the_stop_reaches_supply_and_exhaust_pressure():
+    p = NOMINAL
+    ys = simulate(p, rc.rest_state(p, HALF), np.full(3000, p.command_max))
+    assert ys[-1, rc.PA] == pytest.approx(p.supply_pressure, rel=1e-4)
+    assert ys[-1, rc.PB] == pytest.approx(p.exhaust_pressure, rel=2e-3)
+    # the stop holds the thrust minus the stuck seals' share: penetration <= thrust / k
+    thrust = A * (p.supply_pressure - p.exhaust_pressure)
+    pen = ys[-1, rc.Y] - L
+    assert 0.0 < pen <= thrust / p.stop_stiffness * 1.001
+    assert pen >= (thrust - p.static_friction) / p.stop_stiffness * 0.999
+
+
+# ============================================================================ friction (sec. 3, eq (1))
+@pytest.mark.parametrize("command", [5.15, 5.4, 6.5, 8.0, 2.0])
+def test_constant_speed_pressure_force_is_the_table2_curve(command):
+    v, f, s = rc.constant_command_run(NOMINAL, command)
+    assert math.isfinite(v) and abs(v) > 3 * NOMINAL.stribeck_velocity
+    assert f == pytest.approx(float(rc.steady_friction(NOMINAL, v)), rel=5e-3)
+
+
+def test_static_friction_mode_has_the_same_steady_curve():
+    p = dataclasses.replace(NOMINAL, bristle_stiffness=0.0)
+    assert rk4_substeps(rc.stiffness_modes(p), DT)[0] > 25  # the cost that made LuGre the default
+    v, f, _ = rc.constant_command_run(p, 5.4)
+    assert f == pytest.approx(float(rc.steady_friction(p, v)), rel=5e-3)
+
+
+def test_lugre_presliding_sticks_below_breakaway_and_slides_above():
+    """Valve sealed, a slowly rising load below F_s: the seals deflect (004 Fig. 4, displacement
+    before sliding) and hold without creep; above F_s the slider breaks away.
+
+    Quasi-static LuGre at v -> 0+ (g = F_s): dz/dy = 1 - sigma0 z / F_s, so
+    z(y) = F_s/sigma0 (1 - exp(-sigma0 y / F_s)); the load is shared with the gas spring
+    k_gas = kappa p0 A^2 (1/Va + 1/Vb): F = sigma0 z(y) + k_gas y.
+    """
+    from scipy.optimize import brentq
+
+    base = dataclasses.replace(NOMINAL, valve_underlap=0.0, spool_stroke=NOMINAL.port_radius)
+    y = rc.rest_state(base, HALF)
+    vol = A * HALF + base.dead_volume_a
+    k_gas = base.heat_capacity_ratio * y[rc.PA] * A * A * 2.0 / vol
+    s0, fs = base.bristle_stiffness, base.static_friction
+    f_final = 20.0  # N, between F_c and F_s
+    trace = []
+    for f_load in np.linspace(0.2, f_final, 100):  # 2 s ramp: quasi-static
+        ys = simulate(dataclasses.replace(base, load_force=f_load), y, np.full(20, 5.0))
+        y = ys[-1]
+    ys = simulate(dataclasses.replace(base, load_force=f_final), y, np.full(1000, 5.0))
+    dy = HALF - ys[:, rc.Y]  # the load pushes towards y = 0
+    expected = brentq(lambda d: s0 * fs / s0 * (1 - np.exp(-s0 * d / fs)) + k_gas * d - f_final, 0.0, 1e-2)
+    assert dy[-1] == pytest.approx(expected, rel=0.03)
+    assert dy[-1] > 1.2 * f_final / (s0 + k_gas)  # more than the elastic share: LuGre slips partly
+    assert np.ptp(dy[200:]) < 1e-4 * dy[-1]  # held: no creep over the last 0.8 s
+    ys = simulate(dataclasses.replace(base, load_force=45.0), y, np.full(200, 5.0))
+    # above F_s: breakaway, the slider runs until the sealed gas spring takes up F - F_c
+    assert HALF - ys[-1, rc.Y] > 5 * expected
+
+
+def test_friction_magnitude_against_measured_xring_seal():
+    """Order of magnitude: the rodless cylinder (two piston seals + sealing and dust bands) vs
+    one X-ring seal of nearly the same bore, measured at constant speed (CC0 data)."""
+    d = np.loadtxt(DATA)
+    area = math.pi * 0.0257**2 / 4
+    for bar in (5, 7):
+        rows = d[d[:, 0] == bar]
+        t, x, pg, f_lc = rows[:, 1] / 1e3, rows[:, 2], rows[:, 3], rows[:, 4]
+        v = np.gradient(x, t) * 1e-3
+        f = pg * 1e5 * area - f_lc
+        pos, neg = v > 3e-3, v < -3e-3
+        friction = 0.5 * abs(np.median(f[pos]) - np.median(f[neg]))  # load-cell offset cancels
+        speed = np.median(np.abs(v[pos | neg]))
+        ours = float(rc.steady_friction(NOMINAL, speed))
+        assert 2.0 < friction < 30.0
+        assert 0.2 < ours / friction < 5.0, (bar, ours, friction)
+
+
+# ============================================================================ linearisation (eqs (19)-(27))
+def test_linearization_matches_the_small_signal_response():
+    lin = rc.linearize_mid_stroke(NOMINAL)
+    fit = rc.small_signal_response(NOMINAL)
+    assert fit["omega_n"] == pytest.approx(lin.omega_n, rel=0.01)
+    assert fit["k_t"] == pytest.approx(lin.k_t, rel=0.01)
+    assert np.max(np.abs(fit["v"] - fit["v_fit"])) < 1e-3 * np.max(np.abs(fit["v"]))
+    # zeta: eq (23) keeps the outflow at T_s; the energy balance adds the isentropic
+    # temperature swing of the venting gas, c2 -> c2 + (kappa-1)/(2 kappa) mdot_leak/p0
+    assert fit["zeta"] == pytest.approx(lin.zeta_energy, rel=0.02)
+    assert fit["zeta"] == pytest.approx(lin.zeta, rel=0.10)
+
+
+def test_linearization_eigenvalues_of_the_nonlinear_jacobian():
+    p = frictionless()
+    lin = rc.linearize_mid_stroke(p)
+    J = numerical_jacobian(rc.rest_state(p, HALF), np.array([p.command_centre]), p.to_array())
+    ev = np.linalg.eigvals(J)
+    pair = ev[np.argmin(np.abs(np.abs(ev) - lin.omega_n))]
+    assert abs(pair) == pytest.approx(lin.omega_n, rel=1e-3)
+    assert -pair.real / abs(pair) == pytest.approx(lin.zeta_energy, rel=1e-2)
+
+
+def test_eq27_equals_an_independent_solution_of_eq20():
+    lin = rc.linearize_mid_stroke(NOMINAL)
+    rt, k, v0, a, m = lin.rt, lin.kappa, lin.v0, lin.area, lin.mass
+    for s in (3.0j, 50.0 + 120.0j, 400.0j):
+        xv, f = 1e-5, 2.0
+        # unknowns (M_L, p_L, y) of eq (20): three linear equations
+        M = np.array([
+            [1.0, lin.c2, 0.0],
+            [1.0, -v0 * s / (rt * k), -2.0 * lin.p0 * a * s / rt],
+            [0.0, a, -m * s * s],
+        ], dtype=complex)
+        rhs = np.array([2.0 * lin.c1 * xv, 0.0, f], dtype=complex)
+        y = np.linalg.solve(M, rhs)[2]
+        assert lin.position(s, x_v=xv, f=f) == pytest.approx(y, rel=1e-10)
+    num, den = lin.spool_to_position()
+    s = 7.0j
+    assert np.polyval(num, s) / np.polyval(den, s) == pytest.approx(lin.position(s, x_v=1.0), rel=1e-12)
+    num, den = lin.force_to_position()
+    assert np.polyval(num, s) / np.polyval(den, s) == pytest.approx(lin.position(s, f=1.0), rel=1e-12)
+
+
+# ============================================================================ numerics
+def _step_commands(seconds, hold=120):
+    """Steps between levels that drive the slider into both stops and back."""
+    n = int(round(seconds / DT))
+    return np.repeat([9.5, 0.5, 8.0, 0.0, 6.2, 3.0], hold)[:n]
+
+
+ATOL = np.array([1e-12, 1e-10, 1e-2, 1e-2, 1e-13, 1e-13, 1e-13, 1e-10, 1e-13])
+
+
+def test_fixed_step_matches_radau_with_stop_contact():
+    p = NOMINAL
+    cmds = _step_commands(1.2, hold=200)
+    y0 = rc.rest_state(p, HALF)
+    n_sub = rk4_substeps(rc.stiffness_modes(p), DT)[0]
+    fixed = simulate(p, y0, cmds, n_sub)
+    ref = reference_rollout(RODLESS_CYLINDER, y0, cmds[:, None], p.to_array(), DT, rtol=1e-10, atol=ATOL)
+    assert (ref[:, rc.Y] > L).any() and (ref[:, rc.Y] < 0.0).any()  # both stops hit
+
+    def nrmse(a, b):
+        return float(np.sqrt(np.mean((a - b) ** 2)) / np.ptp(b))
+
+    assert nrmse(fixed[:, rc.Y], ref[:, rc.Y]) <= 1e-4
+    assert max(nrmse(fixed[:, j], ref[:, j]) for j in (rc.PA, rc.PB)) <= 1e-3
+
+
+def numerical_jacobian(y, u, p_arr):
+    scale = np.maximum(np.abs(y) * 1e-6, np.array([1e-8, 1e-7, 1e-2, 1e-2, 1e-12, 1e-12, 1e-10, 1e-8, 1e-10]))
+    J = np.empty((rc.N_STATES, rc.N_STATES))
+    for j in range(rc.N_STATES):
+        yp, ym = y.copy(), y.copy()
+        yp[j] += scale[j]
+        ym[j] -= scale[j]
+        fp, fm = np.empty(rc.N_STATES), np.empty(rc.N_STATES)
+        plant_rhs(RODLESS_CYLINDER, yp, u, p_arr, fp)
+        plant_rhs(RODLESS_CYLINDER, ym, u, p_arr, fm)
+        J[:, j] = (fp - fm) / (2 * scale[j])
+    return J
+
+
+def test_stiffness_bound_covers_the_numerical_jacobian(spec):
+    rng = np.random.default_rng(0)
+    sets = [NOMINAL, spec.corner(False), spec.corner(True),
+            spec.corner(rng.integers(0, 2, len(spec.entries)).astype(bool)),
+            dataclasses.replace(NOMINAL, flow_model=1.0), dataclasses.replace(NOMINAL, bristle_stiffness=0.0)]
+    for p in sets:
+        modes = rc.stiffness_modes(p)
+        bound = max(modes.values())
+        pa = p.to_array()
+        ps, pe = p.supply_pressure, p.exhaust_pressure
+        vmax = rc.speed_bound(p)
+        pen = A * ps / p.stop_stiffness
+        worst = 0.0
+        for y in (-pen, 0.5 * L, L + pen):
+            for v in (0.0, -1e-3, -vmax):
+                for pA, pB in ((ps * 0.9995, pe), (pe * 1.0005, ps * 0.9995), (1.4 * ps, pe)):
+                    for tA, tB in ((400.0, 180.0), (180.0, 400.0)):
+                        for xv in (p.spool_stroke, -p.spool_stroke):
+                            for zf in (1.0, -1.0):
+                                s = rc.rest_state(p, y, v, pA, pB, tA, tB)
+                                s[rc.XV] = xv
+                                if p.bristle_stiffness > 0:
+                                    s[rc.Z] = zf * p.static_friction / p.bristle_stiffness
+                                lam = np.abs(np.linalg.eigvals(numerical_jacobian(s, np.array([5.0]), pa)))
+                                worst = max(worst, lam.max())
+        assert worst <= bound * 1.02, (worst, bound, modes)
+        assert worst >= 0.5 * bound  # the bound is not uselessly loose
+
+
+def test_substeps_for_nominal_and_corners(spec):
+    assert rk4_substeps(rc.stiffness_modes(NOMINAL), DT)[0] == 5
+    for flags in (False, True):
+        p = spec.corner(flags)
+        modes = rc.stiffness_modes(p)
+        n_sub, h, _ = rk4_substeps(modes, DT)
+        assert n_sub <= 8
+        assert h * max(modes.values()) <= DEFAULT_SAFETY * RK4_REAL_STABILITY_LIMIT + 1e-12
+
+
+def test_parallel_and_serial_kernels_are_bit_identical(spec):
+    rng = np.random.default_rng(1)
+    n = 32
+    params = [spec.sample(rng) for _ in range(n)]
+    P = np.stack([q.to_array() for q in params])
+    Y0 = np.stack([rc.rest_state(q, rng.uniform(0.2, 0.8) * q.stroke) for q in params])
+    nsub = np.array([rk4_substeps(rc.stiffness_modes(q), DT)[0] for q in params], dtype=np.int64)
+    out = []
+    for kernel in (step_batch_serial, step_batch_parallel):
+        Y_ = Y0.copy()
+        W = np.zeros((n, 5, rc.N_STATES))
+        c = np.zeros(n, dtype=np.int64)
+        rng_u = np.random.default_rng(2)
+        for _ in range(200):
+            kernel(RODLESS_CYLINDER, Y_, rng_u.uniform(0, 10, (n, 1)), P, DT, nsub, W, c)
+        out.append(Y_)
+    assert np.array_equal(out[0], out[1])
+
+
+# ============================================================================ guards
+def test_guard_clamps_pressure_and_mass_to_positive_floors():
+    p = NOMINAL
+    y = rc.rest_state(p, HALF)
+    y[rc.PA], y[rc.MB] = -5.0, -1e-9
+    assert rc.rodless_cylinder_guard(y, p.to_array()) == 2
+    assert y[rc.PA] == p.pressure_floor and y[rc.MB] == p.min_gas_mass
+    # at the floor the derivative cannot push further down, and T stays finite and positive
+    y = rc.rest_state(p, 0.0, v=-0.5)
+    y[rc.PB] = p.pressure_floor
+    dy = np.empty(rc.N_STATES)
+    plant_rhs(RODLESS_CYLINDER, y, np.array([10.0]), p.to_array(), dy)
+    assert np.all(np.isfinite(dy)) and dy[rc.PB] >= 0.0
+
+
+def _bang_bang(n, rng):
+    out = np.empty((n, 1), dtype=np.float32)
+    a, k = float(rng.choice([-1.0, 1.0])), 0
+    while k < n:
+        hold = int(rng.integers(100, 400))
+        out[k : k + hold] = a
+        a, k = -a, k + hold
+    return out
+
+
+def test_guards_at_randomisation_extremes_with_bang_bang(spec):
+    """Default sub-steps, bang-bang valve into both stops: pressures and temperatures stay
+    physical without the floors ever being needed, speeds stay below the stiffness bound's."""
+    rng = np.random.default_rng(2024)
+    n = len(spec.entries)
+    corners = [spec.corner(False), spec.corner(True)] + [
+        spec.corner(list(rng.integers(0, 2, n).astype(bool))) for _ in range(3)]
+    env = gym.make(ENV_ID, randomize=False).unwrapped
+    for c in corners:
+        pd = c.as_dict()
+        obs, info = env.reset(seed=int(rng.integers(1000)), options={"params": pd})
+        S = []
+        for a in _bang_bang(2000, rng):
+            obs, r, _, _, info = env.step(a)
+            assert math.isfinite(r) and np.all(np.isfinite(obs))
+            S.append([info["state"][k] for k in STATE_KEYS])
+        S = np.array(S)
+        ta, tb = rc.chamber_temperatures(S, c)
+        assert env.guard_clamps == 0
+        assert S[:, [rc.PA, rc.PB]].min() > 0.3 * c.exhaust_pressure
+        assert S[:, [rc.PA, rc.PB]].max() < 1.5 * c.supply_pressure
+        assert min(ta.min(), tb.min()) > 120.0 and max(ta.max(), tb.max()) < 600.0
+        # stop penetration: static thrust plus the impact at the speed bound
+        pen = A * 1.5 * c.supply_pressure / c.stop_stiffness + rc.speed_bound(c) * math.sqrt(c.mass / c.stop_stiffness)
+        assert S[:, rc.Y].min() >= -pen and S[:, rc.Y].max() <= c.stroke + pen
+        assert np.ptp(S[:, rc.Y]) > 0.8 * c.stroke  # really travelled into both stops
+        assert np.abs(S[:, rc.V]).max() <= rc.speed_bound(c)
+
+
+# ============================================================================ validation rows
+def test_validation_rows_pass():
+    rows = rc._rodless_cylinder_rows()
+    assert len(rows) >= 4
+    for r in rows:
+        assert r.passed, (r.name, r.published, r.reproduced, r.tolerance)
+        assert r.source and r.unit
+
+
+# ============================================================================ env: API
+def _a(value: float) -> np.ndarray:
+    return np.array([value], dtype=np.float32)
+
+
+def _random_actions(n, seed=123, shape=(1,)):
+    return np.random.default_rng(seed).uniform(-1.0, 1.0, (n, *shape)).astype(np.float32)
+
+
+def _rollout(env, seed, actions, options=None):
+    obs, info = env.reset(seed=seed, options=options)
+    O, R, S = [obs], [], [info["state"]]
+    for a in actions:
+        obs, reward, _, _, info = env.step(a)
+        O.append(obs), R.append(reward), S.append(info["state"])
+    return np.array(O), np.array(R), np.array([[s[k] for k in STATE_KEYS] for s in S])
+
+
+def test_check_env_passes_without_any_warning():
+    env = gym.make(ENV_ID)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        check_env(env.unwrapped)
+        env = gym.make(ENV_ID)
+        env.reset(seed=0)
+        for a in (env.action_space.sample(), _a(1.0), _a(-1.0)):
+            _, reward, terminated, truncated, _ = env.step(a)
+        assert isinstance(reward, float) and terminated is False and truncated is False
+    assert env.spec.max_episode_steps == 2000
+
+
+def test_spaces_and_observation_bounds():
+    env = gym.make(ENV_ID).unwrapped
+    assert env.action_space.shape == (1,) and env.action_space.dtype == np.float32
+    o = env.observation_space
+    assert o.shape == (OBS_DIM,) and o.dtype == np.float32 and np.all(np.isfinite(o.low))
+    obs_all, _, _ = _rollout(env, 7, _random_actions(400, seed=8))
+    assert obs_all.dtype == np.float32
+    for ob in obs_all:
+        assert o.contains(ob)
+
+
+def test_same_seed_is_bit_identical_and_seeds_differ():
+    actions = _random_actions(300, seed=1)
+    o1, r1, s1 = _rollout(gym.make(ENV_ID).unwrapped, 42, actions)
+    o2, r2, s2 = _rollout(gym.make(ENV_ID).unwrapped, 42, actions)
+    np.testing.assert_array_equal(o1, o2)
+    np.testing.assert_array_equal(r1, r2)
+    np.testing.assert_array_equal(s1, s2)
+    assert np.ptp(s1[:, 0]) > 1e-4
+    env = gym.make(ENV_ID)
+    _, i1 = env.reset(seed=1)
+    _, i2 = env.reset(seed=2)
+    assert i1["params"] != i2["params"] and i1["state"]["y"] != i2["state"]["y"]
+
+
+def _make_vec(n=4, **kw):
+    return gym.make_vec(ENV_ID, num_envs=n, vectorization_mode="vector_entry_point", **kw)
+
+
+def test_vector_copy_i_matches_single_env_seeded_s_plus_i():
+    n, seed, steps = 3, 10, 150
+    actions = _random_actions(steps, seed=3, shape=(n, 1))
+    venv = _make_vec(n)
+    assert type(venv.unwrapped).__name__ == "RodlessCylinderVectorEnv"
+    obs, info = venv.reset(seed=seed)
+    assert set(info["state"]) == set(STATE_KEYS) and set(info["params"]) == set(PARAM_NAMES)
+    VO, VY = [obs], [info["state"]["y"]]
+    for a in actions:
+        obs, r, term, trunc, info = venv.step(a)
+        VO.append(obs), VY.append(info["state"]["y"])
+    for i in range(n):
+        env = gym.make(ENV_ID)
+        obs, info = env.reset(seed=seed + i)
+        np.testing.assert_array_equal(obs, VO[0][i])
+        for k in range(steps):
+            obs, r, _, _, info = env.step(actions[k, i])
+            np.testing.assert_array_equal(obs, VO[k + 1][i])
+            assert info["state"]["y"] == VY[k + 1][i]
+    # same seed, same vector rollout
+    venv2 = _make_vec(n)
+    obs2, _ = venv2.reset(seed=seed)
+    np.testing.assert_array_equal(obs2, VO[0])
+
+
+@pytest.mark.parametrize("bad", [np.array([np.nan], dtype=np.float32), [float("inf")], float("-inf")])
+def test_non_finite_actions_raise(bad):
+    env = gym.make(ENV_ID).unwrapped
+    env.reset(seed=0)
+    with pytest.raises(ValueError, match="finite"):
+        env.step(bad)
+    venv = _make_vec(2)
+    venv.reset(seed=0)
+    with pytest.raises(ValueError, match="finite"):
+        venv.step(np.array([[0.0], [np.nan]], dtype=np.float32))
+
+
+def test_wrong_shape_raises_and_out_of_range_is_clipped():
+    e1, e2 = gym.make(ENV_ID).unwrapped, gym.make(ENV_ID).unwrapped
+    e1.reset(seed=11)
+    e2.reset(seed=11)
+    with pytest.raises(ValueError, match="shape"):
+        e1.step(np.zeros(2, dtype=np.float32))
+    o1, r1, _, _, i1 = e1.step(_a(7.0))
+    o2, r2, _, _, i2 = e2.step(_a(1.0))
+    assert i1["state"] == i2["state"] and r1 == r2 and o1[10] == 1.0
+
+
+def test_action_maps_to_0_10_volts_with_5_volt_centre():
+    env = gym.make(ENV_ID).unwrapped
+    env.reset(seed=0)
+    assert env.channel_values()["u"] == 0.0  # before the first action: nothing applied yet
+    for a, volts in ((-1.0, 0.0), (0.0, 5.0), (1.0, 10.0), (0.25, 6.25)):
+        env.step(_a(a))
+        ch = env.channel_values()
+        assert set(ch) == {"u", "y", "pa", "pb"}
+        assert ch["u"] == pytest.approx(volts, abs=1e-12)
+
+
+# ============================================================================ env: info, reset
+def test_info_state_and_params():
+    env = gym.make(ENV_ID).unwrapped
+    obs, info = env.reset(seed=4)
+    p = info["params"]
+    assert set(info["state"]) == set(STATE_KEYS) and set(p) == set(PARAM_NAMES)
+    s = info["state"]
+    assert 0.25 * p["stroke"] <= s["y"] <= 0.75 * p["stroke"]
+    params = RodlessCylinderParams(**p)
+    p0 = rc.centre_pressure(params)
+    assert s["pa"] == s["pb"] == pytest.approx(p0, rel=1e-12)
+    ta, tb = rc.chamber_temperatures(np.array([s[k] for k in STATE_KEYS]), params)
+    assert ta[0] == pytest.approx(p["supply_temperature"]) and tb[0] == pytest.approx(p["supply_temperature"])
+    for a in _random_actions(50, seed=5):
+        _, _, _, _, info = env.step(a)
+        assert info["params"] == p and all(type(v) is float for v in info["state"].values())
+
+
+def test_randomize_false_gives_nominal_and_true_draws_inside_yaml_ranges(spec):
+    env = gym.make(ENV_ID, randomize=False)
+    _, info = env.reset(seed=0)
+    assert info["params"] == NOMINAL.as_dict()
+    assert env.unwrapped.n_substeps == 5
+    ranges = {row["name"]: row["value_range"] for row in spec.table()}
+    assert set(ranges) == {"static_friction", "coulomb_friction", "stribeck_velocity", "viscous_friction",
+                           "mass", "supply_pressure"}
+    assert ranges["static_friction"] == pytest.approx((0.7 * 35.48, 1.3 * 35.48))
+    assert ranges["supply_pressure"] == pytest.approx((0.4e6 + 101325, 0.7e6 + 101325))
+    env = gym.make(ENV_ID)
+    drawn = {k: [] for k in ranges}
+    for seed in range(10):
+        _, info = env.reset(seed=seed)
+        for name in PARAM_NAMES:
+            if name in ranges:
+                lo, hi = ranges[name]
+                assert lo <= info["params"][name] <= hi
+                drawn[name].append(info["params"][name])
+            else:
+                assert info["params"][name] == getattr(NOMINAL, name)
+    for values in drawn.values():
+        assert len(set(values)) == len(values)
+
+
+def test_reset_options():
+    env = gym.make(ENV_ID, randomize=False)
+    _, info = env.reset(seed=0, options={"params": {"mass": 1.5}, "state": {"y": 0.02, "pa": 3e5}})
+    assert info["params"]["mass"] == 1.5 and info["state"]["y"] == 0.02 and info["state"]["pa"] == 3e5
+    # masses follow for T_s at the given pressure and position
+    ta, _ = rc.chamber_temperatures(np.array([info["state"][k] for k in STATE_KEYS]), NOMINAL)
+    assert ta[0] == pytest.approx(NOMINAL.supply_temperature, rel=1e-12)
+    with pytest.raises(ValueError, match="stroke"):
+        env.reset(seed=0, options={"state": {"y": L + 0.01}})
+    with pytest.raises(ValueError, match="floor"):
+        env.reset(seed=0, options={"state": {"pb": 0.0}})
+    with pytest.raises(ValueError, match="bogus"):
+        env.reset(seed=0, options={"state": {"bogus": 1.0}})
+    with pytest.raises(ValueError, match="initial_state"):
+        env.reset(seed=0, options={"initial_state": {}})
+    with pytest.raises(ParameterError, match="mass"):
+        env.reset(seed=0, options={"params": {"mass": -1.0}})
+    ref = np.linspace(0.03, 0.07, 100)
+    obs, _ = env.reset(seed=0, options={"reference": ref})
+    assert obs[1] == np.float32((ref[0] - HALF) / HALF)
+    assert obs[2] == np.float32((ref[10] - HALF) / HALF)
+    with pytest.raises(ValueError, match="stroke"):
+        env.reset(seed=0, options={"reference": [0.05, L + 0.1]})
+
+
+@pytest.mark.parametrize("task", ["positioning", "tracking"])
+def test_tasks_draw_their_reference_kind(task):
+    env = gym.make(ENV_ID, task=task, randomize=False).unwrapped
+    for seed in range(4):
+        env.reset(seed=seed)
+        ref = env._batch.REF[0]
+        assert ref.min() >= 0.1 * L - 1e-12 and ref.max() <= 0.9 * L + 1e-12
+        rate = np.abs(np.diff(ref)) / DT
+        if task == "positioning":
+            assert np.count_nonzero(rate) <= 12  # piecewise-constant set points
+        else:
+            assert rate.max() <= 0.15 + 1e-9 and np.count_nonzero(rate) > 1000
+
+
+def test_constructor_validation():
+    for kw, name in (({"task": "juggling"}, "task"), ({"error_scale": 0.0}, "error_scale"),
+                     ({"pressure_noise_std": -1.0}, "pressure_noise_std")):
+        with pytest.raises(ValueError, match=name):
+            gym.make(ENV_ID, **kw)
+
+
+# ============================================================================ env: physics, reward, render
+def test_reward_formula():
+    env = gym.make(ENV_ID).unwrapped
+    ref = 0.05 + 0.02 * np.sin(np.linspace(0.0, 6.0, 300))
+    env.reset(seed=2, options={"reference": ref})
+    prev = 0.0
+    for k, a in enumerate(_random_actions(100, seed=6), start=1):
+        _, reward, _, _, info = env.step(a)
+        e = ref[k] - info["state"]["y"]
+        assert reward == pytest.approx(-((e / 0.01) ** 2) - 0.01 * (float(a[0]) - prev) ** 2, abs=1e-9, rel=0)
+        prev = float(a[0])
+
+
+def test_constant_action_gives_constant_speed_and_eq1_friction():
+    """The env allows the 004 sec. 3 experiment: hold the valve, read A (pa - pb) = F_f(v)."""
+    env = gym.make(ENV_ID, randomize=False).unwrapped
+    env.reset(seed=0, options={"state": {"y": 0.005}})
+    Y, F = [], []
+    for _ in range(800):
+        _, _, _, _, info = env.step(_a(0.3))  # 6.5 V
+        s = info["state"]
+        Y.append(s["y"]), F.append(A * (s["pa"] - s["pb"]))
+    Y, F = np.array(Y), np.array(F)
+    win = (Y > 0.3 * L) & (Y < 0.7 * L)
+    v = np.gradient(Y, DT)[win]
+    assert np.std(v) < 0.05 * np.mean(v) and np.mean(v) > 0.05  # nearly constant speed
+    # inertia is negligible: M dv/dt is < 0.5 % of the friction force
+    assert NOMINAL.mass * np.max(np.abs(np.gradient(v, DT))) < 0.005 * np.mean(F[win])
+    assert np.mean(F[win]) == pytest.approx(float(rc.steady_friction(NOMINAL, np.mean(v))), rel=0.01)
+
+
+def test_observation_semantics_and_noise():
+    env = gym.make(ENV_ID, randomize=False).unwrapped
+    ref = np.full(100, HALF + 0.004)
+    obs, info = env.reset(seed=0, options={"state": {"y": HALF}, "reference": ref})
+    p0 = rc.centre_pressure(NOMINAL)
+    assert obs[0] == pytest.approx(0.4, abs=1e-5) and obs[7] == pytest.approx(0.0, abs=1e-4)
+    assert obs[8] == pytest.approx(p0 / NOMINAL.supply_pressure, rel=1e-6) and obs[10] == 0.0
+    kw = dict(position_noise_std=1e-4, pressure_noise_std=3e3, randomize=False)
+    a = _rollout(gym.make(ENV_ID, **kw).unwrapped, 21, _random_actions(200))
+    b = _rollout(gym.make(ENV_ID, **kw).unwrapped, 21, _random_actions(200))
+    for x, y in zip(a, b):
+        np.testing.assert_array_equal(x, y)
+    env = gym.make(ENV_ID, **kw).unwrapped
+    env.reset(seed=21)
+    dy = []
+    for act in _random_actions(400):
+        _, _, _, _, info = env.step(act)
+        dy.append(env.channel_values()["y"] - info["state"]["y"])
+    assert 0.8e-4 < np.std(dy) < 1.2e-4
+
+
+def test_render_rgb_array():
+    env = gym.make(ENV_ID, render_mode="rgb_array", randomize=False)
+    env.reset(seed=0, options={"state": {"y": 0.01}})
+    f0 = env.render()
+    assert isinstance(f0, np.ndarray) and f0.dtype == np.uint8 and f0.ndim == 3 and f0.shape[2] == 3
+    for _ in range(200):
+        env.step(_a(1.0))
+    f1 = env.render()
+    assert f1.shape == f0.shape and np.count_nonzero(np.any(f0 != f1, axis=2)) > 50
+    env = gym.make(ENV_ID)
+    env.reset(seed=0)
+    assert env.render() is None

@@ -1,0 +1,901 @@
+"""Shaking table (seed 003): plant physics, sensors, references and the env conventions.
+
+Every check compares against something independent of the code under test: closed forms
+(valve step response, underlap flow, IFAS limits, leakage decay via a matrix exponential,
+oil-spring energy and trapped oil mass), the stiff Radau reference, the numerical Jacobian,
+scipy's filter design and frequency response, the seed's tables, the YAML ranges, or a
+single env stepped beside a vector env.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import warnings
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium.utils.env_checker import check_env
+from gymnasium.vector import AutoresetMode
+from scipy import signal
+from scipy.linalg import expm
+from scipy.optimize import fsolve
+
+import hydro_envs  # noqa: F401  (registers the envs)
+from hydro_envs.data.channels import channels_for
+from hydro_envs.envs.shaking_table import ACCELEROMETER_RANGE, ShakingTableEnv
+from hydro_envs.envs.table_references import (
+    KANAI_TAJIMI,
+    TABLE_REFERENCE_KINDS,
+    generate_table_reference,
+    reference_limits,
+)
+from hydro_envs.laws.bulk_modulus import ifas_bulk_modulus
+from hydro_envs.laws.bulk_modulus_fast import ifas_bulk_modulus_fast
+from hydro_envs.laws.filters import butterworth_lowpass_sos, sos_filter_step
+from hydro_envs.params import ParameterError
+from hydro_envs.plants import shaking_table as st
+from hydro_envs.plants.shaking_table import PRESETS, ShakingTableParams
+from hydro_envs.randomization import load_randomization
+from hydro_envs.sim.kernels import SHAKING_TABLE, plant_rhs, step_batch_parallel, step_batch_serial
+from hydro_envs.sim.reference import reference_rollout
+from hydro_envs.sim.stiffness import DEFAULT_SAFETY, RK4_REAL_STABILITY_LIMIT, rk4_substeps
+from hydro_envs.validation import ValidationRow
+
+ENV_ID = "hydro_envs/ShakingTable-v0"
+DT = 1e-3
+NOMINAL = ShakingTableParams()
+HALF = 0.5 * NOMINAL.stroke
+STATE_KEYS = ("x", "v", "pa", "pb", "xv", "vv")
+PARAM_NAMES = ShakingTableParams.names()
+OBS_DIM = 11
+ATOL = np.array([1e-12, 1e-10, 1e-3, 1e-3, 1e-12, 1e-9])
+
+
+@pytest.fixture(scope="module")
+def spec():
+    return load_randomization("shaking_table", ShakingTableParams)
+
+
+def simulate(p: ShakingTableParams, y0, commands, n_sub: int, dt: float = DT):
+    """Fixed-step kernel rollout under per-step commands [V]; returns (n+1, 6) states."""
+    Y = np.array(y0, dtype=float)[None, :].copy()
+    P = p.to_array()[None, :]
+    W = np.zeros((1, 5, st.N_STATES))
+    clamps = np.zeros(1, dtype=np.int64)
+    nsub = np.array([n_sub], dtype=np.int64)
+    U = np.zeros((1, 1))
+    out = np.empty((len(commands) + 1, st.N_STATES))
+    out[0] = Y[0]
+    for k, u in enumerate(commands):
+        U[0, 0] = u
+        step_batch_serial(SHAKING_TABLE, Y, U, P, dt, nsub, W, clamps)
+        out[k + 1] = Y[0]
+    return out
+
+
+def nrmse(a, ref):
+    return float(np.sqrt(np.mean((a - ref) ** 2)) / (ref.max() - ref.min()))
+
+
+def _conservative(p: ShakingTableParams, **kw) -> ShakingTableParams:
+    """Sealed valve (R = 0), no leakage, no friction: a lossless mass on two oil springs."""
+    return dataclasses.replace(
+        p, flow_coefficient=0.0, internal_leakage=0.0, external_leakage=0.0, coulomb_friction=0.0,
+        static_friction=0.0, viscous_friction=0.0, **kw,
+    )
+
+
+# =========================================================================== parameters
+def test_parameters_are_tables_1_and_2():
+    p = NOMINAL
+    # double-rod CGH2, bore 50 mm, rod 36 mm (sec. 2) -> Table 1's A
+    assert p.piston_area == pytest.approx(math.pi / 4 * (0.050**2 - 0.036**2), rel=1e-4)
+    assert (p.platform_mass, p.specimen_mass, p.mass) == (650.0, 200.0, 850.0)
+    assert p.stroke == 0.26 and p.underlap == 0.005
+    assert (p.valve_natural_frequency, p.valve_damping) == (625.0, 0.73)
+    assert p.supply_pressure - p.tank_pressure == pytest.approx(206e5)
+    # R at full opening passes the 4WS.2E's 20 l/min at 70 bar per edge (sec. 2, Table 1)
+    assert p.flow_coefficient * math.sqrt(70e5) * 60e3 == pytest.approx(20.3, abs=0.05)
+    # Table 2 columns as presets
+    mod, ifas = ShakingTableParams.preset("modified_ifas"), ShakingTableParams.preset("ifas")
+    assert (mod.coulomb_friction, mod.static_friction, mod.viscous_friction) == (573.72, 1254.16, 429.4)
+    assert (mod.stribeck_velocity, mod.tanh_gain, mod.e0, mod.oil_exponent) == (0.014, 7.33, 4.73e8, 9.02)
+    assert (mod.air_content, mod.polytropic_exponent, mod.lambda_1, mod.mu) == (7.9e-7, 0.49, 1.08, 8.8e-6)
+    assert mod.threshold_pressure == 9.177e5 and mod.p0 == pytest.approx(36.85e5)
+    assert (ifas.coulomb_friction, ifas.static_friction, ifas.viscous_friction) == (531.85, 952.6, 153.4)
+    assert (ifas.stribeck_velocity, ifas.tanh_gain, ifas.e0, ifas.oil_exponent) == (0.08, 5.8, 4.7e8, 7.88)
+    assert (ifas.air_content, ifas.polytropic_exponent) == (6.8e-7, 0.7224) and ifas.p0 == pytest.approx(8.7e5)
+    for q in (mod, ifas):
+        assert (q.internal_leakage, q.external_leakage) == (4.343e-13, 4.05e-14)
+    assert (mod.bulk_modulus_model, ifas.bulk_modulus_model) == (2.0, 1.0)
+    assert ShakingTableParams.preset("constant").bulk_modulus_model == 0.0
+    assert ShakingTableParams.preset("ifas", "500kg").mass == 1150.0
+    assert ShakingTableParams.preset("modified_ifas", 123.0, dead_volume=3e-5).specimen_mass == 123.0
+    assert set(PRESETS) == {"modified_ifas", "ifas", "constant"}
+
+
+def test_printed_table_2_shape_is_rejected():
+    # 003 Table 2 as printed: lambda_2 = 0.64 -> h(0) = 1.08 - 1.28 tanh(8.08) = -0.20
+    with pytest.raises(ParameterError, match=r"inf h = -0\.2"):
+        ShakingTableParams(lambda_2=0.64)
+    h0 = NOMINAL.lambda_1 - 2 * NOMINAL.lambda_2 * math.tanh(NOMINAL.mu * NOMINAL.threshold_pressure)
+    assert h0 == pytest.approx(0.44, abs=1e-6)
+
+
+@pytest.mark.parametrize(
+    "kw, fragment",
+    [({"bulk_modulus_model": 1.5}, "bulk_modulus_model"), ({"static_friction": 500.0}, "static_friction"),
+     ({"tank_pressure": 4e6, "supply_pressure": 3e6}, "pressure_floor < tank_pressure"), ({"platform_mass": 0.0}, "platform_mass"),
+     ({"min_chamber_volume": 1e-4}, "dead_volume"), ({"e0": float("nan")}, "e0")],
+)
+def test_invalid_parameters_name_the_field(kw, fragment):
+    with pytest.raises(ParameterError, match=fragment):
+        ShakingTableParams(**kw)
+    with pytest.raises(ParameterError, match="preset"):
+        ShakingTableParams.preset("tabulated")
+
+
+# =========================================================================== valve and flows
+def test_valve_step_response_matches_second_order_closed_form():
+    p = NOMINAL
+    u = 5.0
+    ys = simulate(p, st.rest_state(p), np.full(40, u), n_sub=8)
+    t = DT * np.arange(41)
+    w, z = p.valve_natural_frequency, p.valve_damping
+    wd = w * math.sqrt(1 - z * z)
+    xv = p.spool_gain * u * (1 - np.exp(-z * w * t) * (np.cos(wd * t) + z / math.sqrt(1 - z * z) * np.sin(wd * t)))
+    assert np.max(np.abs(ys[:, st.XV] - xv)) <= 1e-6 * p.spool_gain * u
+    # about 3.5 % overshoot of a zeta = 0.73 lag: exp(-pi zeta / sqrt(1 - zeta^2))
+    assert ys[:, st.XV].max() / (p.spool_gain * u) == pytest.approx(1 + math.exp(-math.pi * z / math.sqrt(1 - z * z)), abs=2e-3)
+
+
+@pytest.mark.parametrize("pa, pb", [(8e6, 8e6), (12e6, 5e6), (3e6, 15e6)])
+def test_underlap_flow_at_centred_spool_equals_closed_form(pa, pb):
+    p = NOMINAL
+    qa, qb = st.valve_flows(0.0, pa, pb, p.to_array())
+    r, u, ps, pt = p.flow_coefficient, p.underlap, p.supply_pressure, p.tank_pressure
+    # eqs (1)-(3) at x_v = 0: every edge open by U
+    assert qa == pytest.approx(r * u * (math.sqrt(ps - pa) - math.sqrt(pa - pt)), rel=1e-3)
+    assert qb == pytest.approx(r * u * (math.sqrt(ps - pb) - math.sqrt(pb - pt)), rel=1e-3)
+    # beyond the underlap only one edge pair is open: x_v = 0.5
+    qa, qb = st.valve_flows(0.5, pa, pb, p.to_array())
+    assert qa == pytest.approx(r * (0.5 + u) * math.sqrt(ps - pa), rel=1e-3)
+    assert qb == pytest.approx(-r * (0.5 + u) * math.sqrt(pb - pt), rel=1e-3)
+    # at x_v = -U the P->a edge just closes (eq (3) continuous)
+    qa, _ = st.valve_flows(-u, pa, pb, p.to_array())
+    assert qa == pytest.approx(-r * 2 * u * math.sqrt(pa - pt), rel=1e-3)
+
+
+def test_null_pressure_balances_underlap_flow_and_external_leak():
+    p = NOMINAL
+    pn = st.null_pressure(p)
+    qa, qb = st.valve_flows(0.0, pn, pn, p.to_array())
+    assert qa == pytest.approx(p.external_leakage * (pn - p.tank_pressure), rel=1e-9)
+    # the external leak pulls the null pressure about 2 MPa below (P_s + P_T)/2
+    assert 1.5e6 < 0.5 * (p.supply_pressure + p.tank_pressure) - pn < 2.5e6
+    dy = np.empty(6)
+    plant_rhs(SHAKING_TABLE, st.rest_state(p), np.zeros(1), p.to_array(), dy)
+    assert np.max(np.abs(dy)) < 1e-3  # at rest: pressures steady within 1 mPa/s
+    # without external leakage it is the symmetric (P_s + P_T)/2
+    q = dataclasses.replace(p, external_leakage=0.0)
+    assert st.null_pressure(q) == pytest.approx(0.5 * (q.supply_pressure + q.tank_pressure), rel=1e-9)
+
+
+def test_steady_speed_at_full_opening_matches_orifice_law_with_friction_and_leakage():
+    p = NOMINAL
+    ys = simulate(p, st.rest_state(p, -0.12), np.full(700, 10.0), n_sub=4)
+    idx = np.flatnonzero((ys[:, st.X] > -0.03) & (ys[:, st.X] < 0.07))
+    v_sim = (ys[idx[-1], st.X] - ys[idx[0], st.X]) / ((idx[-1] - idx[0]) * DT)
+    r1 = p.flow_coefficient * (1 + p.underlap)
+    a, ps, pt = p.piston_area, p.supply_pressure, p.tank_pressure
+
+    def friction(v):
+        return ((p.coulomb_friction + (p.static_friction - p.coulomb_friction) * math.exp(-(v / p.stribeck_velocity) ** 2))
+                * math.tanh(p.tanh_gain * v) + p.viscous_friction * v)
+
+    def eqs(z):  # unknowns: v [m/s], pa, pb [MPa]
+        v, pa, pb = z[0], z[1] * 1e6, z[2] * 1e6
+        qi = p.internal_leakage * (pa - pb)
+        return [
+            (a * (pa - pb) - friction(v)) / 1e3,  # eq (10) steady
+            (r1 * math.sqrt(ps - pa) - qi - p.external_leakage * (pa - pt) - a * v) * 1e4,  # eq (6)
+            (-r1 * math.sqrt(pb - pt) + qi - p.external_leakage * (pb - pt) + a * v) * 1e4,  # eq (7)
+        ]
+
+    v_true, pa, pb = fsolve(eqs, [0.4, 11.0, 10.0], xtol=1e-12)
+    assert v_sim == pytest.approx(v_true, rel=3e-3)
+    assert st.no_load_velocity(p) == pytest.approx(0.4366, abs=1e-3)
+
+
+# =========================================================================== bulk modulus
+def test_ifas_law_against_hand_computed_values():
+    p = ShakingTableParams.preset("ifas")
+    e0, p0, m, al, ka = p.e0, p.p0, p.oil_exponent, p.air_content, p.polytropic_exponent
+    # at P = P_0 eq (13) reduces to 1 / ((1 - a)/E0 + a/(k P0))
+    ea, eb = st.effective_bulk_modulus(p, p0, p0)
+    assert ea == pytest.approx(1.0 / ((1 - al) / e0 + al / (ka * p0)), rel=1e-12)
+    # at 10 MPa, written out term by term
+    P = 1e7
+    b = 1 + m * (P - p0) / e0
+    num = (1 - al) * b ** (-1 / m) + al * (p0 / P) ** (1 / ka)
+    den = (1 - al) / e0 * b ** (-(m + 1) / m) + al / (ka * p0) * (p0 / P) ** ((ka + 1) / ka)
+    assert st.effective_bulk_modulus(p, P, 5e6)[0] == pytest.approx(num / den, rel=1e-12)
+    # no air: the Murnaghan oil line E0 + m (P - P0)
+    q = dataclasses.replace(p, air_content=0.0)
+    assert st.effective_bulk_modulus(q, P, P)[0] == pytest.approx(e0 + m * (P - p0), rel=1e-12)
+    # modified IFAS multiplies by h of eq (19); constant returns E0
+    mod = dataclasses.replace(p, bulk_modulus_model=2.0)
+    h = mod.lambda_1 - mod.lambda_2 * (math.tanh(mod.mu * (P - 5e6 + mod.threshold_pressure))
+                                       - math.tanh(mod.mu * (P - 5e6 - mod.threshold_pressure)))
+    np.testing.assert_allclose(st.effective_bulk_modulus(mod, P, 5e6),
+                               [num / den * h, st.effective_bulk_modulus(p, 5e6, 5e6)[0] * h], rtol=1e-12)
+    const = dataclasses.replace(p, bulk_modulus_model=0.0)
+    np.testing.assert_array_equal(st.effective_bulk_modulus(const, P, 5e6), [e0, e0])
+
+
+def test_fast_ifas_law_equals_reference_law():
+    rng = np.random.default_rng(0)
+    for _ in range(200):
+        args = (rng.uniform(1e2, 4e7), rng.uniform(3e8, 2e9), rng.uniform(1e5, 5e6), rng.uniform(2, 15),
+                10 ** rng.uniform(-8, -1), rng.uniform(0.3, 1.4), 1e3)
+        assert ifas_bulk_modulus_fast(*args) == pytest.approx(ifas_bulk_modulus(*args), rel=1e-13)
+
+
+def test_modified_modulus_minimum_at_equal_pressures_and_positive(spec):
+    rng = np.random.default_rng(5)
+    sets = [NOMINAL, spec.corner(False), spec.corner(True)]
+    sets += [spec.corner(rng.integers(0, 2, len(spec.entries)).astype(bool)) for _ in range(3)]
+    for k, p in enumerate(sets):
+        if k == 0:  # nominal, whole load line: the minimum sits at P_a = P_b (the validate row)
+            r = st.modulus_minimum(p, n_grid=401)
+            assert abs(r["dp_min"]) <= 1e3, r
+            assert r["e_min"] == pytest.approx(r["e_closed_form"], rel=1e-9)
+        else:
+            # within +-3 P_Lt of the centre; the notch bottom is flat (mu P_Lt >> 1): where the
+            # IFAS curvature wins, the minimum moves inside the notch, by < 1e-5 of its depth
+            r = st.modulus_minimum(p, n_grid=401, span=3 * p.threshold_pressure)
+            assert abs(r["dp_min"]) < p.threshold_pressure
+            assert r["e_closed_form"] <= r["e_min"] * (1 + 1e-5)
+        assert r["e_floor"] > 0.0  # E_a, E_b > 0 on [p_floor, 1.2 P_s]^2
+        assert r["e_far"] > 1.2 * r["e_min"]  # the notch is real
+    # negative control: plain IFAS has its *largest* mid-stroke modulus at P_a = P_b
+    r = st.modulus_minimum(ShakingTableParams.preset("ifas"), n_grid=401)
+    assert abs(r["dp_min"]) > 1e6
+    assert r["e_far"] == pytest.approx(r["e_closed_form"], rel=1e-6)
+
+
+# =========================================================================== conservation
+def test_energy_conserved_with_sealed_valve_constant_modulus():
+    p = _conservative(ShakingTableParams.preset("constant"))
+    y0 = st.rest_state(dataclasses.replace(p, flow_coefficient=NOMINAL.flow_coefficient), 0.02, 0.1)
+    ys = simulate(p, y0, np.zeros(400), n_sub=16)
+    e = st.closed_valve_energy(ys, p, y0)
+    e0 = 0.5 * p.mass * 0.1**2
+    assert np.max(np.abs(e - e0)) / e0 <= 1e-7
+    assert np.min(0.5 * p.mass * ys[:, st.V] ** 2) < 1e-2 * e0  # energy really moved into the oil
+
+
+@pytest.mark.parametrize("model", [0.0, 1.0])
+def test_trapped_oil_mass_conserved_with_sealed_valve(model):
+    p = _conservative(dataclasses.replace(NOMINAL, bulk_modulus_model=model))
+    y0 = st.rest_state(NOMINAL, -0.05, 0.05)  # +-1 MPa swings: no cavitation
+    ys = simulate(p, y0, np.zeros(500), n_sub=16)
+    va, vb = st.chamber_volumes(p, ys[:, st.X])
+    ma = va / st.ifas_relative_volume(p, ys[:, st.PA])
+    mb = vb / st.ifas_relative_volume(p, ys[:, st.PB])
+    assert np.max(np.abs(ma / ma[0] - 1)) < 1e-9
+    assert np.max(np.abs(mb / mb[0] - 1)) < 1e-9
+    assert np.ptp(ys[:, st.PA]) > 1e6
+
+
+def test_leakage_decay_matches_matrix_exponential_with_locked_piston():
+    # valve sealed (R = 0), piston locked, constant modulus: a linear system
+    # d(P - P_T)/dt = -E/V [[C_il + C_el, -C_il], [-C_il, C_il + C_el]] (P - P_T)   (eqs (6)-(9))
+    # "locked": a 1e-9 m^2 piston (same chamber volumes) whose motion changes no volume
+    c = ShakingTableParams.preset("constant")
+    v_half = c.dead_volume + 0.5 * c.piston_area * c.stroke
+    p = dataclasses.replace(c, flow_coefficient=0.0, piston_area=1e-9, dead_volume=v_half - 0.5e-9 * c.stroke)
+    y0 = np.array([0.0, 0.0, 14e6, 4e6, 0.0, 0.0])
+    ys = simulate(p, y0, np.zeros(1000), n_sub=1)
+    va, vb = st.chamber_volumes(p, 0.0)
+    ci, ce, e = p.internal_leakage, p.external_leakage, p.e0
+    A = -e * np.array([[(ci + ce) / va, -ci / va], [-ci / vb, (ci + ce) / vb]])
+    t = DT * np.arange(1001)
+    exact = np.array([expm(A * tk) @ (y0[2:4] - p.tank_pressure) for tk in t]) + p.tank_pressure
+    np.testing.assert_allclose(ys[:, 2:4], exact, rtol=1e-9)
+    # the pressure difference decays with tau = V / (E (2 C_il + C_el)) (V_a = V_b = V)
+    tau = va / (e * (2 * ci + ce))
+    dp = ys[:, st.PA] - ys[:, st.PB]
+    assert dp[-1] / dp[0] == pytest.approx(math.exp(-1.0 / tau), rel=1e-6)
+    assert 0.2 < tau < 0.6  # about 0.38 s with Table 2's leakage
+
+
+# =========================================================================== numerics
+def _bang_bang_commands():
+    return np.concatenate([np.full(500, 10.0), np.full(600, -10.0), np.full(400, 7.0), np.full(300, -3.0)])
+
+
+@pytest.mark.parametrize("preset", ["modified_ifas", "ifas", "constant"])
+def test_fixed_step_matches_radau_through_stop_impact_and_cavitation(preset):
+    p = ShakingTableParams.preset(preset)
+    cmds = _bang_bang_commands()
+    y0 = st.rest_state(p)
+    n_sub = rk4_substeps(st.stiffness_modes(p), DT)[0]
+    fixed = simulate(p, y0, cmds, n_sub)
+    ref = reference_rollout(SHAKING_TABLE, y0, cmds[:, None], p.to_array(), DT, rtol=1e-10, atol=ATOL)
+    assert (ref[:, st.X] > HALF).sum() > 50  # really pressed into the end stop
+    assert ref[:, 2:4].max() > 1.3 * p.supply_pressure  # stop impact pressure peak
+    assert nrmse(fixed[:, st.X], ref[:, st.X]) <= 1e-4
+    assert nrmse(fixed[:, st.V], ref[:, st.V]) <= 3e-4
+    assert max(nrmse(fixed[:, st.PA], ref[:, st.PA]), nrmse(fixed[:, st.PB], ref[:, st.PB])) <= 1e-3
+
+
+def test_fixed_step_matches_radau_through_the_notch_at_the_steepest_corner(spec):
+    """corner(True): mu = 2e-5 1/Pa, lambda_2 = 0.4 -- the sharpest notch edge of eq (19),
+    crossed twice per period by an 8 Hz motion (the mode stiffness_modes leaves out)."""
+    p = spec.corner(True)
+    t = DT * np.arange(600)
+    cmds = 6.0 * np.sin(2 * np.pi * 8 * t)
+    y0 = st.rest_state(p)
+    fixed = simulate(p, y0, cmds, rk4_substeps(st.stiffness_modes(p), DT)[0])
+    # rtol 1e-8 is five orders tighter than the 1e-3 checked below, and twice as fast as 1e-10
+    ref = reference_rollout(SHAKING_TABLE, y0, cmds[:, None], p.to_array(), DT, rtol=1e-8, atol=ATOL * 10)
+    dp = ref[:, st.PA] - ref[:, st.PB]
+    assert np.count_nonzero(np.diff(np.sign(dp)) != 0) >= 8  # the notch is crossed
+    pa = p.to_array()
+    acc_f = np.array([st.table_acceleration(y, pa) for y in fixed])
+    acc_r = np.array([st.table_acceleration(y, pa) for y in ref])
+    assert nrmse(acc_f, acc_r) <= 1e-3
+    assert max(nrmse(fixed[:, st.PA], ref[:, st.PA]), nrmse(fixed[:, st.PB], ref[:, st.PB])) <= 1e-3
+
+
+def test_rk4_converges_at_fourth_order_on_smooth_motion():
+    p = NOMINAL
+    y0 = st.rest_state(p)
+    y0[st.XV] = 0.2  # spool beyond the underlap throughout: eq (3)'s kink at |x_v| = U is never crossed
+    t = DT * np.arange(150)
+    cmds = 2.0 + 1.0 * np.sin(2 * np.pi * 6 * t)
+    ref = reference_rollout(SHAKING_TABLE, y0, cmds[:, None], p.to_array(), DT, rtol=1e-12, atol=ATOL * 1e-2)
+    errs = [np.max(np.abs(simulate(p, y0, cmds, n)[:, st.PA] - ref[:, st.PA])) for n in (4, 8)]
+    assert errs[0] / errs[1] >= 10  # 2^4 = 16 asymptotically
+
+
+def numerical_jacobian(y, p_arr):
+    J = np.empty((6, 6))
+    scale = np.array([1e-7, 1e-6, 1.0, 1.0, 1e-7, 1e-4])
+    fp, fm = np.empty(6), np.empty(6)
+    for j in range(6):
+        yp, ym = y.copy(), y.copy()
+        yp[j] += scale[j]
+        ym[j] -= scale[j]
+        plant_rhs(SHAKING_TABLE, yp, np.zeros(1), p_arr, fp)
+        plant_rhs(SHAKING_TABLE, ym, np.zeros(1), p_arr, fm)
+        J[:, j] = (fp - fm) / (2 * scale[j])
+    return J
+
+
+def test_stiffness_bound_covers_the_numerical_jacobian(spec):
+    rng = np.random.default_rng(0)
+    sets = [NOMINAL, ShakingTableParams.preset("ifas", "none"), ShakingTableParams.preset("constant", "500kg"),
+            spec.corner(False), spec.corner(True)]
+    sets += [spec.corner(rng.integers(0, 2, len(spec.entries)).astype(bool)) for _ in range(2)]
+    for p in sets:
+        bound = max(st.stiffness_modes(p).values())
+        pa = p.to_array()
+        ps, pt, L = p.supply_pressure, p.tank_pressure, p.stroke
+        pen = p.piston_area * ps / p.stop_stiffness
+        pn = st.null_pressure(p)
+        worst = 0.0
+        for x in (-0.5 * L - pen, -0.5 * L + 1e-4, 0.0, 0.5 * L - 1e-4, 0.5 * L + pen):
+            for v in (0.0, 1e-5, 0.01, -0.3, 0.3):
+                for p1, p2 in ((pn, pn), (ps, pt), (pt, ps), (1.4 * ps, 5e5), (5e5, 1.4 * ps)):
+                    # low-pressure chambers only at low speed: the air-release transient is
+                    # excluded by design (stiffness_modes docstring; Radau test above)
+                    if min(p1, p2) < 5e5 and abs(v) > 0.01:
+                        continue
+                    for xv in (0.0, 1.0, -1.0, 0.003):
+                        ev = np.linalg.eigvals(numerical_jacobian(np.array([x, v, p1, p2, xv, 0.0]), pa))
+                        growth = (np.abs(ev.imag) < 1e-9) & (ev.real > 0)  # no RK4 stability limit
+                        worst = max(worst, np.abs(ev[~growth]).max())
+        assert worst <= bound * 1.02, (worst, bound)
+        assert worst >= 0.5 * bound  # the bound is not uselessly loose
+
+
+def test_substeps_nominal_and_at_the_randomisation_corners(spec):
+    assert rk4_substeps(st.stiffness_modes(NOMINAL), DT)[0] == 4  # documented in the env
+    for flags in (False, True):
+        p = spec.corner(flags)
+        n_sub, h, _ = rk4_substeps(st.stiffness_modes(p), DT)
+        assert h * max(st.stiffness_modes(p).values()) <= DEFAULT_SAFETY * RK4_REAL_STABILITY_LIMIT + 1e-12
+        assert n_sub <= 8
+
+
+def test_parallel_and_serial_kernels_are_bit_identical(spec):
+    rng = np.random.default_rng(1)
+    params = [spec.sample(rng, ShakingTableParams.preset(["modified_ifas", "ifas", "constant"][k % 3]))
+              for k in range(48)]
+    P = np.stack([q.to_array() for q in params])
+    Y0 = np.stack([st.rest_state(q, rng.uniform(-0.05, 0.05)) for q in params])
+    nsub = np.array([rk4_substeps(st.stiffness_modes(q), DT)[0] for q in params], dtype=np.int64)
+    out = []
+    for kernel in (step_batch_serial, step_batch_parallel):
+        Y = Y0.copy()
+        W, c = np.zeros((48, 5, 6)), np.zeros(48, dtype=np.int64)
+        rng_u = np.random.default_rng(2)
+        for _ in range(200):
+            kernel(SHAKING_TABLE, Y, rng_u.uniform(-10, 10, (48, 1)), P, DT, nsub, W, c)
+        out.append(Y)
+    assert np.array_equal(out[0], out[1])
+
+
+def test_cavitation_floor_holds_when_the_table_is_thrown():
+    p = dataclasses.replace(NOMINAL, flow_coefficient=0.0, bulk_modulus_model=0.0)
+    Y = st.rest_state(NOMINAL, 0.0, 2.0)[None, :].copy()
+    P, W, c = p.to_array()[None, :], np.zeros((1, 5, 6)), np.zeros(1, dtype=np.int64)
+    lowest = np.inf
+    for _ in range(300):
+        step_batch_serial(SHAKING_TABLE, Y, np.zeros((1, 1)), P, DT, np.array([4]), W, c)
+        lowest = min(lowest, Y[0, st.PA], Y[0, st.PB])
+        assert np.all(np.isfinite(Y))
+    assert lowest >= p.pressure_floor
+    assert lowest == pytest.approx(p.pressure_floor, abs=1.0)
+
+
+# =========================================================================== natural frequency
+@pytest.mark.parametrize(
+    "preset, specimen", [("modified_ifas", "200kg"), ("modified_ifas", "500kg"), ("ifas", "200kg"), ("constant", "none")]
+)
+def test_linearised_natural_frequency_matches_small_signal_response(preset, specimen):
+    p = ShakingTableParams.preset(preset, specimen)
+    lin = st.hydraulic_natural_frequency(p)
+    res = st.small_signal_frequency(p)
+    assert res["omega_n"] == pytest.approx(lin, rel=0.02)
+    assert res["fit_rms"] < 1e-3  # the damped-sine model describes the response
+    assert abs(res["fft_peak"] - lin) < 0.05 * lin  # independent of the fit
+
+
+def test_validation_rows_pass_and_absolute_rows():
+    rows = st._validation_rows()
+    assert len(rows) == 5
+    for r in rows:
+        assert r.passed, (r.name, r.published, r.reproduced, r.tolerance)
+    assert rows[0].absolute and rows[0].published == 0.0
+    # ValidationRow: relative rows unchanged, absolute rows compare |difference|
+    assert ValidationRow("a", 0.0, 5.0, 10.0, "Pa", "s", absolute=True).passed
+    assert not ValidationRow("a", 0.0, 11.0, 10.0, "Pa", "s", absolute=True).passed
+    assert ValidationRow("r", 100.0, 101.0, 0.02, "Hz", "s").error == pytest.approx(0.01)
+    assert not ValidationRow("a", 0.0, float("nan"), 10.0, "Pa", "s", absolute=True).passed
+    d = ValidationRow("a", 0.0, 5.0, 10.0, "Pa", "s", absolute=True).as_dict()
+    assert d["relative_error"] is None and d["error"] == 5.0 and d["absolute"] is True
+
+
+# =========================================================================== sensors
+def test_butterworth_design_and_recursion_against_scipy():
+    sos = butterworth_lowpass_sos(8, 40.0, 1000.0)
+    np.testing.assert_allclose(sos, signal.butter(8, 40.0, fs=1000.0, output="sos"), rtol=0, atol=0)
+    x = np.random.default_rng(0).standard_normal(3000)
+    zi = np.zeros((sos.shape[0], 2))
+    y = np.array([sos_filter_step(sos, zi, xi) for xi in x])
+    np.testing.assert_allclose(y, signal.sosfilt(sos, x), rtol=0, atol=1e-12)
+    with pytest.raises(ValueError, match="cutoff"):
+        butterworth_lowpass_sos(8, 600.0, 1000.0)
+
+
+def test_velocity_sensor_frequency_response_against_sosfreqz():
+    """Sine position in, steady-state velocity-estimate amplitude out, vs the design."""
+    sos = butterworth_lowpass_sos(8, 40.0, 1000.0)
+    t = DT * np.arange(6000)
+    gains = {}
+    for f in (2.0, 10.0, 40.0, 80.0, 160.0):
+        x = 1e-3 * np.sin(2 * np.pi * f * t)
+        zi, prev, v = np.zeros((sos.shape[0], 2)), 0.0, []
+        for xk in x:
+            v.append(sos_filter_step(sos, zi, (xk - prev) / DT))
+            prev = xk
+        v = np.array(v[3000:])
+        amp = np.sqrt(2 * np.mean(v**2)) / (1e-3 * 2 * np.pi * f)  # per unit true velocity
+        w = 2 * np.pi * f * DT
+        diff = 2 * np.sin(w / 2) / (w)  # backward difference gain
+        _, h = signal.sosfreqz(sos, worN=[f], fs=1000.0)
+        assert amp == pytest.approx(abs(h[0]) * diff, rel=2e-3)
+        gains[f] = 20 * np.log10(abs(h[0]))
+    assert gains[40.0] == pytest.approx(-3.01, abs=0.01)  # -3 dB at the 40 Hz corner
+    assert abs(gains[2.0]) < 1e-3
+    assert gains[80.0] - gains[160.0] == pytest.approx(48.0, abs=6.0)  # 8th order: -48 dB/octave
+
+
+def test_env_velocity_estimate_is_the_filtered_difference_of_the_measured_position():
+    env = gym.make(ENV_ID, randomize=False).unwrapped
+    env.reset(seed=0)
+    xs, vs = [env.sensor_values()["x"]], [env.sensor_values()["v_est"]]
+    t = DT * np.arange(1, 1500)
+    for tk in t:
+        env.step(np.array([0.3 * np.sin(2 * np.pi * 3 * tk)], dtype=np.float32))
+        s = env.sensor_values()
+        xs.append(s["x"]), vs.append(s["v_est"])
+    xs = np.array(xs)
+    expected = signal.sosfilt(butterworth_lowpass_sos(8, 40.0, 1000.0), np.diff(xs) / DT)
+    np.testing.assert_allclose(vs[1:], expected, rtol=0, atol=1e-9)
+    assert vs[0] == 0.0
+    assert np.ptp(vs) > 0.05  # the table moved
+
+
+def test_accelerometer_reads_dv_dt_and_saturates():
+    env = gym.make(ENV_ID, randomize=False).unwrapped
+    env.reset(seed=1)
+    vs, acc = [], []
+    for k in range(400):
+        _, _, _, _, info = env.step(np.array([0.4 * np.sin(2 * np.pi * 4 * k * DT)], dtype=np.float32))
+        vs.append(info["state"]["v"]), acc.append(env.channel_values()["a"])
+        y = np.array([info["state"][s] for s in STATE_KEYS])
+        assert acc[-1] == st.table_acceleration(y, env.params.to_array())
+    central = (np.array(vs[2:]) - np.array(vs[:-2])) / (2 * DT)
+    err = np.abs(central - np.array(acc[1:-1]))
+    assert np.sqrt(np.mean(err**2)) < 0.02 * np.ptp(acc)
+    # slammed into the end stop at full opening: the ADXL05 clips at +-5 g
+    env.reset(seed=1, options={"state": {"x": 0.1}})
+    peak = 0.0
+    for _ in range(400):
+        obs, *_ = env.step(np.array([1.0], dtype=np.float32))
+        peak = max(peak, abs(env.channel_values()["a"]))
+        assert env.observation_space.contains(obs)
+    assert peak == ACCELEROMETER_RANGE
+
+
+# =========================================================================== references
+@pytest.mark.parametrize("kind", TABLE_REFERENCE_KINDS)
+@pytest.mark.parametrize("specimen", ["none", "500kg"])
+def test_references_are_feasible_and_start_from_rest(kind, specimen):
+    p = ShakingTableParams.preset("modified_ifas", specimen)
+    lim = reference_limits(p)
+    rng = np.random.default_rng(11)
+    for _ in range(5):
+        a, d = generate_table_reference(kind, rng, 6051, DT, lim)
+        # the reference is the acceleration of d: integrate it twice from rest
+        v = np.concatenate([[0.0], np.cumsum(a) * DT])
+        x = np.concatenate([[0.0], np.cumsum(v[:-1]) * DT])
+        np.testing.assert_allclose(x[1:], d, atol=1e-9 + 1e-6 * np.abs(d).max())
+        assert np.abs(d).max() <= lim.displacement * (1 + 1e-9)
+        assert np.abs(np.diff(d)).max() / DT <= lim.velocity * (1 + 1e-9)
+        assert np.abs(a).max() <= lim.acceleration * (1 + 1e-9)
+        assert np.abs(a).max() > 0.02 * lim.acceleration  # not trivially small
+        assert abs(a[0]) < 0.2 * np.abs(a).max()  # starts gently
+
+
+def test_reference_limits_follow_stroke_flow_and_force():
+    lim = reference_limits(NOMINAL)
+    assert lim.displacement == pytest.approx(0.4 * HALF)
+    assert lim.velocity == pytest.approx(0.5 * st.no_load_velocity(NOMINAL))
+    assert lim.acceleration == pytest.approx(0.4 * (NOMINAL.piston_area * 206e5 - NOMINAL.static_friction) / 850.0)
+    # at 0.5 Hz the stroke limits a sine to D w^2 = 0.052 (pi)^2 m/s^2
+    assert lim.displacement * math.pi**2 == pytest.approx(0.513, abs=1e-3)
+    assert KANAI_TAJIMI["omega_g"] == pytest.approx(5 * math.pi) and KANAI_TAJIMI["zeta_g"] == 0.6
+
+
+def test_transition_reference_doubles_or_halves_the_amplitude():
+    rng = np.random.default_rng(3)
+    for _ in range(6):
+        a, _ = generate_table_reference("transition", rng, 6051, DT, reference_limits(NOMINAL))
+        first, last = np.abs(a[1200:2400]).max(), np.abs(a[5000:6000]).max()
+        assert last / first == pytest.approx(2.0, rel=0.05) or last / first == pytest.approx(0.5, rel=0.05)
+
+
+def test_earthquake_spectrum_peaks_near_the_kanai_tajimi_frequency():
+    rng = np.random.default_rng(4)
+    psd = 0.0
+    for _ in range(20):
+        a, _ = generate_table_reference("earthquake", rng, 8192, DT, reference_limits(NOMINAL))
+        f, pxx = signal.welch(a / np.abs(a).max(), fs=1000.0, nperseg=2048)
+        psd = psd + pxx
+    f_peak = f[np.argmax(psd)]
+    assert 1.0 < f_peak < 4.5  # omega_g = 5 pi rad/s = 2.5 Hz, broadened by zeta_g = 0.6
+    assert psd[f > 30].max() < 1e-2 * psd.max()
+
+
+# =========================================================================== env API
+def _a(value: float) -> np.ndarray:
+    return np.array([value], dtype=np.float32)
+
+
+def _random_actions(n, seed=123, shape=(1,)):
+    return np.random.default_rng(seed).uniform(-1.0, 1.0, (n, *shape)).astype(np.float32)
+
+
+def _rollout(env, seed, actions, options=None):
+    obs, info = env.reset(seed=seed, options=options)
+    O, R, S = [obs], [], [info["state"]]
+    for a in actions:
+        obs, r, _, _, info = env.step(a)
+        O.append(obs), R.append(r), S.append(info["state"])
+    return np.array(O), np.array(R), np.array([[s[k] for k in STATE_KEYS] for s in S])
+
+
+def test_check_env_passes_without_any_warning():
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        check_env(gym.make(ENV_ID).unwrapped)
+        env = gym.make(ENV_ID)
+        env.reset(seed=0)
+        for a in (env.action_space.sample(), _a(1.0), _a(-1.0)):
+            _, reward, terminated, truncated, _ = env.step(a)
+        assert isinstance(reward, float) and terminated is False and truncated is False
+    assert env.spec.max_episode_steps == 6000
+
+
+def test_spaces_and_channels():
+    env = gym.make(ENV_ID)
+    assert env.action_space.shape == (1,) and env.action_space.dtype == np.float32
+    o = env.observation_space
+    assert o.shape == (OBS_DIM,) and o.dtype == np.float32 and np.all(np.isfinite(o.low))
+    assert (o.low[7], o.high[7]) == (np.float32(-1.2), np.float32(1.2))
+    assert o.high[8] == np.float32(ACCELEROMETER_RANGE / 10.0)
+    assert [(c.name, c.unit) for c in channels_for("shaking_table")] == [("u", "V"), ("x", "m"), ("a", "m/s^2")]
+    env.reset(seed=0)
+    ch = env.unwrapped.channel_values()
+    assert list(ch) == ["u", "x", "a"] and ch["u"] == 0.0
+    env.step(_a(0.37))
+    assert env.unwrapped.channel_values()["u"] == pytest.approx(float(np.float32(0.37)) * 10.0)
+
+
+@pytest.mark.parametrize("kind", list(TABLE_REFERENCE_KINDS) + ["mixed"])
+def test_observations_inside_declared_bounds(kind):
+    env = gym.make(ENV_ID, reference=kind).unwrapped
+    obs_all, _, _ = _rollout(env, 7, _random_actions(400, seed=8))
+    assert obs_all.dtype == np.float32 and np.all(np.isfinite(obs_all))
+    for o in obs_all:
+        assert env.observation_space.contains(o)
+
+
+def test_same_seed_is_bit_identical_and_seeds_differ():
+    actions = _random_actions(300, seed=1)
+    o1, r1, s1 = _rollout(gym.make(ENV_ID).unwrapped, 42, actions)
+    o2, r2, s2 = _rollout(gym.make(ENV_ID).unwrapped, 42, actions)
+    np.testing.assert_array_equal(o1, o2)
+    np.testing.assert_array_equal(r1, r2)
+    np.testing.assert_array_equal(s1, s2)
+    assert np.ptp(s1[:, 0]) > 1e-4
+    env = gym.make(ENV_ID)
+    _, i1 = env.reset(seed=1)
+    _, i2 = env.reset(seed=2)
+    assert i1["params"] != i2["params"] and i1["state"]["x"] != i2["state"]["x"]
+
+
+def _make_vec(n=4, **kw):
+    return gym.make_vec(ENV_ID, num_envs=n, vectorization_mode="vector_entry_point", **kw)
+
+
+def test_vector_copy_i_matches_single_env_seeded_s_plus_i():
+    n, seed, steps = 3, 10, 150
+    actions = _random_actions(steps, seed=3, shape=(n, 1))
+    venv = _make_vec(n)
+    assert type(venv.unwrapped).__name__ == "ShakingTableVectorEnv"
+    obs, info = venv.reset(seed=seed)
+    assert set(info["state"]) == set(STATE_KEYS) and set(info["params"]) == set(PARAM_NAMES)
+    VO, VR = [obs], []
+    for a in actions:
+        obs, r, term, trunc, info = venv.step(a)
+        VO.append(obs), VR.append(r)
+    for i in range(n):
+        o, r, _ = _rollout(gym.make(ENV_ID).unwrapped, seed + i, actions[:, i])
+        np.testing.assert_array_equal(o, np.array(VO)[:, i])
+        np.testing.assert_array_equal(r, np.array(VR)[:, i])
+
+
+def test_vector_masked_reset_does_not_disturb_the_other_copies_sensors():
+    """Re-observing every copy after a masked reset must not advance their velocity filters."""
+    n, seed = 3, 20
+    actions = _random_actions(80, seed=4, shape=(n, 1))
+    venv = _make_vec(n)
+    venv.reset(seed=seed)
+    for k in range(40):
+        venv.step(actions[k])
+    venv.reset(options={"reset_mask": np.array([True, False, False])})
+    for k in range(40, 80):
+        obs, *_ = venv.step(actions[k])
+    for i in (1, 2):
+        o, _, _ = _rollout(gym.make(ENV_ID).unwrapped, seed + i, actions[:, i])
+        np.testing.assert_array_equal(o[-1], obs[i])
+
+
+def test_vector_autoreset_next_step_and_same_step():
+    n, T = 3, 5
+    act = np.full((n, 1), 0.5, dtype=np.float32)
+    venv = _make_vec(n, max_episode_steps=T)
+    venv.reset(seed=3)
+    for k in range(1, T + 1):
+        _, _, term, trunc, _ = venv.step(act)
+        assert not term.any() and trunc.all() == (k == T)
+    obs, reward, _, trunc, _ = venv.step(act)
+    np.testing.assert_array_equal(reward, 0.0)
+    assert not trunc.any()
+    np.testing.assert_array_equal(obs[:, 10], 0.0)
+    venv2 = _make_vec(n, max_episode_steps=T, autoreset_mode=AutoresetMode.SAME_STEP)
+    venv2.reset(seed=3)
+    for _ in range(T):
+        obs2, _, _, trunc2, info2 = venv2.step(act)
+    assert trunc2.all() and info2["_final_obs"].all()
+    np.testing.assert_array_equal(obs2, obs)
+
+
+@pytest.mark.parametrize("bad", [np.array([np.nan], dtype=np.float32), [float("inf")], float("-inf")])
+def test_non_finite_actions_raise_and_large_ones_clip(bad):
+    env = gym.make(ENV_ID).unwrapped
+    env.reset(seed=0)
+    with pytest.raises(ValueError, match="finite"):
+        env.step(bad)
+    e1, e2 = gym.make(ENV_ID).unwrapped, gym.make(ENV_ID).unwrapped
+    e1.reset(seed=11), e2.reset(seed=11)
+    o1, r1, *_ = e1.step(_a(7.0))
+    o2, r2, *_ = e2.step(_a(1.0))
+    np.testing.assert_array_equal(o1, o2)
+    assert r1 == r2 and o1[10] == 1.0
+    venv = _make_vec(2)
+    venv.reset(seed=0)
+    with pytest.raises(ValueError, match="finite"):
+        venv.step(np.array([[0.0], [np.nan]], dtype=np.float32))
+
+
+def test_info_state_and_params():
+    env = gym.make(ENV_ID).unwrapped
+    obs, info = env.reset(seed=4)
+    p = info["params"]
+    assert set(p) == set(PARAM_NAMES) and set(info["state"]) == set(STATE_KEYS)
+    assert abs(info["state"]["x"]) <= 0.1 * 0.5 * p["stroke"] + 1e-12
+    assert info["state"]["pa"] == info["state"]["pb"] == pytest.approx(st.null_pressure(ShakingTableParams(**p)))
+    for a in _random_actions(50, seed=5):
+        _, _, _, _, info2 = env.step(a)
+        assert info2["params"] == p and info2["params"] is not p
+        assert all(type(v) is float and math.isfinite(v) for v in info2["state"].values())
+
+
+def test_randomisation_draws_inside_yaml_ranges_and_kwargs(spec):
+    ranges = {row["name"]: row["value_range"] for row in spec.table()}
+    assert ranges["specimen_mass"] == (0.0, 500.0)
+    assert all(e.mode == "absolute" for e in spec.entries)
+    env = gym.make(ENV_ID)
+    drawn = {name: [] for name in ranges}
+    for seed in range(10):
+        _, info = env.reset(seed=seed)
+        p = info["params"]
+        ShakingTableParams(**p)
+        for name in PARAM_NAMES:
+            if name in ranges:
+                assert ranges[name][0] <= p[name] <= ranges[name][1], name
+                drawn[name].append(p[name])
+            else:
+                assert p[name] == getattr(NOMINAL, name), name
+    for name, values in drawn.items():
+        assert len(set(values)) == len(values), name
+    # nominal plant, presets and a fixed specimen
+    _, info = gym.make(ENV_ID, randomize=False).reset(seed=0)
+    assert info["params"] == NOMINAL.as_dict()
+    _, info = gym.make(ENV_ID, randomize=False, preset="ifas", specimen_mass="500kg").reset(seed=0)
+    assert info["params"] == ShakingTableParams.preset("ifas", "500kg").as_dict()
+    env = gym.make(ENV_ID, preset="constant", specimen_mass=350.0)
+    for seed in range(3):
+        _, info = env.reset(seed=seed)
+        assert info["params"]["specimen_mass"] == 350.0 and info["params"]["bulk_modulus_model"] == 0.0
+    with pytest.raises(ValueError, match="specimen_mass"):
+        gym.make(ENV_ID, specimen_mass="1t")
+
+
+def test_reset_options():
+    env = gym.make(ENV_ID, randomize=False).unwrapped
+    _, info = env.reset(seed=0, options={"params": {"specimen_mass": 0.0}, "state": {"x": 0.05}})
+    assert info["params"]["specimen_mass"] == 0.0 and info["state"]["x"] == 0.05
+    with pytest.raises(ValueError, match="stroke"):
+        env.reset(seed=0, options={"state": {"x": 0.2}})
+    with pytest.raises(ValueError, match="floor"):
+        env.reset(seed=0, options={"state": {"pa": 10.0}})
+    with pytest.raises(ParameterError, match="lambda_2"):
+        env.reset(seed=0, options={"params": {"lambda_2": 0.64}})
+    with pytest.raises(ValueError, match="zigzag"):
+        env.reset(seed=0, options={"reference": "zigzag"})
+    with pytest.raises(ValueError, match="accelerometer"):
+        env.reset(seed=0, options={"reference": [0.0, 60.0]})
+    ref = np.linspace(0.0, 2.0, 300)
+    obs, _ = env.reset(seed=0, options={"reference": ref})
+    assert obs[1] == 0.0 and obs[2] == np.float32(ref[10] / 10.0) and obs[6] == np.float32(ref[50] / 10.0)
+    obs, *_ = env.step(_a(0.0))
+    assert obs[1] == np.float32(ref[1] / 10.0)
+    for kind in TABLE_REFERENCE_KINDS:
+        obs, _ = env.reset(seed=1, options={"reference": kind})
+        assert env.observation_space.contains(obs)
+
+
+def test_reward_formula():
+    env = gym.make(ENV_ID, randomize=False).unwrapped
+    ref = 2.0 * np.sin(np.linspace(0.0, 12.0, 400))
+    _, info = env.reset(seed=2, options={"reference": ref})
+    prev = 0.0
+    for k, a in enumerate(_random_actions(200, seed=6), start=1):
+        _, reward, _, _, info = env.step(a)
+        y = np.array([info["state"][s] for s in STATE_KEYS])
+        e = ref[k] - st.table_acceleration(y, env.params.to_array())
+        expected = -(e**2) - 0.01 * (float(a[0]) - prev) ** 2 - 0.25 * (y[0] / HALF) ** 2
+        assert reward == pytest.approx(expected, abs=1e-9, rel=0)
+        prev = float(a[0])
+
+
+def test_reward_ignores_sensor_noise_and_noise_is_seeded():
+    ref = np.full(100, 1.0)
+    rewards = []
+    for kw in ({}, {"position_noise_std": 1e-4, "acceleration_noise_std": 0.1}):
+        env = gym.make(ENV_ID, randomize=False, **kw).unwrapped
+        env.reset(seed=1, options={"reference": ref})
+        rewards.append([env.step(_a(0.2))[1] for _ in range(30)])
+    np.testing.assert_array_equal(rewards[0], rewards[1])
+    kw = {"acceleration_noise_std": 0.1, "randomize": False}
+    a = _rollout(gym.make(ENV_ID, **kw).unwrapped, 3, _random_actions(100))
+    b = _rollout(gym.make(ENV_ID, **kw).unwrapped, 3, _random_actions(100))
+    np.testing.assert_array_equal(a[0], b[0])
+    env = gym.make(ENV_ID, **kw).unwrapped
+    env.reset(seed=3)
+    d = []
+    for act in _random_actions(400):
+        _, _, _, _, info = env.step(act)
+        y = np.array([info["state"][s] for s in STATE_KEYS])
+        d.append(env.channel_values()["a"] - st.table_acceleration(y, env.params.to_array()))
+    assert 0.08 < np.std(d) < 0.12
+
+
+@pytest.mark.parametrize("kwargs, name", [
+    ({"error_scale": 0.0}, "error_scale"), ({"accel_scale": -1.0}, "accel_scale"),
+    ({"acceleration_noise_std": -0.1}, "acceleration_noise_std"), ({"reference": "chirp"}, "reference"),
+    ({"position_penalty": float("nan")}, "position_penalty"), ({"preset": "tabulated"}, "preset"),
+])
+def test_constructor_validation(kwargs, name):
+    with pytest.raises(ValueError, match=name):
+        gym.make(ENV_ID, **kwargs)
+
+
+def test_render_rgb_array():
+    env = gym.make(ENV_ID, render_mode="rgb_array", randomize=False)
+    env.reset(seed=0)
+    f0 = env.render()
+    assert f0.dtype == np.uint8 and f0.ndim == 3 and f0.shape[2] == 3
+    for _ in range(200):
+        env.step(_a(1.0))
+    assert np.count_nonzero(np.any(env.render() != f0, axis=2)) > 50
+    with pytest.raises(ValueError, match="render_mode"):
+        ShakingTableEnv(render_mode="human")
+
+
+# =========================================================================== guards
+def _bang_bang(n, rng):
+    out, a, k = np.empty((n, 1), dtype=np.float32), float(rng.choice([-1.0, 1.0])), 0
+    while k < n:
+        hold = int(rng.integers(100, 600))
+        out[k:k + hold] = a
+        a, k = -a, k + hold
+    return out
+
+
+@pytest.mark.parametrize("preset", ["modified_ifas", "ifas"])
+def test_guards_over_long_rollouts_at_the_randomisation_corners(spec, preset):
+    rng = np.random.default_rng(2024)
+    n = len(spec.entries)
+    base = ShakingTableParams.preset(preset)
+    corners = [spec.corner(False, base), spec.corner(True, base)]
+    corners += [spec.corner(list(rng.integers(0, 2, n).astype(bool)), base) for _ in range(2)]
+    env = gym.make(ENV_ID, randomize=False, preset=preset).unwrapped
+    for c in corners:
+        p = c.as_dict()
+        for actions in (_bang_bang(3000, rng), _random_actions(3000, seed=int(rng.integers(1000)))):
+            obs, info = env.reset(seed=int(rng.integers(1000)), options={"params": p})
+            assert info["params"] == p
+            X, Pmin = [], np.inf
+            for a in actions:
+                obs, r, _, _, info = env.step(a)
+                s = info["state"]
+                X.append(s["x"])
+                Pmin = min(Pmin, s["pa"], s["pb"])
+                assert math.isfinite(r) and env.observation_space.contains(obs)
+                assert all(math.isfinite(v) for v in s.values())
+            X = np.array(X)
+            assert Pmin >= c.pressure_floor
+            # impact of up to 1150 kg at 0.45 m/s on the 1e8 N/m stop: k d^2 / 2 = M v^2 / 2 -> d <= 1.5 mm
+            assert np.abs(X).max() <= 0.5 * c.stroke + 2e-3
+        assert np.ptp(X) > 0.01
