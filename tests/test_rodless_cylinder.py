@@ -41,7 +41,7 @@ DT = 1e-3
 STATE_KEYS = rc.STATE_NAMES
 PARAM_NAMES = RodlessCylinderParams.names()
 OBS_DIM = 11
-DATA = Path(__file__).resolve().parent / "data" / "xring257_5bar_7bar_subset.txt"
+DATA = Path(__file__).resolve().parent / "data" / "pneumatic_seal_friction"
 
 
 @pytest.fixture(scope="module")
@@ -334,13 +334,14 @@ def test_lugre_presliding_sticks_below_breakaway_and_slides_above():
 def test_friction_magnitude_against_measured_xring_seal():
     """Order of magnitude: the rodless cylinder (two piston seals + sealing and dust bands) vs
     one X-ring seal of nearly the same bore, measured at constant speed (CC0 data)."""
-    d = np.loadtxt(DATA)
-    area = math.pi * 0.0257**2 / 4
+    from identification.experiments import load_seal_friction
+
     for bar in (5, 7):
-        rows = d[d[:, 0] == bar]
-        t, x, pg, f_lc = rows[:, 1] / 1e3, rows[:, 2], rows[:, 3], rows[:, 4]
-        v = np.gradient(x, t) * 1e-3
-        f = pg * 1e5 * area - f_lc
+        data = load_seal_friction(DATA / f"X-ring257_{bar}bar.csv", drop_rows=5)
+        area = float(data.metadata["piston_area"])
+        t, x, pg, f_lc = data.t, data["x"], data["p_gauge"], data["F_load"]
+        v = np.gradient(x, t)
+        f = pg * area - f_lc
         pos, neg = v > 3e-3, v < -3e-3
         friction = 0.5 * abs(np.median(f[pos]) - np.median(f[neg]))  # load-cell offset cancels
         speed = np.median(np.abs(v[pos | neg]))

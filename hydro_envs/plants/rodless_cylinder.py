@@ -867,15 +867,30 @@ def _rodless_cylinder_rows() -> list[ValidationRow]:
     rows.append(
         ValidationRow(
             name="rodless_cylinder: damping ratio zeta at mid-stroke, small valve step",
-            published=lin.zeta,
+            published=lin.zeta_energy,
             reproduced=fit["zeta"],
-            tolerance=0.10,
+            tolerance=0.05,
             unit="1",
             source=(
-                "004 eq (23) vs the same fit; tolerance 10 %: eq (16) vents the gas at T_s, the "
-                f"energy balance at the chamber's isentropic temperature (+{lin.zeta_energy / lin.zeta - 1:.1%} "
-                "predicted, reproduced to <2 % in tests)"
+                "004 eq (23) with c2 of this plant's chambers: eq (16) vents the gas at T_s, the "
+                "energy balance (eqs (10)-(13)) at the chamber's own temperature, which adds "
+                "(kappa-1)/(2 kappa) mdot_out/p0 to c2 (see linearize_mid_stroke) vs the same fit"
             ),
+        )
+    )
+    rows.append(
+        ValidationRow(
+            name="rodless_cylinder: damping ratio zeta, printed eq (23) (T_s venting)",
+            published=lin.zeta,
+            reproduced=fit["zeta"],
+            tolerance=0.05,
+            unit="1",
+            source=(
+                f"004 eq (23) as printed assumes outflow at T_s (eq (16)); the plant's adiabatic "
+                f"chambers vent colder gas, so zeta is {lin.zeta_energy / lin.zeta - 1:.1%} higher by "
+                "the linearised energy balance; reported, the check is the row above"
+            ),
+            report_only=True,
         )
     )
     # 004 sec. 3 / eq (1): constant-speed pressure difference = Table 2 friction curve
