@@ -1,0 +1,941 @@
+r"""Grey-box identification: nonlinear least squares of a plant's physical parameters.
+
+Given a parameter dataclass instance ``base`` (any :class:`hydro_envs.params.PhysicalParams`
+plant), the names of the parameters to fit, the plant's kernel id and one or several measured
+experiments (initial state, input sequence, measured output channels), :func:`fit_greybox`
+finds the parameters that minimise the normalised output error
+
+.. math:: S(\theta) = \sum_e \sum_c \sum_k \left( (y_{e,c,k} - \hat y_{e,c,k}(\theta)) / \sigma_c \right)^2
+
+by ``scipy.optimize.least_squares`` (``trf``, bounded). The model outputs are a free-run
+simulation of the compiled plant (:mod:`hydro_envs.sim.kernels`, RK4 with zero-order-hold
+input, the same integrator the envs use).
+
+Speed: every Jacobian evaluation simulates *all* its candidate parameter sets -- the central
+finite-difference perturbations ``theta +- h e_i`` of every parameter, for every experiment --
+as copies of ONE batched, threaded kernel call (:func:`_rollout`, one ``prange`` over copies,
+each copy integrating its whole record). All copies of a call use the same number of RK4
+sub-steps (from the plant's ``stiffness_modes`` at the most demanding candidate), so a
+perturbation never changes the integration grid and the finite differences stay smooth.
+
+Parameterisation: each fitted parameter is optimised as ``log(value)`` (default when its
+allowed range is positive) or ``value / |base value|``; bounds are the dataclass's allowed
+range (open ends nudged inside). Candidates are packed straight into the kernel's parameter
+array (cross-field relations such as ``F_s >= F_c`` are checked once, on the result).
+
+Measurement convention: sample ``k`` of an experiment is the state at ``t_k``; input sample
+``u_k`` is held over ``[t_k, t_k+1)`` (the last input sample is used only by derivative
+channels). Output channels (:class:`OutputChannel`) read a state component (``x``, ``p1``),
+a component of the state derivative (the shaking table's accelerometer reads ``dv/dt``) or any
+function of the state trajectory.
+
+Weights: residuals of channel ``c`` are divided by ``sigma_c`` -- given, or by default first
+the RMS of the measured channel about its mean and, after a first fit (``reweight=True``), the
+RMS of that channel's residuals (a noise estimate), followed by a warm-started refit. With
+noise-level weights the scaled residuals are about unit-variance and the covariance below is
+the usual Gauss-Newton one.
+
+Statistics (at the optimum, ``J`` the Jacobian of the weighted residuals in theta):
+
+* covariance ``C = s^2 (J^T J)^-1``, ``s^2 = S / (N - p)``; standard errors in the parameter's
+  own units by the delta method; 95 % confidence intervals ``theta +- t_0.975,N-p se`` mapped
+  back (asymmetric, positive for log-scaled parameters);
+* identifiability: the condition number of ``J`` with unit-norm columns (scale-free; above
+  ``1e6`` the data cannot separate the parameters), the correlation matrix of ``C`` and every
+  pair with ``|rho| > 0.95`` named. ``(J^T J)^-1`` is formed from the eigen-decomposition of the
+  column-scaled ``J^T J`` with eigenvalues floored at ``1e-14`` of the largest, so a
+  rank-deficient problem (two parameters that enter only as a product) reports a correlation
+  of -1 along the unidentifiable direction and huge standard errors instead of failing;
+* per channel: NRMSE ``||y - y_hat|| / ||y - mean(y)||`` and MSE (in the channel's unit^2).
+
+Source of the method: the nonlinear least-squares (NLSM) estimation of seed 003 sec. 3.4 eq
+(21)-(22) (``003_54985feb8193da53.txt``: S = sum r_i^2 over velocity and acceleration of the
+shaking table); statistics as in Seber & Wild, Nonlinear Regression (1989), ch. 2 and 5.
+:func:`table3_rows` reproduces the direction of 003 Table 3 (modified IFAS fits better than
+IFAS for all six inputs).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import importlib
+import math
+import sys
+import time
+from collections.abc import Callable, Mapping, Sequence
+from typing import Any
+
+import numba as nb
+import numpy as np
+from scipy import optimize, stats
+
+from hydro_envs.params import ParameterError, PhysicalParams
+from hydro_envs.sim.kernels import plant_rhs, rk4_substeps
+from hydro_envs.sim.stiffness import rk4_substeps as substeps_for_modes
+
+__all__ = [
+    "GreyboxError",
+    "OutputChannel",
+    "Experiment",
+    "GreyboxResult",
+    "PLANTS",
+    "plant_setup",
+    "simulate_outputs",
+    "fit_greybox",
+    "experiment_from_measured",
+    "TABLE3_INPUTS",
+    "table3_input",
+    "table3_comparison",
+    "table3_rows",
+]
+
+CORRELATION_LIMIT = 0.95
+CONDITION_LIMIT = 1e6
+
+
+class GreyboxError(ValueError):
+    """Bad problem definition for a grey-box fit (the message names the field and why)."""
+
+
+def _jsonable(obj: Any) -> Any:
+    if isinstance(obj, dict):
+        return {str(k): _jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_jsonable(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return _jsonable(obj.tolist())
+    if isinstance(obj, (bool, np.bool_)):
+        return bool(obj)
+    if isinstance(obj, (int, np.integer)):
+        return int(obj)
+    if isinstance(obj, (float, np.floating)):
+        return float(obj) if math.isfinite(obj) else None
+    return obj
+
+
+# ======================================================================================
+# compiled batched rollout
+# ======================================================================================
+
+
+@nb.njit(cache=True, parallel=True, error_model="numpy")
+def _rollout(plant_id, Y0, U, exp_idx, n_steps, dts, P, NSUB, out, clamps):
+    """Integrate every copy over its experiment's whole record (one thread per copy).
+
+    ``Y0 (c, ns)``, ``U (n_exp, T, ni)`` inputs, ``exp_idx (c,)`` experiment of each copy,
+    ``n_steps (n_exp,)``, ``dts (n_exp,)``, ``P (c, np)``, ``NSUB (c,)``; writes the states at
+    every sample into ``out (c, T + 1, ns)`` (rows past the copy's record are left alone).
+    """
+    nc = Y0.shape[0]
+    ns = Y0.shape[1]
+    for i in nb.prange(nc):
+        y = Y0[i].copy()
+        w = np.empty((5, ns))
+        e = exp_idx[i]
+        for j in range(ns):
+            out[i, 0, j] = y[j]
+        h = dts[e] / NSUB[i]
+        c = 0
+        for k in range(n_steps[e]):
+            c += rk4_substeps(plant_id, y, U[e, k], P[i], h, NSUB[i], w)
+            for j in range(ns):
+                out[i, k + 1, j] = y[j]
+        clamps[i] = c
+
+
+@nb.njit(cache=True, error_model="numpy")
+def _derivatives(plant_id, states, U, exp_idx, n_steps, P, dout):
+    """State derivatives ``dout (c, T + 1, ns)`` at every recorded sample (input ``u_k``)."""
+    nc = states.shape[0]
+    ns = states.shape[2]
+    for i in range(nc):
+        e = exp_idx[i]
+        dy = np.empty(ns)
+        y = np.empty(ns)
+        n = n_steps[e]
+        for k in range(n + 1):
+            for j in range(ns):
+                y[j] = states[i, k, j]
+            plant_rhs(plant_id, y, U[e, min(k, U.shape[1] - 1)], P[i], dy)
+            for j in range(ns):
+                dout[i, k, j] = dy[j]
+
+
+# ======================================================================================
+# problem definition
+# ======================================================================================
+
+
+@dataclasses.dataclass(frozen=True)
+class OutputChannel:
+    """A measured output: state component ``state``, derivative component ``derivative``, or
+    ``func(states (c, T, ns), P (c, np)) -> (c, T)``. Exactly one of the three."""
+
+    name: str
+    state: int | None = None
+    derivative: int | None = None
+    func: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None
+    unit: str = ""
+
+    def __post_init__(self) -> None:
+        if sum(x is not None for x in (self.state, self.derivative, self.func)) != 1:
+            raise GreyboxError(f"output channel {self.name!r}: give exactly one of state, derivative, func")
+
+
+@dataclasses.dataclass
+class Experiment:
+    """One record: sample time ``dt``, input ``u`` (n_samples,) or (n_samples, n_inputs),
+    initial state ``y0`` (or a callable ``params -> state``), measured ``outputs`` by channel
+    name (each (n_samples,), sample k at t_k = k dt)."""
+
+    dt: float
+    u: np.ndarray
+    y0: Any
+    outputs: dict[str, np.ndarray]
+    name: str = ""
+
+    def __post_init__(self) -> None:
+        u = np.asarray(self.u, dtype=np.float64)
+        if u.ndim == 1:
+            u = u[:, None]
+        if u.ndim != 2 or u.shape[0] < 3:
+            raise GreyboxError(f"experiment {self.name!r}: u must have >= 3 samples, got shape {u.shape}")
+        self.u = np.ascontiguousarray(u)
+        if not (self.dt > 0 and math.isfinite(self.dt)):
+            raise GreyboxError(f"experiment {self.name!r}: dt = {self.dt} must be > 0")
+        if not self.outputs:
+            raise GreyboxError(f"experiment {self.name!r}: no measured outputs")
+        outs = {}
+        for k, v in self.outputs.items():
+            a = np.asarray(v, dtype=np.float64)
+            if a.shape != (u.shape[0],):
+                raise GreyboxError(f"experiment {self.name!r}: output {k!r} has shape {a.shape}, "
+                                   f"expected ({u.shape[0]},) like u")
+            if not np.all(np.isfinite(a)):
+                raise GreyboxError(f"experiment {self.name!r}: output {k!r} has NaN/inf values")
+            outs[k] = a
+        self.outputs = outs
+
+    @property
+    def n_samples(self) -> int:
+        return int(self.u.shape[0])
+
+
+def _plant_module(base: PhysicalParams):
+    return sys.modules[type(base).__module__]
+
+
+#: plant name -> (module, params class name, kernel id name, {channel: OutputChannel})
+def _plants() -> dict[str, dict[str, Any]]:
+    from hydro_envs.plants import servo_cylinder as sc
+    from hydro_envs.plants import shaking_table as st
+    from hydro_envs.sim import kernels as k
+
+    return {
+        "servo_cylinder": {
+            "params": sc.ServoCylinderParams,
+            "kernel_id": k.SERVO_CYLINDER,
+            "channels": {
+                "x": OutputChannel("x", state=sc.X, unit="m"),
+                "v": OutputChannel("v", state=sc.V, unit="m/s"),
+                "p1": OutputChannel("p1", state=sc.P1, unit="Pa"),
+                "p2": OutputChannel("p2", state=sc.P2, unit="Pa"),
+            },
+            "presets": None,
+        },
+        "shaking_table": {
+            "params": st.ShakingTableParams,
+            "kernel_id": k.SHAKING_TABLE,
+            "channels": {
+                "x": OutputChannel("x", state=st.X, unit="m"),
+                "v": OutputChannel("v", state=st.V, unit="m/s"),
+                "a": OutputChannel("a", derivative=st.V, unit="m/s^2"),
+            },
+            "presets": tuple(st.PRESETS),
+        },
+    }
+
+
+PLANTS = ("servo_cylinder", "shaking_table")
+
+
+def plant_setup(plant: str) -> dict[str, Any]:
+    """``params`` class, ``kernel_id`` and output ``channels`` of a supported plant."""
+    table = _plants()
+    if plant not in table:
+        raise GreyboxError(f"grey-box plant {plant!r} not supported; supported: {sorted(table)}")
+    return table[plant]
+
+
+# ======================================================================================
+# simulation of candidates
+# ======================================================================================
+
+
+@dataclasses.dataclass
+class _Problem:
+    base: PhysicalParams
+    names: tuple[str, ...]
+    idx: np.ndarray
+    log: np.ndarray
+    scale: np.ndarray  # linear parameters: theta = value / scale
+    lo: np.ndarray
+    hi: np.ndarray
+    kernel_id: int
+    experiments: list[Experiment]
+    channels: list[OutputChannel]
+    sigma: dict[str, float]
+    U: np.ndarray
+    n_steps: np.ndarray
+    dts: np.ndarray
+    n_states: int
+    stiffness: Callable[[Any], Mapping[str, float]] | None
+    fixed_nsub: int | None
+
+    def to_values(self, theta: np.ndarray) -> np.ndarray:
+        return np.where(self.log, np.exp(theta), theta * self.scale)
+
+    def to_theta(self, values: np.ndarray) -> np.ndarray:
+        return np.where(self.log, np.log(np.maximum(values, 1e-300)), values / self.scale)
+
+    def param_arrays(self, thetas: np.ndarray) -> np.ndarray:
+        p0 = self.base.to_array()
+        P = np.repeat(p0[None, :], thetas.shape[0], axis=0)
+        P[:, self.idx] = self.to_values(thetas)
+        return P
+
+    def nsub(self, P: np.ndarray) -> int:
+        if self.fixed_nsub is not None:
+            return self.fixed_nsub
+        if self.stiffness is None:
+            return 1
+        dt = float(self.dts.max())
+        n = 1
+        names = type(self.base).names()
+        for row in P:
+            try:
+                params = type(self.base)(**dict(zip(names, row)))
+            except ParameterError:
+                params = None
+            if params is None:  # relations violated: use a raw namespace for the modes
+                params = _RawParams(names, row, self.base)
+            n = max(n, substeps_for_modes(self.stiffness(params), dt)[0])
+        return n
+
+    def states(self, P: np.ndarray, nsub: int | None = None):
+        """Simulate every copy of ``P`` on every experiment: list per experiment of
+        ``(states (c, T+1, ns), derivs or None, P)``."""
+        n_exp = len(self.experiments)
+        c = P.shape[0]
+        Pall = np.ascontiguousarray(np.repeat(P, n_exp, axis=0))
+        exp_idx = np.tile(np.arange(n_exp), c).astype(np.int64)
+        Y0 = np.empty((c * n_exp, self.n_states))
+        for i in range(c * n_exp):
+            e = self.experiments[exp_idx[i]]
+            if callable(e.y0):
+                try:
+                    prm = type(self.base)(**dict(zip(type(self.base).names(), Pall[i])))
+                except ParameterError:
+                    prm = self.base
+                Y0[i] = e.y0(prm)
+            else:
+                Y0[i] = e.y0
+        n = self.nsub(P) if nsub is None else nsub
+        NSUB = np.full(c * n_exp, n, dtype=np.int64)
+        T = int(self.n_steps.max())
+        out = np.zeros((c * n_exp, T + 1, self.n_states))
+        clamps = np.zeros(c * n_exp, dtype=np.int64)
+        _rollout(self.kernel_id, Y0, self.U, exp_idx, self.n_steps, self.dts, Pall, NSUB, out, clamps)
+        dout = None
+        if any(ch.derivative is not None for ch in self.channels):
+            dout = np.zeros_like(out)
+            _derivatives(self.kernel_id, out, self.U, exp_idx, self.n_steps, Pall, dout)
+        res = []
+        for e_i in range(n_exp):
+            sel = exp_idx == e_i
+            res.append((out[sel], None if dout is None else dout[sel], Pall[sel]))
+        return res, n
+
+    def outputs(self, P: np.ndarray, nsub: int | None = None):
+        """Model outputs: list per experiment of {channel: (c, n_samples)}; and nsub used."""
+        sims, n = self.states(P, nsub)
+        result = []
+        for e, (S, D, Pe) in zip(self.experiments, sims):
+            m = e.n_samples
+            chans = {}
+            for ch in self.channels:
+                if ch.name not in e.outputs:
+                    continue
+                if ch.state is not None:
+                    chans[ch.name] = S[:, :m, ch.state]
+                elif ch.derivative is not None:
+                    chans[ch.name] = D[:, :m, ch.derivative]
+                else:
+                    chans[ch.name] = np.asarray(ch.func(S[:, :m], Pe))
+            result.append(chans)
+        return result, n
+
+    def residuals(self, P: np.ndarray, nsub: int | None = None) -> tuple[np.ndarray, int]:
+        """Weighted residuals ``(c, N)`` (measured - model) / sigma, stacked over experiments
+        and channels; non-finite model outputs give large finite residuals."""
+        outs, n = self.outputs(P, nsub)
+        parts = []
+        for e, chans in zip(self.experiments, outs):
+            for name, yhat in chans.items():
+                r = (e.outputs[name][None, :] - yhat) / self.sigma[name]
+                parts.append(r)
+        r = np.concatenate(parts, axis=1)
+        return np.where(np.isfinite(r), r, 1e6), n
+
+
+class _RawParams:
+    """Attribute access to a packed parameter row (for ``stiffness_modes`` of candidates that
+    violate a cross-field relation)."""
+
+    def __init__(self, names, row, base):
+        for n_, v in zip(names, row):
+            setattr(self, n_, float(v))
+        for extra in ("mass",):
+            if not hasattr(self, extra) and hasattr(base, extra):
+                if hasattr(self, "platform_mass"):
+                    setattr(self, extra, self.platform_mass + self.specimen_mass)
+
+
+def _build_problem(base, fit, kernel_id, experiments, channels, sigma, log_scale, bounds,
+                   n_substeps) -> _Problem:
+    if not isinstance(base, PhysicalParams):
+        raise GreyboxError(f"base must be a PhysicalParams instance, got {type(base).__name__}")
+    names_all = type(base).names()
+    fit = tuple(fit)
+    if not fit:
+        raise GreyboxError("fit: give at least one parameter name")
+    if len(set(fit)) != len(fit):
+        raise GreyboxError(f"fit: duplicate parameter names in {list(fit)}")
+    unknown = [n for n in fit if n not in names_all]
+    if unknown:
+        raise GreyboxError(f"fit: unknown parameter(s) {unknown} of {type(base).__name__}; known: {list(names_all)}")
+    fields = {f.name: f for f in dataclasses.fields(base)}
+    idx = np.array([names_all.index(n) for n in fit], dtype=np.int64)
+    log = np.zeros(len(fit), dtype=bool)
+    scale = np.ones(len(fit))
+    lo = np.empty(len(fit))
+    hi = np.empty(len(fit))
+    bounds = dict(bounds or {})
+    for i, n in enumerate(fit):
+        meta = fields[n].metadata
+        a, b = bounds.get(n, meta["allowed"])
+        v = float(getattr(base, n))
+        use_log = (log_scale.get(n) if isinstance(log_scale, Mapping) else log_scale)
+        if use_log is None:
+            use_log = v > 0 and b > 0
+        if use_log:
+            if v <= 0:
+                raise GreyboxError(f"fit: {n} = {v} cannot be log-scaled (start value must be > 0)")
+            a = max(a, v * 1e-6, 1e-300)
+            if meta["open_low"] and a == meta["allowed"][0]:
+                a = a * (1 + 1e-9) if a > 0 else v * 1e-6
+            log[i] = True
+            lo[i], hi[i] = math.log(a), math.log(b)
+        else:
+            s = abs(v) if v != 0 else max(abs(a), abs(b), 1.0)
+            scale[i] = s
+            span = (b - a) * 1e-9
+            lo[i] = (a + (span if meta["open_low"] else 0.0)) / s
+            hi[i] = (b - (span if meta["open_high"] else 0.0)) / s
+        if not (lo[i] <= (math.log(v) if log[i] else v / scale[i]) <= hi[i]):
+            raise GreyboxError(f"fit: start value {n} = {v} outside its bounds [{a}, {b}]")
+    if isinstance(experiments, Experiment):
+        experiments = [experiments]
+    experiments = list(experiments)
+    if not experiments:
+        raise GreyboxError("experiments: give at least one")
+    ch_map = {c.name: c for c in channels}
+    used = set()
+    for e in experiments:
+        for k in e.outputs:
+            if k not in ch_map:
+                raise GreyboxError(f"experiment {e.name!r}: measured output {k!r} has no OutputChannel; "
+                                   f"known: {sorted(ch_map)}")
+            used.add(k)
+    n_inputs = experiments[0].u.shape[1]
+    if any(e.u.shape[1] != n_inputs for e in experiments):
+        raise GreyboxError("experiments: all must have the same number of inputs")
+    T = max(e.n_samples for e in experiments)
+    U = np.zeros((len(experiments), T, n_inputs))
+    for i, e in enumerate(experiments):
+        U[i, : e.n_samples] = e.u
+    sig: dict[str, float] = {}
+    sigma = dict(sigma or {})
+    for k in sorted(used):
+        if k in sigma:
+            s = float(sigma[k])
+        else:
+            y = np.concatenate([e.outputs[k] for e in experiments if k in e.outputs])
+            s = float(np.sqrt(np.mean((y - y.mean()) ** 2)))
+        if not (s > 0 and math.isfinite(s)):
+            raise GreyboxError(f"channel {k!r}: scale sigma = {s} must be > 0 (constant record?)")
+        sig[k] = s
+    mod = _plant_module(base)
+    n_states = int(getattr(mod, "N_STATES", len(getattr(mod, "STATE_NAMES", ()))))
+    if n_states <= 0:
+        raise GreyboxError(f"cannot find N_STATES of plant module {mod.__name__}")
+    for e in experiments:
+        if not callable(e.y0) and np.asarray(e.y0).shape != (n_states,):
+            raise GreyboxError(f"experiment {e.name!r}: y0 must have {n_states} states")
+        if not callable(e.y0):
+            e.y0 = np.asarray(e.y0, dtype=np.float64)
+    return _Problem(
+        base=base, names=fit, idx=idx, log=log, scale=scale, lo=lo, hi=hi, kernel_id=int(kernel_id),
+        experiments=experiments, channels=[ch_map[k] for k in ch_map if k in used], sigma=sig, U=U,
+        n_steps=np.array([e.n_samples - 1 for e in experiments], dtype=np.int64),
+        dts=np.array([e.dt for e in experiments], dtype=np.float64), n_states=n_states,
+        stiffness=getattr(mod, "stiffness_modes", None), fixed_nsub=n_substeps,
+    )
+
+
+def simulate_outputs(base: PhysicalParams, kernel_id: int, experiments, channels,
+                     values: Sequence[Mapping[str, float]] | None = None,
+                     n_substeps: int | None = None) -> list[list[dict[str, np.ndarray]]]:
+    """Outputs of ``base`` (or of each override mapping in ``values``) on every experiment,
+    in one batched kernel call: ``[copy][experiment] -> {channel: (n_samples,)}``.
+
+    Experiments' ``outputs`` only name the channels to produce (their values are unused)."""
+    values = list(values) if values is not None else [{}]
+    names = sorted({k for v in values for k in v}) or [type(base).names()[0]]
+    prob = _build_problem(base, names, kernel_id, experiments, channels, {k: 1.0 for k in (c.name for c in channels)},
+                          False, {n: (-np.inf, np.inf) for n in names}, n_substeps)
+    P = np.repeat(base.to_array()[None, :], len(values), axis=0)
+    for i, v in enumerate(values):
+        for k, x in v.items():
+            P[i, type(base).index(k)] = x
+    outs, _ = prob.outputs(P)
+    return [[{k: o[k][i] for k in o} for o in outs] for i in range(len(values))]
+
+
+# ======================================================================================
+# result
+# ======================================================================================
+
+
+@dataclasses.dataclass
+class GreyboxResult:
+    """A grey-box fit with its statistics (see the module docstring)."""
+
+    plant: str
+    names: tuple[str, ...]
+    values: dict[str, float]
+    initial: dict[str, float]
+    std_errors: dict[str, float]
+    ci95: dict[str, tuple[float, float]]
+    units: dict[str, str]
+    log_scaled: dict[str, bool]
+    covariance: np.ndarray  # of the values (parameter units)
+    correlation: np.ndarray
+    condition_number: float  # of J with unit-norm columns
+    correlated_pairs: list[tuple[str, str, float]]
+    nrmse: dict[str, float]  # per channel, all experiments
+    mse: dict[str, float]  # per channel, unit^2
+    nrmse_per_experiment: list[dict[str, float]]
+    mse_per_experiment: list[dict[str, float]]
+    sigma: dict[str, float]
+    cost: float  # 0.5 sum of weighted squared residuals
+    noise_variance: float  # s^2 = 2 cost / (N - p)
+    n_residuals: int
+    n_substeps: int
+    nfev: int
+    njev: int
+    success: bool
+    message: str
+    seconds: float
+    params: PhysicalParams | None  # the fitted parameter set (None if a relation fails)
+    notes: list[str] = dataclasses.field(default_factory=list)
+
+    @property
+    def identifiable(self) -> bool:
+        return bool(self.condition_number < CONDITION_LIMIT and not self.correlated_pairs
+                    and all(math.isfinite(v) for v in self.std_errors.values()))
+
+    def to_json_dict(self) -> dict[str, Any]:
+        return _jsonable({
+            "method": "grey-box nonlinear least squares (trf, bounded, batched finite-difference Jacobian)",
+            "plant": self.plant,
+            "parameters": self.values,
+            "std_errors": self.std_errors,
+            "ci95": {k: list(v) for k, v in self.ci95.items()},
+            "initial": self.initial,
+            "units": self.units,
+            "log_scaled": self.log_scaled,
+            "identifiability": {
+                "condition_number": self.condition_number,
+                "correlation": {"names": list(self.names), "matrix": self.correlation},
+                "correlated_pairs": [{"a": a, "b": b, "rho": r} for a, b, r in self.correlated_pairs],
+                "identifiable": self.identifiable,
+            },
+            "covariance": self.covariance,
+            "metrics": {
+                **{f"nrmse_{k}": v for k, v in self.nrmse.items()},
+                **{f"mse_{k}": v for k, v in self.mse.items()},
+                "noise_variance": self.noise_variance,
+                "cost": self.cost,
+                "n_residuals": self.n_residuals,
+                "nfev": self.nfev,
+                "njev": self.njev,
+                "seconds": self.seconds,
+            },
+            "per_experiment": {"nrmse": self.nrmse_per_experiment, "mse": self.mse_per_experiment},
+            "sigma": self.sigma,
+            "n_substeps": self.n_substeps,
+            "success": self.success,
+            "message": self.message,
+            "notes": self.notes,
+        })
+
+
+# ======================================================================================
+# fit
+# ======================================================================================
+
+
+def fit_greybox(
+    base: PhysicalParams,
+    fit: Sequence[str],
+    kernel_id: int,
+    experiments: Experiment | Sequence[Experiment],
+    channels: Sequence[OutputChannel],
+    *,
+    sigma: Mapping[str, float] | None = None,
+    reweight: bool = True,
+    log_scale: bool | Mapping[str, bool] | None = None,
+    bounds: Mapping[str, tuple[float, float]] | None = None,
+    fd_step: float = 1e-4,
+    n_substeps: int | None = None,
+    max_nfev: int = 60,
+    tol: float = 1e-8,
+) -> GreyboxResult:
+    """Fit parameters ``fit`` of ``base`` to the experiments (see the module docstring).
+
+    ``base`` holds the start values (and every fixed parameter); ``log_scale`` None = log for
+    positive ranges; ``bounds`` override the allowed ranges; ``sigma`` fixes the channel
+    weights (then ``reweight`` only re-estimates channels not given); ``fd_step`` is the
+    central-difference step in theta (relative for log-scaled parameters); ``n_substeps``
+    fixes the RK4 sub-steps per sample (default: from the plant's ``stiffness_modes`` at the
+    start values, bounded over the candidates of each call).
+    """
+    t0 = time.perf_counter()
+    prob = _build_problem(base, fit, kernel_id, experiments, channels, sigma,
+                          True if log_scale is None else log_scale, bounds, n_substeps)
+    p = len(prob.names)
+    theta0 = prob.to_theta(np.array([getattr(base, n) for n in prob.names]))
+    if prob.fixed_nsub is None:
+        # the start values' sub-steps; a stiffer candidate raises it (per-call maximum below)
+        nsub_start = prob.nsub(base.to_array()[None, :])
+    else:
+        nsub_start = prob.fixed_nsub
+    state = {"nsub": nsub_start, "nfev": 0, "njev": 0}
+
+    def nsub_for(P):
+        n = max(state["nsub"], prob.nsub(P)) if prob.fixed_nsub is None else prob.fixed_nsub
+        state["nsub"] = n
+        return n
+
+    def fun(theta):
+        state["nfev"] += 1
+        P = prob.param_arrays(theta[None, :])
+        r, _ = prob.residuals(P, nsub_for(P))
+        return r[0]
+
+    def jac(theta):
+        state["njev"] += 1
+        h = fd_step
+        th = np.repeat(theta[None, :], 2 * p, axis=0)
+        for i in range(p):
+            hi = min(h, (prob.hi[i] - theta[i])) if prob.hi[i] - theta[i] > 1e-12 else 0.0
+            lo = min(h, (theta[i] - prob.lo[i])) if theta[i] - prob.lo[i] > 1e-12 else 0.0
+            th[2 * i, i] += hi
+            th[2 * i + 1, i] -= lo
+        P = prob.param_arrays(th)
+        r, _ = prob.residuals(P, nsub_for(P))
+        J = np.empty((r.shape[1], p))
+        for i in range(p):
+            step = th[2 * i, i] - th[2 * i + 1, i]
+            J[:, i] = (r[2 * i] - r[2 * i + 1]) / step if step > 0 else 0.0
+        return J
+
+    def solve(theta_start):
+        return optimize.least_squares(fun, theta_start, jac=jac, bounds=(prob.lo, prob.hi), method="trf",
+                                      x_scale=1.0, ftol=tol, xtol=tol, gtol=tol, max_nfev=max_nfev)
+
+    sol = solve(np.clip(theta0, prob.lo, prob.hi))
+    notes: list[str] = []
+    if reweight:
+        P = prob.param_arrays(sol.x[None, :])
+        outs, _ = prob.outputs(P, state["nsub"])
+        changed = False
+        given = set(sigma or {})
+        for name in prob.sigma:
+            if name in given:
+                continue
+            rr = np.concatenate([e.outputs[name] - o[name][0] for e, o in zip(prob.experiments, outs) if name in o])
+            s = float(np.sqrt(np.mean(rr**2)))
+            if s > 0 and math.isfinite(s):
+                prob.sigma[name] = s
+                changed = True
+        if changed:
+            sol = solve(sol.x)
+            notes.append("channel weights re-estimated from the residual RMS of a first fit (noise levels)")
+
+    theta = sol.x
+    J = jac(theta)
+    r = sol.fun
+    n_res = r.size
+    dof = max(n_res - p, 1)
+    s2 = float(r @ r) / dof
+    norms = np.linalg.norm(J, axis=0)
+    safe = np.where(norms > 0, norms, 1.0)
+    Js = J / safe
+    sv = np.linalg.svd(Js, compute_uv=False)
+    cond = float(sv[0] / sv[-1]) if sv[-1] > 0 else math.inf
+    A = Js.T @ Js
+    lam, V = np.linalg.eigh(A)
+    lam_f = np.maximum(lam, max(lam.max(), 1e-300) * 1e-14)
+    cov_s = (V / lam_f) @ V.T
+    cov_theta = s2 * cov_s / np.outer(safe, safe)
+    cov_theta[norms == 0, :] = np.inf
+    cov_theta[:, norms == 0] = np.inf
+    se_theta = np.sqrt(np.diag(cov_theta))
+    d = np.sqrt(np.diag(cov_s))
+    corr = cov_s / np.outer(d, d)
+    vals = prob.to_values(theta)
+    dvdt = np.where(prob.log, vals, prob.scale)  # d value / d theta
+    cov = cov_theta * np.outer(dvdt, dvdt)
+    se = se_theta * np.abs(dvdt)
+    tq = float(stats.t.ppf(0.975, dof))
+    lo_t, hi_t = theta - tq * se_theta, theta + tq * se_theta
+    ci = {}
+    for i, n in enumerate(prob.names):
+        if prob.log[i]:
+            ci[n] = (float(math.exp(min(lo_t[i], 700))), float(math.exp(min(hi_t[i], 700))))
+        else:
+            ci[n] = (float(lo_t[i] * prob.scale[i]), float(hi_t[i] * prob.scale[i]))
+    pairs = []
+    for i in range(p):
+        for j in range(i + 1, p):
+            if abs(corr[i, j]) > CORRELATION_LIMIT:
+                pairs.append((prob.names[i], prob.names[j], float(corr[i, j])))
+    if cond >= CONDITION_LIMIT:
+        notes.append(f"scaled condition number {cond:.3g} >= {CONDITION_LIMIT:g}: the data do not determine "
+                     "all fitted parameters (see correlated_pairs)")
+    for a, b, rho in pairs:
+        notes.append(f"{a} and {b} are correlated (rho = {rho:+.4f}): only a combination is identified")
+
+    # metrics
+    P = prob.param_arrays(theta[None, :])
+    outs, _ = prob.outputs(P, state["nsub"])
+    nr_e, mse_e = [], []
+    pooled: dict[str, tuple[list, list]] = {}
+    for e, o in zip(prob.experiments, outs):
+        nr, ms = {}, {}
+        for k, yhat in o.items():
+            y = e.outputs[k]
+            err = y - yhat[0]
+            den = float(np.linalg.norm(y - y.mean()))
+            nr[k] = float(np.linalg.norm(err)) / den if den > 0 else math.inf
+            ms[k] = float(np.mean(err**2))
+            pooled.setdefault(k, ([], []))
+            pooled[k][0].append(y)
+            pooled[k][1].append(yhat[0])
+        nr_e.append(nr)
+        mse_e.append(ms)
+    nrmse, mse = {}, {}
+    for k, (ys, yh) in pooled.items():
+        y = np.concatenate(ys)
+        err = y - np.concatenate(yh)
+        den = float(np.linalg.norm(y - y.mean()))
+        nrmse[k] = float(np.linalg.norm(err)) / den if den > 0 else math.inf
+        mse[k] = float(np.mean(err**2))
+    values = {n: float(v) for n, v in zip(prob.names, vals)}
+    try:
+        fitted = dataclasses.replace(base, **values)
+    except ParameterError as e:
+        fitted = None
+        notes.append(f"fitted set violates a parameter relation: {e}")
+    fields = {f.name: f for f in dataclasses.fields(base)}
+    plant = getattr(type(base), "plant", "") or type(base).__name__
+    return GreyboxResult(
+        plant=plant, names=prob.names, values=values,
+        initial={n: float(getattr(base, n)) for n in prob.names},
+        std_errors={n: float(s) for n, s in zip(prob.names, se)}, ci95=ci,
+        units={n: fields[n].metadata["unit"] for n in prob.names},
+        log_scaled={n: bool(b) for n, b in zip(prob.names, prob.log)},
+        covariance=cov, correlation=corr, condition_number=cond, correlated_pairs=pairs,
+        nrmse=nrmse, mse=mse, nrmse_per_experiment=nr_e, mse_per_experiment=mse_e,
+        sigma=dict(prob.sigma), cost=float(sol.cost), noise_variance=s2, n_residuals=int(n_res),
+        n_substeps=int(state["nsub"]), nfev=state["nfev"], njev=state["njev"], success=bool(sol.success),
+        message=str(sol.message), seconds=time.perf_counter() - t0, params=fitted, notes=notes,
+    )
+
+
+def experiment_from_measured(data, plant: str, params: PhysicalParams, outputs: Sequence[str],
+                             input_channel: str = "u") -> Experiment:
+    """An :class:`Experiment` from a :class:`hydro_envs.data.measured.MeasuredData` record.
+
+    The sample time is the record's median step (the record must be uniformly sampled to
+    1e-6 relative); the initial state is the plant's rest state at the first measured
+    position (:func:`_initial_state`)."""
+    t = np.asarray(data.t, dtype=float)
+    dt = float(np.median(np.diff(t)))
+    if np.max(np.abs(np.diff(t) - dt)) > 1e-6 * dt + 1e-12:
+        raise GreyboxError("grey-box fits need a uniformly sampled record (constant time step)")
+    if input_channel not in data:
+        raise GreyboxError(f"record has no input channel {input_channel!r}")
+    meas = {k: np.asarray(data[k], dtype=float) for k in outputs}
+    x0 = float(meas["x"][0]) if "x" in meas else None
+    return Experiment(dt=dt, u=np.asarray(data[input_channel], dtype=float),
+                      y0=lambda prm: _initial_state(plant, prm, x0, meas), outputs=meas, name=str(data.metadata.get("name", "")))
+
+
+def _initial_state(plant: str, params, x0: float | None, meas: Mapping[str, np.ndarray]) -> np.ndarray:
+    """Rest state of the plant at the first measured position (and pressures if measured)."""
+    if plant == "shaking_table":
+        from hydro_envs.plants import shaking_table as st
+
+        return st.rest_state(params, 0.0 if x0 is None else x0)
+    if plant == "servo_cylinder":
+        from hydro_envs.plants import servo_cylinder as sc
+
+        y = np.zeros(sc.N_STATES)
+        y[sc.X] = 0.5 * params.stroke if x0 is None else x0
+        pm = 0.5 * (params.supply_pressure + params.tank_pressure)
+        y[sc.P1] = float(meas["p1"][0]) if "p1" in meas else pm
+        y[sc.P2] = float(meas["p2"][0]) if "p2" in meas else pm
+        return y
+    raise GreyboxError(f"grey-box plant {plant!r} not supported")
+
+
+# ======================================================================================
+# 003 Table 3: modified IFAS vs IFAS, direction of the MSE comparison
+# ======================================================================================
+
+#: The six inputs of 003 Table 3 in volts (+-10 V = full spool stroke, the plant module's
+#: scale; the text's 0.3 sin(2 pi 2 t) is Table 3's 3 sin(4 pi t)), with the specimen mass,
+#: the paper's MSEs (modified IFAS, IFAS) and the record length used here (shortened: the
+#: fits need a few periods, and six rows must run in about 20 s).
+TABLE3_INPUTS: dict[str, dict[str, Any]] = {
+    "3 sin(4 pi t)": {"specimen": "200kg", "paper": (31.4, 119.1), "seconds": 1.0},
+    "3 sin(16 pi t)": {"specimen": "200kg", "paper": (53.88, 310.92), "seconds": 0.5},
+    "9 sin(28 pi t)": {"specimen": "200kg", "paper": (132.71, 141.51), "seconds": 0.5},
+    "eq (23)": {"specimen": "500kg", "paper": (17.6, 50.57), "seconds": 1.5},
+    "2 sin(10 pi t)": {"specimen": "200kg", "paper": (54.49, 188.1), "seconds": 0.8},
+    "pulse (Fig. 11)": {"specimen": "200kg", "paper": (41.69, 125.8), "seconds": 1.0},
+}
+
+
+def table3_input(name: str, t: np.ndarray) -> np.ndarray:
+    """Valve command [V] of a Table 3 input at times ``t`` [s].
+
+    * sines as printed in Table 3 (volts);
+    * eq (23): ``0.1 sin(2 pi 2 t)`` then ``0.2 sin(2 pi 2 t)`` (normalised) = 1 V then 2 V; the
+      paper switches at 4.35 s of a 6 s record; the shortened 1.5 s record here switches at
+      1.0 s (after two whole periods, at a zero of the sine);
+    * pulse (Fig. 11, not extracted numerically): assumed +2 V for 0.2 s from 0.1 s, then
+      -2 V for 0.2 s from 0.5 s (a move out and back).
+    """
+    t = np.asarray(t, dtype=float)
+    if name == "3 sin(4 pi t)":
+        return 3.0 * np.sin(4 * np.pi * t)
+    if name == "3 sin(16 pi t)":
+        return 3.0 * np.sin(16 * np.pi * t)
+    if name == "9 sin(28 pi t)":
+        return 9.0 * np.sin(28 * np.pi * t)
+    if name == "2 sin(10 pi t)":
+        return 2.0 * np.sin(10 * np.pi * t)
+    if name == "eq (23)":
+        t_sw = 1.0  # whole periods of the 2 Hz sine (1.5 s record)
+        return np.where(t < t_sw, 1.0, 2.0) * np.sin(2 * np.pi * 2 * t)
+    if name == "pulse (Fig. 11)":
+        return np.where((t >= 0.1) & (t < 0.3), 2.0, 0.0) + np.where((t >= 0.5) & (t < 0.7), -2.0, 0.0)
+    raise GreyboxError(f"unknown Table 3 input {name!r}; known: {list(TABLE3_INPUTS)}")
+
+
+#: fitted parameters of both models in the Table 3 comparison and the start perturbation
+TABLE3_FIT = ("e0", "coulomb_friction", "viscous_friction")
+TABLE3_START = {"e0": 1.3, "coulomb_friction": 0.8, "viscous_friction": 1.25}
+TABLE3_DT = 1e-3
+TABLE3_NOISE = {"x": 2e-5, "a": 0.05}  # potentiometer [m], accelerometer [m/s^2]
+
+
+def table3_comparison(name: str, seed: int = 0) -> dict[str, Any]:
+    """Fit the modified-IFAS and the IFAS model to data of the modified-IFAS truth for one
+    Table 3 input; return both fits' acceleration MSE and their ratio.
+
+    Truth: ``ShakingTableParams.preset("modified_ifas", specimen)``, simulated at 1 kHz; noise
+    ``TABLE3_NOISE`` on x and a (seeded). Models: the ``modified_ifas`` and ``ifas`` presets
+    (003 Table 2's two columns) with E_0, F_c, F_v scaled by ``TABLE3_START`` and then fitted
+    to x and a (channel weights = the known noise levels). MSE: eq (21) on the acceleration
+    (the signal the modulus law is for), mean of squared residuals [(m/s^2)^2].
+    """
+    from hydro_envs.plants import shaking_table as st
+    from hydro_envs.sim.kernels import SHAKING_TABLE
+
+    spec = TABLE3_INPUTS[name]
+    truth = st.ShakingTableParams.preset("modified_ifas", spec["specimen"])
+    n = int(round(spec["seconds"] / TABLE3_DT)) + 1
+    t = TABLE3_DT * np.arange(n)
+    u = table3_input(name, t)
+    chans = list(_plants()["shaking_table"]["channels"].values())
+    chans = [c for c in chans if c.name in ("x", "a")]
+    # one n_substeps for truth and models: the most demanding of the three sets
+    sets = {"truth": truth}
+    for preset in ("modified_ifas", "ifas"):
+        b = st.ShakingTableParams.preset(preset, spec["specimen"])
+        sets[preset] = dataclasses.replace(b, **{k: getattr(b, k) * f for k, f in TABLE3_START.items()})
+    nsub = max(substeps_for_modes(st.stiffness_modes(p), TABLE3_DT)[0] for p in sets.values())
+    nsub = max(nsub, substeps_for_modes(st.stiffness_modes(dataclasses.replace(
+        truth, e0=truth.e0 * 3.0)), TABLE3_DT)[0])
+    exp0 = Experiment(TABLE3_DT, u, st.rest_state(truth), {"x": u, "a": u}, name=name)
+    clean = simulate_outputs(truth, SHAKING_TABLE, [exp0], chans, n_substeps=nsub)[0][0]
+    rng = np.random.default_rng(seed)
+    meas = {k: clean[k] + TABLE3_NOISE[k] * rng.standard_normal(n) for k in ("x", "a")}
+    out: dict[str, Any] = {"input": name, "specimen": spec["specimen"], "seconds": spec["seconds"],
+                           "paper_mse": {"modified_ifas": spec["paper"][0], "ifas": spec["paper"][1]}}
+    for preset in ("modified_ifas", "ifas"):
+        base = sets[preset]
+        exp = Experiment(TABLE3_DT, u, lambda prm: st.rest_state(prm), meas, name=name)
+        res = fit_greybox(base, TABLE3_FIT, SHAKING_TABLE, [exp], chans, sigma=TABLE3_NOISE,
+                          reweight=False, n_substeps=nsub, max_nfev=30, tol=1e-6)
+        out[preset] = {"mse_a": res.mse["a"], "mse_x": res.mse["x"], "values": res.values,
+                       "nfev": res.nfev, "seconds": res.seconds}
+    out["ratio"] = out["modified_ifas"]["mse_a"] / out["ifas"]["mse_a"]
+    out["paper_ratio"] = spec["paper"][0] / spec["paper"][1]
+    return out
+
+
+def table3_rows() -> list:
+    """Validation rows "003 Table 3 direction", one per input (see :func:`table3_comparison`).
+
+    Encoding (ValidationRow has no one-sided comparison): ``reproduced`` = MSE_mod / MSE_ifas
+    of the fitted models (>= 0); ``published`` = 0 with ``absolute=True`` and tolerance 1, so
+    the row passes iff ``0 <= ratio <= 1``, i.e. iff the fitted modified-IFAS model has the
+    lower MSE -- the direction Table 3 reports. The paper's own ratio is given in the source
+    text (its magnitude depends on the rig's noise and unmodelled effects, ours on the
+    simulated noise, so only the direction is comparable).
+    """
+    from hydro_envs.validation import ValidationRow
+
+    rows = []
+    for name in TABLE3_INPUTS:
+        c = table3_comparison(name)
+        rows.append(ValidationRow(
+            name=f"003 Table 3 direction, u = {name} ({c['specimen']}): MSE_mod/MSE_ifas of fitted models (<= 1)",
+            published=1.0,
+            reproduced=float(c["ratio"]),
+            tolerance=0.0,
+            unit="1",
+            source=(f"003 Table 3: MSE {c['paper_mse']['modified_ifas']} (modified IFAS) < {c['paper_mse']['ifas']} "
+                    f"(IFAS), ratio {c['paper_ratio']:.3f}; here: data of the modified-IFAS truth "
+                    f"({c['seconds']} s, 1 kHz, noise x 20 um, a 0.05 m/s^2), both presets' E_0, F_c, F_v "
+                    f"fitted from perturbed starts, acceleration MSE {c['modified_ifas']['mse_a']:.4g} vs "
+                    f"{c['ifas']['mse_a']:.4g} (m/s^2)^2; one-sided: passes iff the ratio is <= 1"),
+            upper_bound=True,
+        ))
+    return rows

@@ -1,0 +1,194 @@
+"""From a fit to a randomisation spec and a plant preset.
+
+:func:`ranges_from_fit` turns parameter estimates with their covariance into the exact YAML
+schema of ``configs/randomization/*.yaml`` (:mod:`hydro_envs.randomization`): one entry per
+fitted parameter, ``distribution: uniform``, ``mode: absolute``, ``range: [est - k SE,
+est + k SE]`` (``SE = sqrt(diag(cov))``, default ``k = 2``: the marginal ~95 % confidence
+interval), clipped to the parameter's allowed interval, the unit of the parameter and a
+``source`` naming the data file and the fit.
+
+*Nominal outside the confidence region (decision).* The loader requires the nominal (the
+dataclass default) inside every range. If a fitted region excludes it, the default policy
+``on_nominal_outside="widen"`` extends the range to just include the nominal and says so in
+that entry's ``source`` ("widened to include the nominal ..."), so the emitted spec loads and
+the shift of the truth away from the nominal is recorded; ``"raise"`` raises
+:class:`RangesError` naming the parameter instead. A fit whose ranges give invalid corners
+(e.g. ``F_s`` and ``F_c`` overlapping, so a corner has ``F_s < F_c``) raises too (the spec
+loader's corner check, message naming the entry).
+
+Plant presets (``configs/plants/<name>.yaml``)::
+
+    plant: servo_cylinder
+    name: nominal
+    source: "..."
+    parameters:
+      mass: {value: 12.3, unit: kg, source: "002 Table 1: m"}
+
+:func:`nominal_preset` writes every field of a parameter class with its default and source;
+:func:`load_preset` returns the parameter set (unknown names, unit mismatches and invalid
+values raise).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import os
+from pathlib import Path
+from typing import Any, Mapping, Sequence
+
+import numpy as np
+import yaml
+
+__all__ = [
+    "RangesError",
+    "FRICTION_FIELDS",
+    "ranges_from_fit",
+    "write_ranges",
+    "nominal_preset",
+    "preset_mapping",
+    "write_preset",
+    "load_preset",
+]
+
+#: reported friction-fit names -> ServoCylinderParams / RodlessCylinderParams fields
+FRICTION_FIELDS = {
+    "F_c": "coulomb_friction",
+    "F_s": "static_friction",
+    "v_s": "stribeck_velocity",
+    "F_v": "viscous_friction",
+}
+
+
+class RangesError(ValueError):
+    """A fit cannot be turned into a randomisation spec (the message names the parameter)."""
+
+
+def _field_meta(params_cls: type) -> dict[str, Mapping[str, Any]]:
+    return {f.name: f.metadata for f in dataclasses.fields(params_cls)}
+
+
+def ranges_from_fit(
+    estimates: Mapping[str, float],
+    covariance: Any,
+    params_cls: type,
+    *,
+    names: Sequence[str] | None = None,
+    field_map: Mapping[str, str] | None = None,
+    k: float = 2.0,
+    data_file: str = "",
+    fit_description: str = "",
+    on_nominal_outside: str = "widen",
+) -> dict[str, Any]:
+    """Randomisation mapping (plant, parameters) from a fit.
+
+    ``estimates``: name -> value (fit names, mapped to fields by ``field_map``, default
+    :data:`FRICTION_FIELDS` plus identity); ``covariance``: matrix in the order of ``names``
+    (default: the order of ``estimates``) or a mapping name -> standard error. Estimates
+    without a matching field are skipped. See the module docstring for the policy.
+    """
+    if not (math.isfinite(k) and k > 0):
+        raise RangesError(f"k must be > 0, got {k}")
+    if on_nominal_outside not in ("widen", "raise"):
+        raise RangesError(f"on_nominal_outside must be 'widen' or 'raise', got {on_nominal_outside!r}")
+    names = list(estimates) if names is None else list(names)
+    if isinstance(covariance, Mapping):
+        se = {n: float(covariance[n]) for n in names}
+    else:
+        cov = np.atleast_2d(np.asarray(covariance, dtype=float))
+        if cov.shape != (len(names), len(names)):
+            raise RangesError(f"covariance has shape {cov.shape}, expected {(len(names), len(names))} for {names}")
+        se = {n: float(math.sqrt(max(cov[i, i], 0.0))) for i, n in enumerate(names)}
+    fmap = dict(FRICTION_FIELDS if field_map is None else field_map)
+    meta = _field_meta(params_cls)
+    defaults = params_cls()
+    out: dict[str, Any] = {}
+    for n in names:
+        field = fmap.get(n, n)
+        if field not in meta:
+            continue
+        est, s = float(estimates[n]), se[n]
+        if not (math.isfinite(est) and math.isfinite(s)):
+            raise RangesError(f"{n} ({field}): estimate {est} or standard error {s} is not finite")
+        lo_a, hi_a = meta[field]["allowed"]
+        unit = meta[field]["unit"]
+        lo, hi = max(est - k * s, lo_a), min(est + k * s, hi_a)
+        if meta[field].get("open_low") and lo <= lo_a:
+            lo = lo_a + 1e-9 * max(abs(est), 1e-30)
+        src = (f"fit: {fit_description or 'parameter estimate'} of {data_file or '<data>'}: "
+               f"{est:.6g} +- {k:g} x SE {s:.3g} {unit}, clipped to the allowed [{lo_a:g}, {hi_a:g}]")
+        nominal = float(getattr(defaults, field))
+        if not (lo <= nominal <= hi):
+            if on_nominal_outside == "raise":
+                raise RangesError(
+                    f"{field} ({n}): the fit's confidence region [{lo:.6g}, {hi:.6g}] {unit} "
+                    f"(estimate {est:.6g} +- {k:g} SE) excludes the nominal {nominal:.6g} {unit}; "
+                    "the randomisation loader needs the nominal inside the range (use "
+                    "on_nominal_outside='widen' or change the nominal)"
+                )
+            lo, hi = min(lo, nominal), max(hi, nominal)
+            src += f"; widened to include the nominal {nominal:.6g} {unit} (outside the confidence region)"
+        if not lo < hi:
+            raise RangesError(f"{field} ({n}): empty range [{lo}, {hi}] (zero standard error?)")
+        out[field] = {"distribution": "uniform", "mode": "absolute", "range": [float(lo), float(hi)],
+                      "unit": unit, "source": src}
+    if not out:
+        raise RangesError(f"no estimate of {list(estimates)} matches a field of {params_cls.__name__}")
+    return {"plant": params_cls.plant, "parameters": out}
+
+
+def _dump(path: str | os.PathLike[str], data: Mapping[str, Any], header: str) -> Path:
+    p = Path(path)
+    p.parent.mkdir(parents=True, exist_ok=True)
+    text = yaml.safe_dump(dict(data), sort_keys=False, width=1000)
+    p.write_text("".join(f"# {ln}\n" for ln in header.splitlines()) + text)
+    return p
+
+
+def write_ranges(path: str | os.PathLike[str], mapping: Mapping[str, Any], params_cls: type) -> Path:
+    """Write a :func:`ranges_from_fit` mapping and check it loads (and its corners are valid)."""
+    from hydro_envs.randomization import RandomizationSpec
+
+    RandomizationSpec.from_mapping(mapping, params_cls, source_file=str(path)).check_corners()
+    return _dump(path, mapping, "Randomisation spec emitted by identification.ranges from a fit "
+                 "(ranges = estimate +- k standard errors).")
+
+
+# ----------------------------------------------------------------------------- presets
+def preset_mapping(params: Any, name: str, source: str,
+                   sources: Mapping[str, str] | None = None) -> dict[str, Any]:
+    """Preset mapping of a parameter set; ``sources`` overrides the per-field sources."""
+    meta = _field_meta(type(params))
+    sources = dict(sources or {})
+    pars = {}
+    for f, m in meta.items():
+        pars[f] = {"value": float(getattr(params, f)), "unit": m["unit"],
+                   "source": sources.get(f, m.get("source", ""))}
+    return {"plant": type(params).plant, "name": name, "source": source, "parameters": pars}
+
+
+def nominal_preset(params_cls: type) -> dict[str, Any]:
+    return preset_mapping(params_cls(), "nominal", f"{params_cls.__name__} defaults (each field's source)")
+
+
+def write_preset(path: str | os.PathLike[str], mapping: Mapping[str, Any], header: str = "") -> Path:
+    return _dump(path, mapping, header or f"Plant preset {mapping.get('name', '')} of {mapping.get('plant', '')}.")
+
+
+def load_preset(path: str | os.PathLike[str], params_cls: type) -> Any:
+    """Parameter set of a preset file (fields not listed keep their defaults)."""
+    data = yaml.safe_load(Path(path).read_text())
+    where = f"preset {path}"
+    if not isinstance(data, Mapping) or data.get("plant") != params_cls.plant:
+        raise RangesError(f"{where}: 'plant' must be {params_cls.plant!r}")
+    meta = _field_meta(params_cls)
+    values = {}
+    for f, entry in (data.get("parameters") or {}).items():
+        if f not in meta:
+            raise RangesError(f"{where}: unknown parameter {f!r} of {params_cls.__name__}")
+        if entry.get("unit") != meta[f]["unit"]:
+            raise RangesError(f"{where}: {f}: unit {entry.get('unit')!r}, expected {meta[f]['unit']!r}")
+        if not str(entry.get("source", "")).strip():
+            raise RangesError(f"{where}: {f}: empty source")
+        values[f] = float(entry["value"])
+    return dataclasses.replace(params_cls(), **values)
