@@ -175,14 +175,16 @@ def _cmd_channels(args: argparse.Namespace) -> int:
 
 
 def _load_plant_modules() -> None:
-    """Import the plant package so that plants registering their channels do so."""
+    """Import the plant package (and the identification experiments, which register the
+    measured-only ``seal_friction`` channel set) so that every plant's channels are known."""
     import importlib
 
-    try:
-        importlib.import_module("hydro_envs.plants")
-    except ModuleNotFoundError as e:
-        if e.name not in ("hydro_envs.plants",):
-            raise
+    for module in ("hydro_envs.plants", "identification.experiments"):
+        try:
+            importlib.import_module(module)
+        except ModuleNotFoundError as e:
+            if e.name != module:
+                raise
 
 
 # --- simulate --------------------------------------------------------------------------
