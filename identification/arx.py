@@ -59,6 +59,8 @@ from typing import Any
 import numpy as np
 from scipy import signal
 
+from identification._json import jsonable as _jsonable
+
 __all__ = [
     "ArxError",
     "ArxModel",
@@ -72,19 +74,6 @@ __all__ = [
 ]
 
 
-def _jsonable(obj: Any) -> Any:
-    """Plain JSON types: numpy scalars to float/int/bool, non-finite floats to None."""
-    if isinstance(obj, dict):
-        return {str(k): _jsonable(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_jsonable(v) for v in obj]
-    if isinstance(obj, (bool, np.bool_)):
-        return bool(obj)
-    if isinstance(obj, (int, np.integer)):
-        return int(obj)
-    if isinstance(obj, (float, np.floating)):
-        return float(obj) if math.isfinite(obj) else None
-    return obj
 
 
 class ArxError(ValueError):

@@ -58,7 +58,6 @@ IFAS for all six inputs).
 from __future__ import annotations
 
 import dataclasses
-import importlib
 import math
 import sys
 import time
@@ -72,6 +71,7 @@ from scipy import optimize, stats
 from hydro_envs.params import ParameterError, PhysicalParams
 from hydro_envs.sim.kernels import plant_rhs, rk4_substeps
 from hydro_envs.sim.stiffness import rk4_substeps as substeps_for_modes
+from identification._json import jsonable as _jsonable
 
 __all__ = [
     "GreyboxError",
@@ -97,20 +97,6 @@ class GreyboxError(ValueError):
     """Bad problem definition for a grey-box fit (the message names the field and why)."""
 
 
-def _jsonable(obj: Any) -> Any:
-    if isinstance(obj, dict):
-        return {str(k): _jsonable(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_jsonable(v) for v in obj]
-    if isinstance(obj, np.ndarray):
-        return _jsonable(obj.tolist())
-    if isinstance(obj, (bool, np.bool_)):
-        return bool(obj)
-    if isinstance(obj, (int, np.integer)):
-        return int(obj)
-    if isinstance(obj, (float, np.floating)):
-        return float(obj) if math.isfinite(obj) else None
-    return obj
 
 
 # ======================================================================================

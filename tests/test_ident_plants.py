@@ -10,11 +10,9 @@ our simulators, and fit results turned into randomisation specs and presets.
 
 from __future__ import annotations
 
-import dataclasses
+import contextlib
 import io
 import json
-import contextlib
-import math
 
 import numpy as np
 import pytest
