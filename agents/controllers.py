@@ -1,0 +1,229 @@
+r"""Classical baseline controllers for ``hydro_envs/ServoCylinderPosition-v0`` (issue 7, item 1).
+
+Both controllers act on the env observation (layout: :mod:`hydro_envs.envs.servo_cylinder`)
+and expose the SB3-style ``predict(obs, state=None, episode_start=None, deterministic=True)
+-> (action, state)`` for a single observation ``(11,)`` or a batch ``(n, 11)``.
+
+Tuning rule (from the plant's linearisation)
+--------------------------------------------
+The valve-controlled cylinder is, below its hydraulic resonance, an integrator
+``x(s)/a(s) = K_q / s`` with the velocity gain ``K_q = v_nl`` per unit action
+(:func:`~hydro_envs.plants.servo_cylinder.no_load_velocity`; nominal 0.669 m/s), in series with
+a lightly damped oil-spring resonance ``omega_h`` (:func:`hydraulic_natural_frequency` at
+mid-stroke; nominal 664 rad/s). The classical stability limit of the proportional loop is
+``K_v = K_q K_p < 2 zeta_h omega_h``. We assume ``zeta_h = 0.075`` (``ZETA_H``; below the
+textbook 0.1 because the seed's viscous coefficient alone gives only 0.015 and the critically
+lapped valve adds little flow-pressure damping at null; with 0.1 and ``T_d = 0.25/omega_c`` the
+closed loop of the nominal env sustained a ~1.9 mm oscillation at omega_h after a saturated step)
+and place the crossover at half that limit (6 dB gain margin):
+
+    omega_c = zeta_h omega_h                       (nominal 49.8 rad/s)
+    K_p     = omega_c / K_q   [action per metre]   (nominal 74.4 1/m)
+    T_i     = 4 / omega_c                          (nominal 80.4 ms; PI zero a factor 4 below omega_c)
+    T_d     = 0.1 / omega_c                        (nominal 2.0 ms; small: the integrator plant
+                                                     already gives 90 deg of phase, and D raises the
+                                                     loop gain at omega_h)
+    T_f     = 1 / (0.2 omega_h)                    (nominal 7.5 ms; the derivative filter rolls off
+                                                     well below the resonance)
+    T_t     = T_i                                  (back-calculation tracking time)
+
+The P controller of :mod:`hydro_envs.demo` uses ``K_v = 40 1/s`` and no integral action.
+
+Discrete law (``dt = 1 ms``, backward Euler), ``e = r - x_meas`` in metres::
+
+    P_k = K_p e_k
+    D_k = T_f/(T_f+dt) D_{k-1} - K_p T_d/(T_f+dt) (x_k - x_{k-1})   (derivative on the measurement,
+                                                                  no kick on reference steps)
+    v_k = P_k + I_k + D_k + ff_k ,   a_k = clip(v_k, -1, 1)
+    I_{k+1} = I_k + K_p dt/T_i e_k + dt/T_t (a_k - v_k)            ("back_calculation")
+    I_{k+1} = I_k + K_p dt/T_i e_k   unless a_k != v_k and e_k pushes further into the limit
+                                                                  ("conditional")
+    I_{k+1} = I_k + K_p dt/T_i e_k                                 ("none": windup)
+
+Internal states (``I``, ``D``, ``x_{k-1}``) are kept per copy; rows with ``episode_start``
+true are reset before the step (and the derivative is zero on a copy's first step).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from hydro_envs.plants.servo_cylinder import (
+    ServoCylinderParams,
+    hydraulic_natural_frequency,
+    no_load_velocity,
+)
+
+__all__ = [
+    "ZETA_H",
+    "DT",
+    "pid_tuning",
+    "nominal_stribeck",
+    "PIDController",
+    "PIDFrictionFeedforwardController",
+]
+
+ZETA_H = 0.075  # assumed hydraulic damping ratio of the valve-cylinder resonance
+DT = 1e-3  # s, control period of the servo env
+ANTI_WINDUP = ("back_calculation", "conditional", "none")
+PREVIEW_DT = 0.01  # s, obs[2] is the reference at +10 ms
+
+
+def pid_tuning(params: ServoCylinderParams, zeta_h: float = ZETA_H) -> dict[str, float]:
+    """The module docstring's rule: ``K_q, omega_h, omega_c, K_p, T_i, T_d, T_f`` (SI)."""
+    if not (math.isfinite(zeta_h) and zeta_h > 0):
+        raise ValueError(f"zeta_h must be > 0, got {zeta_h}")
+    k_q = no_load_velocity(params)
+    omega_h = hydraulic_natural_frequency(params, 0.5 * params.stroke)
+    omega_c = zeta_h * omega_h
+    return {
+        "k_q": k_q,
+        "omega_h": omega_h,
+        "omega_c": omega_c,
+        "kp": omega_c / k_q,
+        "ti": 4.0 / omega_c,
+        "td": 0.1 / omega_c,
+        "tf": 1.0 / (0.2 * omega_h),
+    }
+
+
+def nominal_stribeck(params: ServoCylinderParams | None = None):
+    """The plant's Stribeck law (002 eq (1)) as an :class:`identification.friction.FrictionFit`
+    built from the parameter set (no fit: the "identified" model with zero error)."""
+    from identification.friction import FrictionFit
+
+    p = params if params is not None else ServoCylinderParams()
+    return FrictionFit(
+        model="stribeck",
+        parameters={"F_c": p.coulomb_friction, "F_s": p.static_friction,
+                     "v_s": p.stribeck_velocity, "F_v": p.viscous_friction},
+        std_errors={},
+        covariance=np.zeros((4, 4)),
+        metrics={},
+        residuals=np.zeros(0),
+        sign_velocity=p.friction_sign_velocity,
+    )
+
+
+class PIDController:
+    """PID on the position error with filtered derivative and anti-windup (module docstring).
+
+    ``kp`` [action/m], ``ti, td, tf, tt`` [s]; ``stroke`` [m] and ``error_scale`` [m] undo the
+    observation's normalisation; ``anti_windup`` in ``("back_calculation", "conditional",
+    "none")``. ``tt`` defaults to ``ti``.
+    """
+
+    def __init__(self, kp: float, ti: float, td: float, tf: float, *, stroke: float,
+                 error_scale: float = 0.01, dt: float = DT, anti_windup: str = "back_calculation",
+                 tt: float | None = None) -> None:
+        tt = ti if tt is None else tt
+        for name, val, lo in (("kp", kp, 0.0), ("ti", ti, 0.0), ("tt", tt, 0.0), ("stroke", stroke, 0.0),
+                              ("error_scale", error_scale, 0.0), ("dt", dt, 0.0)):
+            if not (math.isfinite(val) and val > lo):
+                raise ValueError(f"{name} must be finite and > 0, got {val}")
+        for name, val in (("td", td), ("tf", tf)):
+            if not (math.isfinite(val) and val >= 0):
+                raise ValueError(f"{name} must be finite and >= 0, got {val}")
+        if anti_windup not in ANTI_WINDUP:
+            raise ValueError(f"anti_windup = {anti_windup!r}; allowed {ANTI_WINDUP}")
+        self.kp, self.ti, self.td, self.tf, self.tt = float(kp), float(ti), float(td), float(tf), float(tt)
+        self.half = 0.5 * float(stroke)
+        self.error_scale = float(error_scale)
+        self.dt = float(dt)
+        self.anti_windup = anti_windup
+        self._n = -1
+        self.reset()
+
+    @classmethod
+    def from_params(cls, params: ServoCylinderParams | None = None, *, zeta_h: float = ZETA_H,
+                    error_scale: float = 0.01, **kwargs: Any) -> "PIDController":
+        """Tuned by :func:`pid_tuning` for ``params`` (default: nominal)."""
+        p = params if params is not None else ServoCylinderParams()
+        t = pid_tuning(p, zeta_h)
+        return cls(t["kp"], t["ti"], t["td"], t["tf"], stroke=p.stroke, error_scale=error_scale, **kwargs)
+
+    def reset(self, n: int | None = None) -> None:
+        """Forget all internal states (``n`` copies; ``None``: size them on the next call)."""
+        self._n = -1 if n is None else int(n)
+        m = max(self._n, 0)
+        self.integral = np.zeros(m)
+        self.deriv = np.zeros(m)
+        self.x_prev = np.zeros(m)
+        self.fresh = np.ones(m, dtype=bool)
+
+    def _reset_rows(self, mask: np.ndarray) -> None:
+        self.integral[mask] = 0.0
+        self.deriv[mask] = 0.0
+        self.fresh[mask] = True
+
+    def feedforward(self, obs: np.ndarray) -> np.ndarray:
+        """Additive action before saturation (none here; see the subclass)."""
+        return np.zeros(obs.shape[0])
+
+    def predict(self, obs, state=None, episode_start=None, deterministic=True):
+        obs = np.asarray(obs, dtype=np.float64)
+        single = obs.ndim == 1
+        o = obs[None, :] if single else obs
+        if o.ndim != 2 or o.shape[1] < 11:
+            raise ValueError(f"obs must have shape (11,) or (n, 11), got {obs.shape}")
+        n = o.shape[0]
+        if n != self._n:
+            self.reset(n)
+        if episode_start is not None:
+            mask = np.broadcast_to(np.asarray(episode_start, dtype=bool).reshape(-1), (n,))
+            self._reset_rows(mask)
+        e = o[:, 0] * self.error_scale
+        x = self.half * (o[:, 7] + 1.0)
+        dx = np.where(self.fresh, 0.0, x - self.x_prev)
+        self.deriv = (self.tf * self.deriv - self.kp * self.td * dx) / (self.tf + self.dt)
+        v = self.kp * e + self.integral + self.deriv + self.feedforward(o)
+        a = np.clip(v, -1.0, 1.0)
+        di = self.kp * self.dt / self.ti * e
+        if self.anti_windup == "back_calculation":
+            di = di + self.dt / self.tt * (a - v)
+        elif self.anti_windup == "conditional":
+            di = np.where((a != v) & (np.sign(e) == np.sign(v)), 0.0, di)
+        self.integral = self.integral + di
+        self.x_prev = x
+        self.fresh[:] = False
+        act = a.astype(np.float32)[:, None]
+        return (act[0] if single else act), state
+
+
+class PIDFrictionFeedforwardController(PIDController):
+    """:class:`PIDController` plus a friction feedforward at the reference velocity.
+
+    ``v_ref = (r(t + 10 ms) - r(t)) / 0.01 s`` from the observation's preview; the increment
+    ``FrictionCompensator(model, params).action(v_ref)`` (:mod:`identification.compensators`:
+    the valve command that delivers ``v_ref`` against the model's friction minus the one that
+    delivers it against none, as a fraction of ``command_max``) is added before saturation, so
+    the anti-windup sees the total command. ``model``: any ``F = model(v)`` [N] or object with
+    ``.predict(v)`` (a :class:`~identification.friction.FrictionFit`, a neural model); default
+    the nominal Stribeck law (:func:`nominal_stribeck`).
+    """
+
+    def __init__(self, kp: float, ti: float, td: float, tf: float, *, stroke: float,
+                 model: Any = None, params: ServoCylinderParams | None = None, **kwargs: Any) -> None:
+        from identification.compensators import FrictionCompensator
+
+        super().__init__(kp, ti, td, tf, stroke=stroke, **kwargs)
+        p = params if params is not None else ServoCylinderParams()
+        self.compensator = FrictionCompensator(model if model is not None else nominal_stribeck(p), p)
+
+    @classmethod
+    def from_params(cls, params: ServoCylinderParams | None = None, *, zeta_h: float = ZETA_H,
+                    error_scale: float = 0.01, model: Any = None, **kwargs: Any) -> "PIDFrictionFeedforwardController":
+        p = params if params is not None else ServoCylinderParams()
+        t = pid_tuning(p, zeta_h)
+        return cls(t["kp"], t["ti"], t["td"], t["tf"], stroke=p.stroke, error_scale=error_scale,
+                   model=model, params=p, **kwargs)
+
+    def reference_velocity(self, obs: np.ndarray) -> np.ndarray:
+        """``(r(+10 ms) - r) / 0.01 s`` [m/s] from obs[2] and obs[1]."""
+        return self.half * (obs[:, 2] - obs[:, 1]) / PREVIEW_DT
+
+    def feedforward(self, obs: np.ndarray) -> np.ndarray:
+        return np.asarray(self.compensator.action(self.reference_velocity(obs)), dtype=float)
