@@ -32,6 +32,15 @@ Valve flows (critically lapped, matched, symmetric; Q2 counted *into* chamber 2)
 
 with ``xv+ = max(xv, 0)``, ``xv- = max(-xv, 0)``, the spool opening limited to +-x_vm.
 
+Effects outside the seed model (all 0 by default, i.e. exactly 002 eq (8); added by the
+diagnosis workflow, :mod:`identification.diagnosis`, when measured data call for them)::
+
+    valve_overlap x_lap:   every edge opens by max(+-xv - x_lap, 0) (all four edges evaluated)
+    internal_leakage C_il: Q1 -= C_il (p1 - p2), Q2 += C_il (p1 - p2)       (as 003 eqs (4)-(5))
+    external_leakage C_el: Q_i -= C_el (p_i - p_R)                          (as 003 eqs (4)-(5))
+    friction_asymmetry a, friction_pressure_coefficient c_p: both Stribeck levels of (1) become
+        (1 + a tanh(v/v_eps)) (F + c_p |p1 - p2|)
+
 Decisions on the extracted text (see ``shared/seeds/README.md``):
 
 * eq (5) prints the chamber volume as ``A x_p - V1``; physically it is ``A x_p + V1`` (the
@@ -60,7 +69,7 @@ import numpy as np
 
 from hydro_envs.laws.contact import end_stop_force
 from hydro_envs.laws.friction import stribeck_exponential
-from hydro_envs.laws.orifice import orifice_flow
+from hydro_envs.laws.orifice import orifice_flow, spool_edge_opening
 from hydro_envs.laws.valve import second_order_valve_acceleration
 from hydro_envs.params import ParameterError, PhysicalParams, physical
 
@@ -164,6 +173,34 @@ class ServoCylinderParams(PhysicalParams):
         1e-7, "m^3", (0.0, 1.0), "assumed: guard only; line volumes keep chambers >= 88.7 cm^3",
         open_low=True,
     )
+    # --- effects outside the seed model (0 = the seed's model); the diagnosis catalogue
+    # (identification/diagnosis/catalogue.py) adds them when measured data call for them.
+    valve_overlap: float = physical(
+        0.0, "m", (-0.1e-3, 0.1e-3),
+        "002 eqs (3)-(4): critically lapped (0). > 0 overlap (dead band), < 0 underlap (all four "
+        "edges open at null); Hopsan lap convention, hydro_envs.laws.orifice.spool_edge_opening",
+    )
+    internal_leakage: float = physical(
+        0.0, "m^3/(s Pa)", (0.0, 1e-10),
+        "002 eq (8): leak-free piston seal (0); laminar cross-piston leak Q = C_il (p1 - p2), "
+        "as 003 eq (4)-(5) C_il",
+    )
+    external_leakage: float = physical(
+        0.0, "m^3/(s Pa)", (0.0, 1e-10),
+        "002 eq (8): no rod-seal leak (0); laminar leak of each chamber to tank Q = C_el (p_i - p_R), "
+        "as 003 eq (4)-(5) C_el",
+    )
+    friction_asymmetry: float = physical(
+        0.0, "1", (-0.9, 0.9),
+        "002 eq (1): symmetric friction (0); Coulomb and static levels times (1 + a) for v > 0 and "
+        "(1 - a) for v < 0 (rod-side vs cap-side seal lips, cf. 001 stiction +99/-54 N)",
+    )
+    friction_pressure_coefficient: float = physical(
+        0.0, "N/Pa", (0.0, 1e-4),
+        "002 eq (1): pressure-independent friction (0); Coulomb and static levels rise by "
+        "c_p |p1 - p2| (piston seal pressed by the pressure difference; seal data in "
+        "tests/data/pneumatic_seal_friction rise 5.4 -> 16.8 N from 1 to 7 bar)",
+    )
 
     def _check_relations(self) -> None:
         if self.static_friction < self.coulomb_friction:
@@ -187,10 +224,11 @@ class ServoCylinderParams(PhysicalParams):
 (
     I_PS, I_PT, I_M, I_A, I_L, I_V1, I_V2, I_RHO, I_BETA, I_CD, I_W, I_XVM, I_KV, I_WV,
     I_ZV, I_UMAX, I_D, I_FC, I_FS, I_VS, I_VEPS, I_FL, I_KSTOP, I_ASTOP, I_DPTR, I_PFLOOR,
-    I_VMIN,
-) = range(27)
+    I_VMIN, I_LAP, I_CIL, I_CEL, I_FASYM, I_FPC,
+) = range(32)
 assert ServoCylinderParams.names()[I_VMIN] == "min_chamber_volume"
-N_PARAMS = 27
+assert ServoCylinderParams.names()[I_FPC] == "friction_pressure_coefficient"
+N_PARAMS = 32
 
 
 @nb.njit(cache=True, error_model="numpy")
@@ -211,14 +249,29 @@ def servo_cylinder_rhs(y, u, p, dy):
     cd = p[I_CD]
     rho = p[I_RHO]
     dptr = p[I_DPTR]
-    # Only the two edges on the side the spool moved to are open (critical lap), so only
-    # they are evaluated: Q1 into chamber 1 (3), Q2 into chamber 2 (4).
-    if xo >= 0.0:  # P -> 1 and 2 -> T open, area w * xo
-        q1 = orifice_flow(cd, p[I_W] * xo, ps - p1, rho, dptr)  # (3)
-        q2 = -orifice_flow(cd, p[I_W] * xo, p2 - pt, rho, dptr)  # (4)
-    else:  # P -> 2 and 1 -> T open, area w * |xo|
-        q1 = -orifice_flow(cd, -p[I_W] * xo, p1 - pt, rho, dptr)  # (3)
-        q2 = orifice_flow(cd, -p[I_W] * xo, ps - p2, rho, dptr)  # (4)
+    w = p[I_W]
+    lap = p[I_LAP]
+    if lap == 0.0:
+        # Critical lap (the seed's valve): only the two edges on the side the spool moved to
+        # are open, so only they are evaluated: Q1 into chamber 1 (3), Q2 into chamber 2 (4).
+        if xo >= 0.0:  # P -> 1 and 2 -> T open, area w * xo
+            q1 = orifice_flow(cd, w * xo, ps - p1, rho, dptr)  # (3)
+            q2 = -orifice_flow(cd, w * xo, p2 - pt, rho, dptr)  # (4)
+        else:  # P -> 2 and 1 -> T open, area w * |xo|
+            q1 = -orifice_flow(cd, -w * xo, p1 - pt, rho, dptr)  # (3)
+            q2 = orifice_flow(cd, -w * xo, ps - p2, rho, dptr)  # (4)
+    else:
+        # Lapped spool: each of the four edges opens by max(+-xo - lap, 0) (Hopsan laps).
+        a_p1 = w * spool_edge_opening(xo, lap)  # P -> 1
+        a_2t = w * spool_edge_opening(xo, lap)  # 2 -> T
+        a_p2 = w * spool_edge_opening(-xo, lap)  # P -> 2
+        a_1t = w * spool_edge_opening(-xo, lap)  # 1 -> T
+        q1 = orifice_flow(cd, a_p1, ps - p1, rho, dptr) - orifice_flow(cd, a_1t, p1 - pt, rho, dptr)
+        q2 = orifice_flow(cd, a_p2, ps - p2, rho, dptr) - orifice_flow(cd, a_2t, p2 - pt, rho, dptr)
+    # Seal leaks (0 in the seed): cross-piston 1 -> 2 and each chamber to tank.
+    q_il = p[I_CIL] * (p1 - p2)
+    q1 -= q_il + p[I_CEL] * (p1 - pt)
+    q2 += q_il - p[I_CEL] * (p2 - pt)
 
     vol1 = max(area * x + p[I_V1], p[I_VMIN])  # (5), "+ V1" (extraction defect fixed)
     vol2 = max(area * (p[I_L] - x) + p[I_V2], p[I_VMIN])  # (6)
@@ -230,7 +283,12 @@ def servo_cylinder_rhs(y, u, p, dy):
     if p2 <= p[I_PFLOOR] and dp2 < 0.0:
         dp2 = 0.0
 
-    f_friction = stribeck_exponential(v, p[I_FC], p[I_FS], p[I_VS], p[I_D], p[I_VEPS])  # (1), (7)
+    # (1), (7); levels scaled by direction (asymmetry) and raised by the seal pressure
+    level = (1.0 + p[I_FASYM] * math.tanh(v / p[I_VEPS]))
+    f_add = p[I_FPC] * abs(p1 - p2)
+    f_friction = stribeck_exponential(
+        v, level * (p[I_FC] + f_add), level * (p[I_FS] + f_add), p[I_VS], p[I_D], p[I_VEPS]
+    )
     f_stop = end_stop_force(x, v, 0.0, p[I_L], p[I_KSTOP], p[I_ASTOP])
     dy[X] = v  # (8.1)
     dy[V] = (area * (p1 - p2) - f_friction - p[I_FL] + f_stop) / p[I_M]  # (7), (8.2)
@@ -286,19 +344,25 @@ def stiffness_modes(params: ServoCylinderParams) -> dict[str, float]:
         hydraulic_natural_frequency(params, 0.0),
         hydraulic_natural_frequency(params, params.stroke),
     )
+    underlap = max(-params.valve_overlap, 0.0)
     g_lam = (
         params.discharge_coefficient
         * params.area_gradient
-        * params.spool_stroke
+        * (params.spool_stroke + 2.0 * underlap)  # open edge plus the opposite underlapped one
         * math.sqrt(2.0 / params.oil_density)
         / math.sqrt(params.orifice_transition_pressure)
     )
+    g_leak = 2.0 * params.internal_leakage + params.external_leakage
     f_max = a * (params.supply_pressure - params.pressure_floor)
+    f_static = (1.0 + abs(params.friction_asymmetry)) * (
+        params.static_friction
+        + params.friction_pressure_coefficient * (params.supply_pressure - params.pressure_floor)
+    )
     return {
         "valve": params.valve_natural_frequency,
         "hydraulic": omega_h,
-        "orifice": params.bulk_modulus / vol_min * g_lam,
-        "friction": (params.static_friction / params.friction_sign_velocity + params.viscous_friction)
+        "orifice": params.bulk_modulus / vol_min * (g_lam + g_leak),
+        "friction": (f_static / params.friction_sign_velocity + params.viscous_friction)
         / params.mass,
         "end_stop": math.sqrt(params.stop_stiffness / params.mass)
         + params.stop_damping * f_max / params.mass,
