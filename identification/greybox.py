@@ -179,6 +179,7 @@ class Experiment:
     y0: Any
     outputs: dict[str, np.ndarray]
     name: str = ""
+    weights: np.ndarray | None = None  # per-sample residual weights (0 = not scored), default 1
 
     def __post_init__(self) -> None:
         u = np.asarray(self.u, dtype=np.float64)
@@ -201,6 +202,11 @@ class Experiment:
                 raise GreyboxError(f"experiment {self.name!r}: output {k!r} has NaN/inf values")
             outs[k] = a
         self.outputs = outs
+        if self.weights is not None:
+            w = np.asarray(self.weights, dtype=np.float64)
+            if w.shape != (u.shape[0],) or not np.all(np.isfinite(w)) or np.any(w < 0):
+                raise GreyboxError(f"experiment {self.name!r}: weights must be ({u.shape[0]},) finite and >= 0")
+            self.weights = w
 
     @property
     def n_samples(self) -> int:
@@ -277,6 +283,7 @@ class _Problem:
     n_states: int
     stiffness: Callable[[Any], Mapping[str, float]] | None
     fixed_nsub: int | None
+    tie: Callable[[np.ndarray], None] | None = None
 
     def to_values(self, theta: np.ndarray) -> np.ndarray:
         return np.where(self.log, np.exp(theta), theta * self.scale)
@@ -288,6 +295,8 @@ class _Problem:
         p0 = self.base.to_array()
         P = np.repeat(p0[None, :], thetas.shape[0], axis=0)
         P[:, self.idx] = self.to_values(thetas)
+        if self.tie is not None:
+            self.tie(P)
         return P
 
     def nsub(self, P: np.ndarray) -> int:
@@ -369,6 +378,8 @@ class _Problem:
         for e, chans in zip(self.experiments, outs):
             for name, yhat in chans.items():
                 r = (e.outputs[name][None, :] - yhat) / self.sigma[name]
+                if e.weights is not None:
+                    r = r * e.weights[None, :]
                 parts.append(r)
         r = np.concatenate(parts, axis=1)
         return np.where(np.isfinite(r), r, 1e6), n
@@ -388,7 +399,7 @@ class _RawParams:
 
 
 def _build_problem(base, fit, kernel_id, experiments, channels, sigma, log_scale, bounds,
-                   n_substeps) -> _Problem:
+                   n_substeps, tie=None) -> _Problem:
     if not isinstance(base, PhysicalParams):
         raise GreyboxError(f"base must be a PhysicalParams instance, got {type(base).__name__}")
     names_all = type(base).names()
@@ -423,9 +434,9 @@ def _build_problem(base, fit, kernel_id, experiments, channels, sigma, log_scale
             log[i] = True
             lo[i], hi[i] = math.log(a), math.log(b)
         else:
-            s = abs(v) if v != 0 else max(abs(a), abs(b), 1.0)
+            s = abs(v) if v != 0 else max(abs(a) if math.isfinite(a) else 1.0, abs(b) if math.isfinite(b) else 1.0, 1.0)
             scale[i] = s
-            span = (b - a) * 1e-9
+            span = (b - a) * 1e-9 if math.isfinite(b - a) else 0.0
             lo[i] = (a + (span if meta["open_low"] else 0.0)) / s
             hi[i] = (b - (span if meta["open_high"] else 0.0)) / s
         if not (lo[i] <= (math.log(v) if log[i] else v / scale[i]) <= hi[i]):
@@ -475,7 +486,7 @@ def _build_problem(base, fit, kernel_id, experiments, channels, sigma, log_scale
         experiments=experiments, channels=[ch_map[k] for k in ch_map if k in used], sigma=sig, U=U,
         n_steps=np.array([e.n_samples - 1 for e in experiments], dtype=np.int64),
         dts=np.array([e.dt for e in experiments], dtype=np.float64), n_states=n_states,
-        stiffness=getattr(mod, "stiffness_modes", None), fixed_nsub=n_substeps,
+        stiffness=getattr(mod, "stiffness_modes", None), fixed_nsub=n_substeps, tie=tie,
     )
 
 
@@ -597,6 +608,7 @@ def fit_greybox(
     n_substeps: int | None = None,
     max_nfev: int = 60,
     tol: float = 1e-8,
+    tie: Callable[[np.ndarray], None] | None = None,
 ) -> GreyboxResult:
     """Fit parameters ``fit`` of ``base`` to the experiments (see the module docstring).
 
@@ -605,11 +617,14 @@ def fit_greybox(
     weights (then ``reweight`` only re-estimates channels not given); ``fd_step`` is the
     central-difference step in theta (relative for log-scaled parameters); ``n_substeps``
     fixes the RK4 sub-steps per sample (default: from the plant's ``stiffness_modes`` at the
-    start values, bounded over the candidates of each call).
+    start values, bounded over the candidates of each call). ``tie(P)`` edits the packed
+    parameter rows ``P (c, n_params)`` in place after the fitted columns are written, for
+    parameters that follow fitted ones (e.g. a static friction level kept equal to the
+    Coulomb level while no Stribeck effect is modelled).
     """
     t0 = time.perf_counter()
     prob = _build_problem(base, fit, kernel_id, experiments, channels, sigma,
-                          True if log_scale is None else log_scale, bounds, n_substeps)
+                          True if log_scale is None else log_scale, bounds, n_substeps, tie)
     p = len(prob.names)
     theta0 = prob.to_theta(np.array([getattr(base, n) for n in prob.names]))
     if prob.fixed_nsub is None:
@@ -661,7 +676,8 @@ def fit_greybox(
         for name in prob.sigma:
             if name in given:
                 continue
-            rr = np.concatenate([e.outputs[name] - o[name][0] for e, o in zip(prob.experiments, outs) if name in o])
+            rr = np.concatenate([(e.outputs[name] - o[name][0])[slice(None) if e.weights is None else e.weights > 0]
+                                 for e, o in zip(prob.experiments, outs) if name in o])
             s = float(np.sqrt(np.mean(rr**2)))
             if s > 0 and math.isfinite(s):
                 prob.sigma[name] = s
@@ -741,7 +757,9 @@ def fit_greybox(
         mse[k] = float(np.mean(err**2))
     values = {n: float(v) for n, v in zip(prob.names, vals)}
     try:
-        fitted = dataclasses.replace(base, **values)
+        row = prob.param_arrays(theta[None, :])[0]  # fitted and tied columns
+        fitted = dataclasses.replace(base, **{n: float(v) for n, v in zip(type(base).names(), row)
+                                             if float(v) != float(getattr(base, n))})
     except ParameterError as e:
         fitted = None
         notes.append(f"fitted set violates a parameter relation: {e}")
