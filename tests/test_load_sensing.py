@@ -337,3 +337,11 @@ def test_vector_env_long_random_rollout_at_corners(spec):
         obs, r, te, tr, info = venv.step(rng.uniform(-1, 1, (n, 2)).astype(np.float32))
         assert np.all(np.isfinite(obs)) and np.all(np.isfinite(r))
         assert info["state"]["p_s"].min() >= NOMINAL.pressure_floor
+
+
+def test_demand_of_an_episode_shorter_than_the_initial_rest_is_all_rest():
+    from hydro_envs.envs.load_sensing import generate_demand
+
+    for kind in ("steps", "ramps", "mixed"):
+        d = generate_demand(kind, np.random.default_rng(3), 50, 1e-3)  # 50 ms < the 0.1-0.3 s rest
+        assert d.shape == (50,) and np.all(d == 0.0)

@@ -90,7 +90,7 @@ def generate_demand(kind: str, rng: np.random.Generator, n: int, dt: float) -> n
     if kind not in REFERENCE_KINDS + ("mixed",):
         raise ValueError(f"reference kind {kind!r}; allowed {REFERENCE_KINDS + ('mixed',)}")
     out = np.zeros(n)
-    t0 = int(rng.uniform(0.1, 0.3) / dt)
+    t0 = min(int(rng.uniform(0.1, 0.3) / dt), n)  # episodes shorter than the rest: all rest
     n_levels = int(rng.integers(1, 4))
     bounds = np.sort(rng.uniform(t0, n, n_levels - 1).astype(int)) if n_levels > 1 else np.array([], dtype=int)
     starts = np.concatenate([[t0], bounds])
