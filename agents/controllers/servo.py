@@ -1,6 +1,6 @@
 r"""Classical baseline controllers for ``hydro_envs/ServoCylinderPosition-v0`` (issue 7, item 1).
 
-Both controllers act on the env observation (layout: :mod:`hydro_envs.envs.servo_cylinder`)
+PID, PID + friction feedforward and the model-based :class:`ServoFlowController`; all act on the env observation (layout: :mod:`hydro_envs.envs.servo_cylinder`)
 and expose the SB3-style ``predict(obs, state=None, episode_start=None, deterministic=True)
 -> (action, state)`` for a single observation ``(11,)`` or a batch ``(n, 11)``.
 
@@ -58,12 +58,13 @@ from hydro_envs.plants.servo_cylinder import (
 )
 
 __all__ = [
-    "ZETA_H",
     "DT",
-    "pid_tuning",
-    "nominal_stribeck",
+    "ZETA_H",
     "PIDController",
     "PIDFrictionFeedforwardController",
+    "ServoFlowController",
+    "nominal_stribeck",
+    "pid_tuning",
 ]
 
 ZETA_H = 0.075  # assumed hydraulic damping ratio of the valve-cylinder resonance
@@ -139,7 +140,7 @@ class PIDController:
 
     @classmethod
     def from_params(cls, params: ServoCylinderParams | None = None, *, zeta_h: float = ZETA_H,
-                    error_scale: float = 0.01, **kwargs: Any) -> "PIDController":
+                    error_scale: float = 0.01, **kwargs: Any) -> PIDController:
         """Tuned by :func:`pid_tuning` for ``params`` (default: nominal)."""
         p = params if params is not None else ServoCylinderParams()
         t = pid_tuning(p, zeta_h)
@@ -215,7 +216,7 @@ class PIDFrictionFeedforwardController(PIDController):
 
     @classmethod
     def from_params(cls, params: ServoCylinderParams | None = None, *, zeta_h: float = ZETA_H,
-                    error_scale: float = 0.01, model: Any = None, **kwargs: Any) -> "PIDFrictionFeedforwardController":
+                    error_scale: float = 0.01, model: Any = None, **kwargs: Any) -> PIDFrictionFeedforwardController:
         p = params if params is not None else ServoCylinderParams()
         t = pid_tuning(p, zeta_h)
         return cls(t["kp"], t["ti"], t["td"], t["tf"], stroke=p.stroke, error_scale=error_scale,
@@ -227,3 +228,74 @@ class PIDFrictionFeedforwardController(PIDController):
 
     def feedforward(self, obs: np.ndarray) -> np.ndarray:
         return np.asarray(self.compensator.action(self.reference_velocity(obs)), dtype=float)
+
+
+class ServoFlowController:
+    r"""Model-based nonlinear controller: velocity feedforward through the inverse orifice law
+    with measured load-pressure feedback (flow feedback linearisation, 002 eqs (3)-(7)).
+
+    Desired piston velocity (outer PI loop on the position error, same crossover as the PID)::
+
+        v_d = v_ref + omega_c e + I,   I_{k+1} = I_k + dt omega_c / T_i e_k   (frozen in saturation)
+        v_ref = (r(t + 10 ms) - r(t)) / 10 ms          (reference preview, obs[1..2])
+
+    Inner loop: the valve opening that delivers ``v_d`` at the *measured* load pressure
+    ``p_L = p1 - p2`` (obs[8..9] times the nominal supply), i.e. the steady-state orifice law of
+    :func:`identification.compensators.valve_command` with the friction force replaced by the
+    measured ``A p_L`` -- this linearises the pressure dependence of the flow gain (002 eq (3):
+    ``Q = C_v w x_v sqrt(2 dp / rho)``) whatever the friction or load is::
+
+        u = v_d A / (k_v C_v w sqrt((p_s - p_R - sgn(v_d) p_L) / rho)),   a = u / u_max
+
+    The edge drop is floored at 5 % of ``p_s - p_R`` (near stall the inverse gain would blow up).
+    Designed on the nominal parameters (``params``); nominal ``omega_c = 49.8 1/s``,
+    ``T_i = 80 ms`` (:func:`pid_tuning`).
+    """
+
+    obs_dim = 11
+    action_dim = 1
+
+    def __init__(self, params: ServoCylinderParams | None = None, *, zeta_h: float = ZETA_H,
+                 error_scale: float = 0.01, dt: float = DT) -> None:
+        p = params if params is not None else ServoCylinderParams()
+        t = pid_tuning(p, zeta_h)
+        self.params = p
+        self.omega_c = t["omega_c"]
+        self.ti = t["ti"]
+        self.error_scale = float(error_scale)
+        self.dt = float(dt)
+        self.half = 0.5 * p.stroke
+        self._gain = p.spool_gain * p.discharge_coefficient * p.area_gradient * math.sqrt(2.0 / p.oil_density)
+        self._n = -1
+        self.reset()
+
+    def reset(self, n: int | None = None) -> None:
+        self._n = -1 if n is None else int(n)
+        self.integral = np.zeros(max(self._n, 0))
+
+    def predict(self, obs, state=None, episode_start=None, deterministic=True):
+        obs = np.asarray(obs, dtype=np.float64)
+        single = obs.ndim == 1
+        o = obs[None, :] if single else obs
+        if o.ndim != 2 or o.shape[1] != self.obs_dim:
+            raise ValueError(f"obs must have shape (11,) or (n, 11), got {obs.shape}")
+        n = o.shape[0]
+        if n != self._n:
+            self.reset(n)
+        if episode_start is not None:
+            mask = np.broadcast_to(np.asarray(episode_start, dtype=bool).reshape(-1), (n,))
+            self.integral[mask] = 0.0
+        p = self.params
+        e = o[:, 0] * self.error_scale
+        v_ref = self.half * (o[:, 2] - o[:, 1]) / PREVIEW_DT
+        v_d = v_ref + self.omega_c * e + self.integral
+        p_l = (o[:, 8] - o[:, 9]) * p.supply_pressure
+        drop = np.maximum(p.supply_pressure - p.tank_pressure - np.sign(v_d) * p_l,
+                          0.05 * (p.supply_pressure - p.tank_pressure))
+        u = v_d * p.piston_area / (self._gain * np.sqrt(0.5 * drop))
+        v_cmd = u / p.command_max
+        a = np.clip(v_cmd, -1.0, 1.0)
+        grow = (a == v_cmd) | (np.sign(e) != np.sign(v_cmd))
+        self.integral = self.integral + np.where(grow, self.dt * self.omega_c / self.ti * e, 0.0)
+        act = a.astype(np.float32)[:, None]
+        return (act[0] if single else act), state

@@ -1,0 +1,854 @@
+r"""Benchmark classical and learned controllers on frozen, seeded parameter draws (issue 7, item 3).
+
+``run_benchmark(env_id, controllers, params, n, seed)`` evaluates every controller on the SAME
+``n`` episodes: the plant parameters are drawn once (:func:`draw_parameters`) and passed to
+every copy with ``reset(options={"params": ...})``; copy ``i`` is reset with seed ``seed + i``,
+so its reference, initial state and sensor noise are identical for every controller.
+
+Parameter sets (``params``):
+
+* ``nominal``: no randomisation (the nominal plant; episodes differ in reference/initial state);
+* ``in``: the env's training randomisation (``configs/randomization/<plant>.yaml``);
+* ``out``: every randomised parameter drawn from the *outside* of its training range: the range
+  widened by ``OUT_FACTOR`` = 2 about its centre
+  (:meth:`hydro_envs.randomization.RandomizationSpec.widened`, log centre for log-uniform),
+  minus the training range itself; draws that are not valid parameter sets are redrawn.
+
+Per episode (true, noise-free signals after each step):
+
+* ``rmse``, ``max_error`` of the tracked quantity (position [m], acceleration [m/s^2],
+  force [N], velocity [m/s]) against the reference;
+* ``overshoot`` [%] and ``settling_time`` [s] on a step reference (:func:`step_metrics`; a
+  second episode set with the env's step reference kind, see :data:`ADAPTERS`; the shaking
+  table has no step reference: n/a);
+* ``effort``: RMS of the action (all action components, env units [-1, 1]);
+* ``pressure_violations``: steps at which a chamber/line pressure lies outside
+  ``[pressure_floor, 1.25 p_supply]`` (LoadSensing: ``[floor, relief]``) plus guard clamps;
+* ``endstop_steps``: steps with the position outside the stroke (on the end-stop contact);
+* ``failed``: non-finite state or action, or RMSE not better than holding the output at its
+  initial value (``rmse >= rms(ref - y_0)``);
+* ``rmse_rel_pid``: the episode's RMSE over the classical PID's RMSE on the same draw and
+  episode (paired; only when ``pid`` is among the controllers). The episodes mix reference
+  kinds, so the RMSE spread between episodes is large; the paired ratio removes it.
+
+Aggregates per controller: mean with a 95 % Student-t interval, failure rate with a Wilson
+interval, CVaR-10 % of the RMSE (mean of the worst ``ceil(0.1 n)`` episodes) with a seeded
+percentile-bootstrap interval.
+
+Learned agents: a controller spec ``sb3:RUN_DIR`` (or ``NAME=sb3:RUN_DIR``) is loaded with
+``agents.policies.load_trained(RUN_DIR)``; several specs with the same name (default: the run
+folder name without a trailing ``_s<k>`` / ``_seed<k>``) are different training seeds, pooled
+into one row (``n`` = draws x seeds).
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import dataclasses
+import math
+import re
+import sys
+import time
+from collections.abc import Callable, Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+__all__ = [
+    "ADAPTERS",
+    "METRICS",
+    "OUT_FACTOR",
+    "PARAM_SETS",
+    "BenchmarkResult",
+    "add_cli",
+    "bootstrap_ci",
+    "cvar",
+    "draw_parameters",
+    "main",
+    "mean_ci",
+    "rollout",
+    "run_benchmark",
+    "step_metrics",
+    "wilson_ci",
+]
+
+PARAM_SETS = ("nominal", "in", "out")
+OUT_FACTOR = 2.0
+PRESSURE_MAX_FACTOR = 1.25
+SERIAL_BELOW = 256  # copies: below this the batch is stepped by the serial kernel
+#: (key, label) of the reported metrics, in table order
+METRICS = (
+    ("rmse", "RMSE"),
+    ("max_error", "max error"),
+    ("overshoot", "overshoot [%]"),
+    ("settling_time", "settling [s]"),
+    ("effort", "effort (RMS a)"),
+    ("pressure_violations", "pressure viol. [steps]"),
+    ("endstop_steps", "end-stop [steps]"),
+    ("failed", "failure rate"),
+    ("cvar10_rmse", "CVaR10 RMSE"),
+    ("rmse_rel_pid", "RMSE / PID (paired)"),
+)
+PAIRED_REFERENCE = "pid"
+
+
+# ------------------------------------------------------------------ env adapters
+@dataclasses.dataclass(frozen=True)
+class EnvAdapter:
+    """What the benchmark needs to know about one env (true output, limits, step reference)."""
+
+    env_id: str
+    quantity: str
+    unit: str
+    step_reference: str | None  # kind name of the env's step reference, None: not available
+    settle_abs: float  # absolute floor of the settling band [unit]
+    output: Callable[[Any], tuple[np.ndarray, np.ndarray]]  # batch -> (y, ref) after a step
+    pressures: Callable[[Any], tuple[np.ndarray, np.ndarray, np.ndarray]] | None  # (p (n,k), lo, hi)
+    outside_stroke: Callable[[Any], np.ndarray] | None
+    note: str = ""
+
+
+def _ref_now(b) -> np.ndarray:
+    k = np.minimum(b.K, b.REF.shape[1] - 1)
+    return b.REF[np.arange(b.n), k]
+
+
+def _cyl_output(b):
+    return b.Y[:, b.position_index].copy(), _ref_now(b)
+
+
+def _cyl_pressures(b):
+    ip1, ip2 = b.pressure_indices
+    p = b.Y[:, [ip1, ip2]]
+    names = b.params_cls.names()
+    floor = b.P[:, names.index("pressure_floor")]
+    ps = b.P[:, names.index("supply_pressure")]
+    return p, floor, PRESSURE_MAX_FACTOR * ps
+
+
+def _cyl_stroke(b):
+    x = b.Y[:, b.position_index]
+    return (x < 0.0) | (x > b.P[:, b.stroke_index])
+
+
+def _table_output(b):
+    from hydro_envs.plants.shaking_table import table_acceleration
+
+    a = np.array([table_acceleration(b.Y[i], b.P[i]) for i in range(b.n)])
+    return a, _ref_now(b)
+
+
+def _table_pressures(b):
+    from hydro_envs.plants import shaking_table as st
+
+    return b.Y[:, [st.PA, st.PB]], b.P[:, st.I_PFLOOR], PRESSURE_MAX_FACTOR * b.P[:, st.I_PS]
+
+
+def _table_stroke(b):
+    from hydro_envs.plants import shaking_table as st
+
+    return np.abs(b.Y[:, st.X]) > 0.5 * b.P[:, st.I_L]
+
+
+def _force_output(b):
+    from hydro_envs.plants import force_actuator as fa
+
+    return b.P[:, fa.I_KS] * b.Y[:, fa.XS], _ref_now(b)
+
+
+def _ls_output(b):
+    from hydro_envs.plants import ls_circuit as ls
+
+    return b.Y[:, ls.VA].copy(), _ref_now(b)
+
+
+def _ls_pressures(b):
+    from hydro_envs.plants import ls_circuit as ls
+
+    names = b.params_cls.names()
+    floor = b.P[:, names.index("pressure_floor")]
+    relief = b.P[:, names.index("relief_pressure")]
+    return b.Y[:, [ls.PS, ls.PL]], floor, relief
+
+
+def _ls_stroke(b):
+    from hydro_envs.plants import ls_circuit as ls
+
+    names = b.params_cls.names()
+    x = b.Y[:, ls.XA]
+    return (x < 0.0) | (x > b.P[:, names.index("stroke")])
+
+
+ADAPTERS: dict[str, EnvAdapter] = {
+    "hydro_envs/ServoCylinderPosition-v0": EnvAdapter(
+        "hydro_envs/ServoCylinderPosition-v0", "position", "m", "steps", 1e-4, _cyl_output, _cyl_pressures,
+        _cyl_stroke),
+    "hydro_envs/RodlessCylinder-v0": EnvAdapter(
+        "hydro_envs/RodlessCylinder-v0", "position", "m", "steps", 2e-4, _cyl_output, _cyl_pressures, _cyl_stroke),
+    "hydro_envs/ShakingTable-v0": EnvAdapter(
+        "hydro_envs/ShakingTable-v0", "acceleration", "m/s^2", None, 0.05, _table_output, _table_pressures,
+        _table_stroke, note="no step reference: the table tracks accelerations of feasible motions "
+                            "(sine, pulse, transition, earthquake); overshoot/settling n/a"),
+    "hydro_envs/ForceActuator-v0": EnvAdapter(
+        "hydro_envs/ForceActuator-v0", "force", "N", "square", 5.0, _force_output, None, None,
+        note="steps = the 001 square references (50/200/800 N); piston locked and no chamber "
+             "pressures in the state: pressure/end-stop columns n/a"),
+    "hydro_envs/LoadSensing-v0": EnvAdapter(
+        "hydro_envs/LoadSensing-v0", "velocity", "m/s", "steps", 2e-3, _ls_output, _ls_pressures, _ls_stroke,
+        note="pressure limits: pump and load pressure within [floor, relief]"),
+}
+
+
+def _adapter(env_id: str) -> EnvAdapter:
+    if env_id not in ADAPTERS:
+        raise ValueError(f"env = {env_id!r}; the benchmark supports {sorted(ADAPTERS)}")
+    return ADAPTERS[env_id]
+
+
+def _vector_env(env_id: str, n: int, steps: int | None, randomize: bool, **kwargs: Any):
+    import gymnasium as gym
+    from gymnasium.envs.registration import load_env_creator
+
+    import hydro_envs  # noqa: F401  (registers the envs)
+
+    spec = gym.spec(env_id)
+    cls = load_env_creator(spec.vector_entry_point)
+    if steps is None:
+        steps = spec.max_episode_steps
+    return cls(num_envs=n, max_episode_steps=int(steps), randomize=randomize, **kwargs)
+
+
+# ------------------------------------------------------------------ parameter draws
+def draw_parameters(env_id: str, params: str, n: int, seed: int = 0,
+                    factor: float = OUT_FACTOR) -> list[dict[str, float]]:
+    """``n`` frozen parameter draws (dicts of the randomised parameters; ``{}`` = nominal).
+
+    ``params`` in :data:`PARAM_SETS`. The draws come from ``default_rng([seed, 7])``, so they
+    do not depend on the controllers, the episode seeds or the reference.
+    """
+    if params not in PARAM_SETS:
+        raise ValueError(f"params = {params!r}; allowed {PARAM_SETS}")
+    if not (isinstance(n, (int, np.integer)) and n >= 1):
+        raise ValueError(f"n must be an integer >= 1, got {n!r}")
+    if params == "nominal":
+        return [{} for _ in range(n)]
+    if not (math.isfinite(factor) and factor > 1.0):
+        raise ValueError(f"factor must be > 1, got {factor}")
+    venv = _vector_env(env_id, 1, None, True)
+    batch = venv._batch
+    spec, base = batch.spec, batch.base_params
+    venv.close()
+    if spec is None or not spec.entries:
+        raise ValueError(f"params = {params!r}: {env_id} has no randomisation spec; use 'nominal'")
+    rng = np.random.default_rng([int(seed), 7])
+    out: list[dict[str, float]] = []
+    wide = spec.widened(factor)
+    attempts = 0
+    while len(out) < n:
+        attempts += 1
+        if attempts > 1000 * n:
+            raise RuntimeError(f"could not draw {n} valid '{params}' parameter sets for {env_id}")
+        if params == "in":
+            p = spec.sample(rng, base)
+            out.append({e.name: float(getattr(p, e.name)) for e in spec.entries})
+            continue
+        values = {}
+        for e, w in zip(spec.entries, wide.entries):
+            nom = getattr(base, e.name)
+            lo, hi = e.value_range(nom)
+            for _ in range(1000):
+                v = w.sample(rng, nom)
+                if v < lo or v > hi:
+                    break
+            values[e.name] = float(v)
+        try:
+            batch.params_cls.from_mapping(values, base=base)
+            batch.substeps_for(batch.params_cls.from_mapping(values, base=base))
+        except (ValueError, ZeroDivisionError, OverflowError):
+            continue
+        out.append(values)
+    return out
+
+
+# ------------------------------------------------------------------ metrics
+def step_metrics(y: np.ndarray, r: np.ndarray, dt: float, *, settle_frac: float = 0.02,
+                 settle_abs: float = 0.0, min_step: float | None = None) -> tuple[float, float, int]:
+    """Mean overshoot [%] and settling time [s] over the reference jumps of one episode.
+
+    A jump at index ``j`` (``r[j] != r[j-1]`` by more than ``min_step``, default 10 % of the
+    reference's range) starts a segment that ends at the next jump. Overshoot =
+    ``max(0, max_seg sgn(D) (y - r_new)) / |D| * 100``; settling time = time from the jump to
+    the first sample after which ``|y - r_new|`` stays within ``max(settle_frac |D|,
+    settle_abs)`` until the segment ends (a segment that ends outside the band counts its whole
+    length: a lower bound). Returns ``(overshoot, settling, n_jumps)``; NaNs without jumps.
+    """
+    y = np.asarray(y, dtype=float)
+    r = np.asarray(r, dtype=float)
+    if min_step is None:
+        span = float(np.max(r) - np.min(r))
+        min_step = 0.1 * span if span > 0 else np.inf
+    d = np.diff(r)
+    jumps = np.flatnonzero(np.abs(d) > min_step) + 1
+    if jumps.size == 0:
+        return float("nan"), float("nan"), 0
+    ends = np.append(jumps[1:], r.size)
+    overs, settles = [], []
+    for j, end in zip(jumps, ends):
+        delta = r[j] - r[j - 1]
+        seg = y[j:end] - r[j]
+        overs.append(max(0.0, float(np.max(np.sign(delta) * seg))) / abs(delta) * 100.0)
+        band = max(settle_frac * abs(delta), settle_abs)
+        outside = np.flatnonzero(np.abs(seg) > band)
+        settles.append(0.0 if outside.size == 0 else (outside[-1] + 1) * dt)
+    return float(np.mean(overs)), float(np.mean(settles)), int(jumps.size)
+
+
+def cvar(values: Sequence[float], alpha: float = 0.1) -> float:
+    """Upper-tail CVaR: mean of the worst ``ceil(alpha n)`` values (NaNs ignored)."""
+    v = np.asarray(values, dtype=float)
+    v = v[np.isfinite(v)]
+    if v.size == 0:
+        return float("nan")
+    k = max(1, math.ceil(alpha * v.size - 1e-12))
+    return float(np.mean(np.sort(v)[::-1][:k]))
+
+
+def mean_ci(values: Sequence[float], level: float = 0.95) -> tuple[float, float, float]:
+    """Mean and Student-t interval (NaNs ignored; one value: zero-width)."""
+    from scipy import stats
+
+    v = np.asarray(values, dtype=float)
+    v = v[np.isfinite(v)]
+    if v.size == 0:
+        return float("nan"), float("nan"), float("nan")
+    m = float(np.mean(v))
+    if v.size == 1:
+        return m, m, m
+    h = float(stats.t.ppf(0.5 + level / 2, v.size - 1) * np.std(v, ddof=1) / math.sqrt(v.size))
+    return m, m - h, m + h
+
+
+def wilson_ci(k: int, n: int, level: float = 0.95) -> tuple[float, float, float]:
+    """Proportion ``k/n`` with its Wilson score interval."""
+    from scipy import stats
+
+    if n == 0:
+        return float("nan"), float("nan"), float("nan")
+    z = float(stats.norm.ppf(0.5 + level / 2))
+    p = k / n
+    den = 1 + z * z / n
+    c = (p + z * z / (2 * n)) / den
+    h = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / den
+    lo = 0.0 if k == 0 else max(0.0, c - h)
+    hi = 1.0 if k == n else min(1.0, c + h)
+    return p, lo, hi
+
+
+def bootstrap_ci(values: Sequence[float], stat: Callable[[np.ndarray], float], *, level: float = 0.95,
+                 n_boot: int = 2000, seed: int = 0) -> tuple[float, float, float]:
+    """Statistic and its seeded percentile-bootstrap interval."""
+    v = np.asarray(values, dtype=float)
+    v = v[np.isfinite(v)]
+    if v.size == 0:
+        return float("nan"), float("nan"), float("nan")
+    s = stat(v)
+    rng = np.random.default_rng(seed)
+    boots = np.array([stat(v[rng.integers(0, v.size, v.size)]) for _ in range(n_boot)])
+    lo, hi = np.percentile(boots, [50 * (1 - level), 50 * (1 + level)])
+    return float(s), float(min(lo, s)), float(max(hi, s))
+
+
+# ------------------------------------------------------------------ rollout
+@dataclasses.dataclass
+class Rollout:
+    """Per-step true output, reference and action of a batch, plus per-copy counters."""
+
+    y: np.ndarray  # (steps, n)
+    ref: np.ndarray  # (steps, n)
+    actions: np.ndarray  # (steps, n, action_dim)
+    pressure_violations: np.ndarray  # (n,)
+    endstop_steps: np.ndarray  # (n,)
+    nonfinite: np.ndarray  # (n,) bool
+    params: np.ndarray  # (n, n_params) parameter arrays after reset
+    dt: float
+
+
+def rollout(env_id: str, controller: Any, draws: Sequence[Mapping[str, float]], *, seed: int = 0,
+            reference: str | None = None, steps: int | None = None,
+            env_kwargs: Mapping[str, Any] | None = None) -> Rollout:
+    """Run ``controller`` on ``len(draws)`` copies of the native vector env: copy ``i`` has the
+    parameters ``draws[i]`` and is reset with seed ``seed + i`` (and ``reference`` if given)."""
+    ad = _adapter(env_id)
+    n = len(draws)
+    venv = _vector_env(env_id, n, steps, False, **dict(env_kwargs or {}))
+    b = venv._batch
+    # a few dozen copies: the serial kernel (entering numba's parallel region costs more than
+    # stepping 20 copies, 8 ms vs 0.1 ms per step on a loaded 2-core machine)
+    b.parallel = n >= SERIAL_BELOW
+    steps = venv.max_episode_steps
+    for i, d in enumerate(draws):
+        mask = np.zeros(n, dtype=bool)
+        mask[i] = True
+        opts: dict[str, Any] = {"reset_mask": mask}
+        if d:
+            opts["params"] = dict(d)
+        if reference is not None:
+            opts["reference"] = reference
+        obs, _ = venv.reset(seed=int(seed), options=opts)
+    params = b.P.copy()
+    adim = b.action_dim
+    Y = np.zeros((steps, n))
+    R = np.zeros((steps, n))
+    A = np.zeros((steps, n, adim))
+    pv = np.zeros(n)
+    es = np.zeros(n)
+    bad = np.zeros(n, dtype=bool)
+    start = np.ones(n, dtype=bool)
+    clamps0 = b.clamps.copy()
+    for k in range(steps):
+        obs_in = np.where(np.isfinite(obs), obs, 0.0)
+        a, _ = controller.predict(obs_in, episode_start=start.copy(), deterministic=True)
+        start[:] = False
+        a = np.asarray(a, dtype=np.float64).reshape(n, adim)
+        fin = np.all(np.isfinite(a), axis=1)
+        bad |= ~fin
+        a = np.where(np.isfinite(a), a, 0.0)
+        obs, _, _, _, _ = venv.step(a)
+        y, r = ad.output(b)
+        Y[k], R[k], A[k] = y, r, np.clip(a, -1, 1)
+        bad |= ~np.isfinite(y) | ~np.all(np.isfinite(b.Y), axis=1)
+        if ad.pressures is not None:
+            p, lo, hi = ad.pressures(b)
+            pv += np.any((p <= lo[:, None] * (1 + 1e-9)) | (p > hi[:, None]), axis=1)
+        if ad.outside_stroke is not None:
+            es += ad.outside_stroke(b)
+    if ad.pressures is not None:
+        pv += b.clamps - clamps0
+    else:
+        pv[:] = np.nan
+    if ad.outside_stroke is None:
+        es[:] = np.nan
+    dt = float(b.dt)
+    venv.close()
+    return Rollout(Y, R, A, pv, es, bad, params, dt)
+
+
+def episode_metrics(track: Rollout, step: Rollout | None, adapter: EnvAdapter) -> dict[str, np.ndarray]:
+    """Per-episode metrics (see the module docstring) from a tracking and a step rollout."""
+    e = track.ref - track.y
+    with np.errstate(invalid="ignore"):
+        rmse = np.sqrt(np.mean(e**2, axis=0))
+        max_err = np.max(np.abs(e), axis=0)
+        hold = np.sqrt(np.mean((track.ref - track.y[0][None, :]) ** 2, axis=0))
+    effort = np.sqrt(np.mean(track.actions**2, axis=(0, 2)))
+    failed = track.nonfinite | ~np.isfinite(rmse) | (rmse >= hold)
+    n = rmse.size
+    over = np.full(n, np.nan)
+    settle = np.full(n, np.nan)
+    if step is not None:
+        for i in range(n):
+            if step.nonfinite[i]:
+                continue
+            over[i], settle[i], _ = step_metrics(step.y[:, i], step.ref[:, i], step.dt,
+                                                 settle_abs=adapter.settle_abs)
+        failed = failed | step.nonfinite
+    return {"rmse": np.where(track.nonfinite, np.nan, rmse), "max_error": np.where(track.nonfinite, np.nan, max_err),
+            "overshoot": over, "settling_time": settle, "effort": effort,
+            "pressure_violations": track.pressure_violations + (step.pressure_violations if step is not None else 0),
+            "endstop_steps": track.endstop_steps + (step.endstop_steps if step is not None else 0),
+            "failed": failed.astype(float)}
+
+
+def summarize(episodes: Mapping[str, np.ndarray], seed: int = 0) -> dict[str, tuple[float, float, float, int]]:
+    """Metric -> (value, ci_lo, ci_hi, n) for one controller."""
+    out = {}
+    for key, _ in METRICS:
+        if key == "cvar10_rmse":
+            v = episodes["rmse"]
+            # a failed (non-finite) episode counts as the worst
+            v = np.where(np.isfinite(v), v, np.inf) if np.isfinite(v).any() else v
+            fin = v[np.isfinite(v)]
+            if np.isinf(v).any():
+                out[key] = (float("inf"), float("inf"), float("inf"), int(v.size))
+            else:
+                s, lo, hi = bootstrap_ci(fin, cvar, seed=seed)
+                out[key] = (s, lo, hi, int(fin.size))
+        elif key == "failed":
+            f = episodes["failed"]
+            p, lo, hi = wilson_ci(int(np.sum(f > 0.5)), int(f.size))
+            out[key] = (p, lo, hi, int(f.size))
+        else:
+            v = episodes.get(key, np.full(1, np.nan))
+            m, lo, hi = mean_ci(v)
+            out[key] = (m, lo, hi, int(np.isfinite(v).sum()))
+    return out
+
+
+# ------------------------------------------------------------------ controllers
+_SEED_SUFFIX = re.compile(r"[_-](s|seed)\d+$")
+
+
+def _load_policy(run_dir: str) -> Any:
+    """``agents.policies.load_trained(run_dir)`` (imported lazily: training is optional)."""
+    try:
+        from agents.policies import load_trained
+    except ImportError as exc:  # pragma: no cover - depends on the training package
+        raise ValueError(f"controller 'sb3:{run_dir}' needs agents.policies.load_trained: {exc}") from exc
+    return load_trained(run_dir)
+
+
+def _checked_policy(policy: Any, run_dir: str, env_id: str) -> Any:
+    """Reject a trained policy of another env (``policy.env_id`` when it has one)."""
+    trained_on = getattr(policy, "env_id", "")
+    if isinstance(trained_on, str) and trained_on and trained_on != env_id:
+        raise ValueError(f"controllers: sb3:{run_dir} was trained on {trained_on}, not on {env_id}")
+    if not hasattr(policy, "predict"):
+        raise ValueError(f"controllers: sb3:{run_dir} loaded an object without predict()")
+    return policy
+
+
+def parse_controllers(env_id: str, specs: Sequence[str] | str) -> list[tuple[str, str, str | None]]:
+    """``[(name, kind, payload)]`` (payload: classical name or run folder) from specs: classical names, ``sb3:RUN_DIR`` or
+    ``NAME=sb3:RUN_DIR``. Unknown names raise naming the allowed ones."""
+    from agents.controllers import controller_names
+
+    if isinstance(specs, str):
+        specs = [s for s in specs.split(",")]
+    specs = [s.strip() for s in specs if s and s.strip()]
+    if not specs:
+        raise ValueError("controllers must name at least one controller")
+    allowed = controller_names(env_id)
+    out = []
+    for s in specs:
+        name = None
+        body = s
+        if "=" in s:
+            name, body = s.split("=", 1)
+        if body.startswith("sb3:"):
+            run = body[4:]
+            if not run:
+                raise ValueError(f"controller spec {s!r}: 'sb3:' needs a run folder")
+            label = name or _SEED_SUFFIX.sub("", Path(run.rstrip("/")).name) or "sb3"
+            out.append((label, "sb3", run))
+        else:
+            if body not in allowed:
+                raise ValueError(f"controllers: unknown controller {body!r} for {env_id}; allowed "
+                                 f"{', '.join(allowed)} or sb3:RUN_DIR")
+            out.append((name or body, "classical", body))
+    return out
+
+
+# ------------------------------------------------------------------ benchmark
+@dataclasses.dataclass
+class BenchmarkResult:
+    env_id: str
+    params: str
+    n: int
+    seed: int
+    draws: list[dict[str, float]]
+    episodes: dict[str, dict[str, np.ndarray]]  # controller -> metric -> per-episode values
+    summary: dict[str, dict[str, tuple[float, float, float, int]]]
+    members: dict[str, int]  # controller -> number of policies pooled (training seeds)
+    param_arrays: dict[str, np.ndarray]  # controller -> (n, n_params) parameters used
+    traces: dict[str, tuple[np.ndarray, np.ndarray]]  # controller -> (y, ref) of draw 0
+    dt: float
+    files: list[Path] = dataclasses.field(default_factory=list)
+    seconds: float = 0.0
+
+    def markdown(self) -> str:
+        ad = ADAPTERS[self.env_id]
+        lines = [f"### {self.env_id}: params = {self.params}, n = {self.n} draws, seed = {self.seed}", ""]
+        lines.append(f"Tracked quantity: {ad.quantity} [{ad.unit}]; RMSE, max error and CVaR in {ad.unit}. "
+                     "Values: mean [95 % CI].")
+        if ad.note:
+            lines.append(f"Note: {ad.note}.")
+        lines.append("")
+        head = ["controller"] + [lab for _, lab in METRICS]
+        lines.append("| " + " | ".join(head) + " |")
+        lines.append("|" + "---|" * len(head))
+        for c, s in self.summary.items():
+            label = c if self.members.get(c, 1) == 1 else f"{c} ({self.members[c]} seeds)"
+            cells = [label]
+            for key, _ in METRICS:
+                m, lo, hi, _ = s[key]
+                cells.append("n/a" if not np.isfinite(m) and not np.isinf(m) else f"{_fmt(m)} [{_fmt(lo)}, {_fmt(hi)}]")
+            lines.append("| " + " | ".join(cells) + " |")
+        return "\n".join(lines) + "\n"
+
+
+def _fmt(x: float) -> str:
+    if not np.isfinite(x):
+        return "inf" if np.isinf(x) else "n/a"
+    if x == 0:
+        return "0"
+    return f"{x:.3g}"
+
+
+def run_benchmark(
+    env_id: str,
+    controllers: Sequence[str] | str,
+    params: str = "nominal",
+    n: int = 20,
+    seed: int = 0,
+    out_dir: str | Path | None = None,
+    *,
+    episode_steps: int | None = None,
+    reference: str | None = None,
+    step_reference: str | None = "auto",
+    figures: bool = True,
+    policy_loader: Callable[[str], Any] | None = None,
+    env_kwargs: Mapping[str, Any] | None = None,
+    progress: Callable[[str], None] | None = None,
+) -> BenchmarkResult:
+    """Evaluate ``controllers`` on ``n`` frozen draws of the ``params`` set (module docstring).
+
+    ``episode_steps`` (default: the env's registered length), ``reference`` (tracking
+    reference kind; default the env's default), ``step_reference`` (``"auto"``: the env's step
+    kind from :data:`ADAPTERS`; ``None``: skip the step episodes). Writes
+    ``<plant>_<params>.md``, ``.csv``, ``_episodes.csv``, ``_draws.csv`` and (``figures``)
+    ``_box.png``, ``_traces.png`` to ``out_dir`` if given.
+    """
+    t0 = time.perf_counter()
+    ad = _adapter(env_id)
+    if params not in PARAM_SETS:
+        raise ValueError(f"params = {params!r}; allowed {PARAM_SETS}")
+    specs = parse_controllers(env_id, controllers)
+    draws = draw_parameters(env_id, params, n, seed)
+    step_kind = ad.step_reference if step_reference == "auto" else step_reference
+    loader = policy_loader or _load_policy
+    say = progress or (lambda msg: None)
+    from agents.controllers import make_controller
+
+    episodes: dict[str, dict[str, list[np.ndarray]]] = {}
+    members: dict[str, int] = {}
+    param_arrays: dict[str, np.ndarray] = {}
+    traces: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+    dt = 0.0
+    for name, kind, run in specs:
+        say(f"{env_id} [{params}] {name}{'' if kind == 'classical' else ' <- ' + run} ...")
+        if kind == "classical":
+            ctrl_factory = (lambda body=run: make_controller(env_id, body))
+        else:
+            ctrl_factory = (lambda path=run: _checked_policy(loader(path), path, env_id))
+        ctrl = ctrl_factory()  # one object for both episode sets (episode_start resets its state)
+        if kind == "classical" and hasattr(ctrl, "reset"):
+            ctrl.reset()
+        track = rollout(env_id, ctrl, draws, seed=seed, reference=reference, steps=episode_steps,
+                        env_kwargs=env_kwargs)
+        step = None
+        if step_kind is not None:
+            if kind == "classical" and hasattr(ctrl, "reset"):
+                ctrl.reset()
+            step = rollout(env_id, ctrl, draws, seed=seed, reference=step_kind, steps=episode_steps,
+                           env_kwargs=env_kwargs)
+        m = episode_metrics(track, step, ad)
+        dt = track.dt
+        if name in episodes:
+            for k, v in m.items():
+                episodes[name][k].append(v)
+            members[name] += 1
+        else:
+            episodes[name] = {k: [v] for k, v in m.items()}
+            members[name] = 1
+            traces[name] = (track.y[:, 0].copy(), track.ref[:, 0].copy())
+        param_arrays.setdefault(name, track.params)
+        if not np.array_equal(param_arrays[name], track.params):  # pragma: no cover - invariant
+            raise RuntimeError("parameter draws differ between members of one controller")
+    pooled = {c: {k: np.concatenate(v) for k, v in d.items()} for c, d in episodes.items()}
+    if PAIRED_REFERENCE in pooled:
+        ref = pooled[PAIRED_REFERENCE]["rmse"][:n]
+        for c, d in pooled.items():  # paired: episode j of every member vs the PID's draw j % n
+            with np.errstate(divide="ignore", invalid="ignore"):
+                d["rmse_rel_pid"] = d["rmse"] / np.tile(ref, members[c])
+    summary = {c: summarize(v, seed) for c, v in pooled.items()}
+    res = BenchmarkResult(env_id, params, n, seed, draws, pooled, summary, members, param_arrays, traces, dt)
+    if out_dir is not None:
+        res.files = write_outputs(res, Path(out_dir), figures=figures)
+    res.seconds = time.perf_counter() - t0
+    return res
+
+
+# ------------------------------------------------------------------ outputs
+def _tag(env_id: str) -> str:
+    return {
+        "hydro_envs/ServoCylinderPosition-v0": "servo_cylinder",
+        "hydro_envs/ShakingTable-v0": "shaking_table",
+        "hydro_envs/ForceActuator-v0": "force_actuator",
+        "hydro_envs/LoadSensing-v0": "load_sensing",
+        "hydro_envs/RodlessCylinder-v0": "rodless_cylinder",
+    }.get(env_id, re.sub(r"[^A-Za-z0-9]+", "_", env_id))
+
+
+def write_outputs(res: BenchmarkResult, out_dir: Path, *, figures: bool = True) -> list[Path]:
+    out_dir.mkdir(parents=True, exist_ok=True)
+    stem = f"{_tag(res.env_id)}_{res.params}"
+    files = []
+    md = out_dir / f"{stem}.md"
+    md.write_text(res.markdown(), encoding="utf-8")
+    files.append(md)
+    p = out_dir / f"{stem}.csv"
+    with p.open("w", newline="", encoding="utf-8") as fh:
+        w = csv.writer(fh)
+        w.writerow(["env", "params", "controller", "seeds", "metric", "value", "ci_low", "ci_high", "n"])
+        for c, s in res.summary.items():
+            for key, _ in METRICS:
+                v, lo, hi, k = s[key]
+                w.writerow([res.env_id, res.params, c, res.members[c], key, repr(v), repr(lo), repr(hi), k])
+    files.append(p)
+    p = out_dir / f"{stem}_episodes.csv"
+    keys = [k for k, _ in METRICS if k != "cvar10_rmse"]
+    with p.open("w", newline="", encoding="utf-8") as fh:
+        w = csv.writer(fh)
+        w.writerow(["controller", "episode", "draw"] + keys)
+        for c, d in res.episodes.items():
+            for j in range(d["rmse"].size):
+                w.writerow([c, j, j % res.n] + [repr(float(d[k][j])) if k in d else "nan" for k in keys])
+    files.append(p)
+    p = out_dir / f"{stem}_draws.csv"
+    names = sorted({k for d in res.draws for k in d})
+    with p.open("w", newline="", encoding="utf-8") as fh:
+        w = csv.writer(fh)
+        w.writerow(["draw", "episode_seed"] + names)
+        for j, d in enumerate(res.draws):
+            w.writerow([j, res.seed + j] + [repr(d[k]) for k in names])
+    files.append(p)
+    if figures:
+        files += _figures(res, out_dir, stem)
+    return files
+
+
+def _figures(res: BenchmarkResult, out_dir: Path, stem: str) -> list[Path]:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    ad = ADAPTERS[res.env_id]
+    keys = [(k, lab) for k, lab in METRICS if k not in ("cvar10_rmse", "failed")]
+    keys = [(k, lab) for k, lab in keys if any(k in d and np.isfinite(d[k]).any() for d in res.episodes.values())]
+    names = list(res.episodes)
+    cols = 3
+    rows = math.ceil(len(keys) / cols)
+    fig, axes = plt.subplots(rows, cols, figsize=(9, 2.4 * rows), squeeze=False)
+    for ax, (k, lab) in zip(axes.ravel(), keys):
+        data = [res.episodes[c].get(k, np.zeros(0))[np.isfinite(res.episodes[c].get(k, np.zeros(0)))] for c in names]
+        ax.boxplot([d if d.size else [np.nan] for d in data], showfliers=True)
+        ax.set_xticks(range(1, len(names) + 1), names, rotation=30, fontsize=6)
+        unit = f" [{ad.unit}]" if k in ("rmse", "max_error") else ""
+        ax.set_title(lab + unit, fontsize=8)
+        ax.tick_params(labelsize=6)
+    for ax in axes.ravel()[len(keys):]:
+        ax.axis("off")
+    fig.suptitle(f"{res.env_id} ({res.params}, n={res.n})", fontsize=9)
+    fig.tight_layout()
+    box = out_dir / f"{stem}_box.png"
+    fig.savefig(box, dpi=70)
+    plt.close(fig)
+    fig, ax = plt.subplots(figsize=(7, 2.8))
+    t = res.dt * np.arange(1, next(iter(res.traces.values()))[0].size + 1)
+    ref = next(iter(res.traces.values()))[1]
+    ax.plot(t, ref, "k--", lw=1.0, label="reference")
+    for c, (y, _) in res.traces.items():
+        ax.plot(t, y, lw=0.7, label=c)
+    ax.set_xlabel("t [s]", fontsize=7)
+    ax.set_ylabel(f"{ad.quantity} [{ad.unit}]", fontsize=7)
+    ax.tick_params(labelsize=6)
+    ax.legend(fontsize=6, ncol=3)
+    ax.set_title(f"draw 0, episode seed {res.seed}", fontsize=8)
+    fig.tight_layout()
+    tr = out_dir / f"{stem}_traces.png"
+    fig.savefig(tr, dpi=70)
+    plt.close(fig)
+    return [box, tr]
+
+
+# ------------------------------------------------------------------ command line
+def add_cli(subparsers: Any) -> argparse.ArgumentParser:
+    """Register ``hydro benchmark`` on an argparse subparsers object."""
+    p = subparsers.add_parser(
+        "benchmark",
+        help="evaluate classical and learned controllers on frozen parameter draws",
+        description="Evaluate controllers on the same seeded parameter draws (nominal, the training "
+                    "ranges 'in', or outside them 'out') and write markdown/CSV tables and figures.",
+    )
+    p.add_argument("--config", metavar="FILE", help="YAML with env, controllers, n, params, episode_steps, ...")
+    p.add_argument("--env", metavar="ID", help="env id, e.g. hydro_envs/ServoCylinderPosition-v0")
+    p.add_argument("--controllers", metavar="LIST",
+                   help="comma-separated: classical names and/or sb3:RUN_DIR (NAME=sb3:RUN_DIR)")
+    p.add_argument("--params", metavar="SET", help="nominal|in|out, or a comma-separated list")
+    p.add_argument("--n", type=int, metavar="N", help="number of parameter draws (default 20)")
+    p.add_argument("--seed", type=int, metavar="S", help="seed of draws and episodes (default 0)")
+    p.add_argument("--out", metavar="DIR", help="output folder (tables, figures)")
+    p.add_argument("--steps", type=int, metavar="K", help="episode length in env steps")
+    p.add_argument("--policy", nargs="+", action="extend", metavar="RUN_DIR", default=[],
+                   help="trained run folder(s) (several training seeds pool by name)")
+    p.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
+    p.set_defaults(func=cli_benchmark)
+    return p
+
+
+_CONFIG_KEYS = {"env", "controllers", "n", "params", "episode_steps", "seed", "out", "reference",
+                "step_reference", "policies", "figures", "note"}
+
+
+def load_config(path: str | Path) -> dict[str, Any]:
+    import yaml
+
+    path = Path(path)
+    data = yaml.safe_load(path.read_text(encoding="utf-8"))
+    if not isinstance(data, dict):
+        raise ValueError(f"benchmark config {path}: top level must be a mapping")  # noqa: TRY004
+    extra = set(data) - _CONFIG_KEYS
+    if extra:
+        raise ValueError(f"benchmark config {path}: unknown key(s) {sorted(extra)}; allowed {sorted(_CONFIG_KEYS)}")
+    return data
+
+
+def cli_benchmark(args: argparse.Namespace) -> int:
+    cfg: dict[str, Any] = {}
+    try:
+        if args.config:
+            cfg = load_config(args.config)
+        env = args.env or cfg.get("env")
+        if not env:
+            raise ValueError("--env (or 'env' in --config) is required")
+        ctrls = args.controllers if args.controllers is not None else cfg.get("controllers", "pid")
+        ctrls = [c.strip() for c in (ctrls.split(",") if isinstance(ctrls, str) else ctrls) if str(c).strip()]
+        ctrls += [f"sb3:{r}" for r in list(cfg.get("policies") or []) + list(args.policy)]
+        psets = args.params if args.params is not None else cfg.get("params", "nominal")
+        psets = [s.strip() for s in (psets.split(",") if isinstance(psets, str) else psets)]
+        for s in psets:
+            if s not in PARAM_SETS:
+                raise ValueError(f"--params: {s!r} is not allowed; allowed {', '.join(PARAM_SETS)}")
+        n = args.n if args.n is not None else int(cfg.get("n", 20))
+        if n < 1:
+            raise ValueError(f"--n must be >= 1, got {n}")
+        seed = args.seed if args.seed is not None else int(cfg.get("seed", 0))
+        out = args.out or cfg.get("out")
+        steps = args.steps if args.steps is not None else cfg.get("episode_steps")
+        figures = (not args.no_figures) and bool(cfg.get("figures", True))
+        for s in psets:
+            res = run_benchmark(env, ctrls, s, n, seed, out, episode_steps=steps, reference=cfg.get("reference"),
+                                step_reference=cfg.get("step_reference", "auto"), figures=figures,
+                                progress=lambda msg: print(msg, file=sys.stderr, flush=True))
+            print(res.markdown())
+            print(f"({res.seconds:.1f} s)" + (f"; wrote {', '.join(str(f) for f in res.files)}" if res.files else ""))
+    except (ValueError, OSError) as e:
+        print(f"hydro: error: {e}", file=sys.stderr)
+        return 2
+    return 0
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """``python -m agents.benchmark [options]`` (the same options as ``hydro benchmark``)."""
+    sub = argparse.ArgumentParser().add_subparsers()
+    parser = add_cli(sub)
+    parser.prog = "python -m agents.benchmark"
+    args = parser.parse_args(sys.argv[1:] if argv is None else list(argv))
+    return int(args.func(args))
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())
