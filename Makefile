@@ -3,6 +3,7 @@
 #   make test      - default test suite (excludes tests marked slow)
 #   make test-all  - everything, including slow tests
 #   make bench     - performance and accuracy benchmarks (print numbers)
+#   make demo-diagnose - the diagnosis workflow finding hidden effects (issue 6)
 PYTHON ?= python3
 VENV ?= .venv
 PY := $(VENV)/bin/python
@@ -10,7 +11,7 @@ PY := $(VENV)/bin/python
 TORCH_SPEC ?= torch==2.13.0
 STAMP := $(VENV)/.installed
 
-.PHONY: install demo test test-all bench clean
+.PHONY: install demo demo-diagnose test test-all bench clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -22,6 +23,10 @@ install: $(STAMP)
 
 demo: $(STAMP)
 	$(VENV)/bin/hydro demo
+
+# issue 6: hide Stribeck friction (servo) and the modified-IFAS dip (shaking table), find them
+demo-diagnose: $(STAMP)
+	$(PY) -m identification.diagnosis.demo --out runs/diagnosis-demo
 
 test: $(STAMP)
 	$(PY) -m pytest -q

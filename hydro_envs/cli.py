@@ -116,7 +116,22 @@ def build_parser() -> argparse.ArgumentParser:
             raise
     else:
         add_identify_parser(sub)
+        from identification.diagnosis.cli import add_diagnose_parser
+
+        add_diagnose_parser(sub)
+    _add_benchmark_parser(sub)
     return parser
+
+
+def _add_benchmark_parser(sub: Any) -> None:
+    """`hydro benchmark ...` (agents/benchmark.py, imported here only when present)."""
+    try:
+        from agents.benchmark import add_cli
+    except ModuleNotFoundError as e:  # agents package not installed
+        if e.name not in ("agents", "agents.benchmark"):
+            raise
+    else:
+        add_cli(sub)
 
 
 def _cmd_demo(args: argparse.Namespace) -> int:

@@ -297,6 +297,11 @@ class _Problem:
         P[:, self.idx] = self.to_values(thetas)
         if self.tie is not None:
             self.tie(P)
+        cls = type(self.base)
+        nf = len(cls.names())
+        if P.shape[1] > nf:  # derived kernel columns (e.g. viscosity-dependent c, R) follow the fields
+            for i in range(P.shape[0]):
+                P[i] = _unvalidated(cls, P[i, :nf]).to_array()
         return P
 
     def nsub(self, P: np.ndarray) -> int:
@@ -385,17 +390,30 @@ class _Problem:
         return np.where(np.isfinite(r), r, 1e6), n
 
 
+def _unvalidated(cls: type, row: np.ndarray) -> PhysicalParams:
+    """An instance of ``cls`` holding ``row`` without running its checks (a candidate may
+    violate a relation mid-fit); used only to recompute derived kernel columns."""
+    obj = object.__new__(cls)
+    for n_, v in zip(cls.names(), row):
+        object.__setattr__(obj, n_, float(v))
+    return obj
+
+
 class _RawParams:
     """Attribute access to a packed parameter row (for ``stiffness_modes`` of candidates that
     violate a cross-field relation)."""
 
     def __init__(self, names, row, base):
+        self._row = np.array(row, dtype=np.float64)
         for n_, v in zip(names, row):
             setattr(self, n_, float(v))
         for extra in ("mass",):
             if not hasattr(self, extra) and hasattr(base, extra):
                 if hasattr(self, "platform_mass"):
                     setattr(self, extra, self.platform_mass + self.specimen_mass)
+
+    def to_array(self) -> np.ndarray:
+        return self._row.copy()
 
 
 def _build_problem(base, fit, kernel_id, experiments, channels, sigma, log_scale, bounds,
@@ -502,9 +520,12 @@ def simulate_outputs(base: PhysicalParams, kernel_id: int, experiments, channels
     prob = _build_problem(base, names, kernel_id, experiments, channels, {k: 1.0 for k in (c.name for c in channels)},
                           False, {n: (-np.inf, np.inf) for n in names}, n_substeps)
     P = np.repeat(base.to_array()[None, :], len(values), axis=0)
+    nf = len(type(base).names())
     for i, v in enumerate(values):
         for k, x in v.items():
             P[i, type(base).index(k)] = x
+        if v and P.shape[1] > nf:  # derived kernel columns follow the overridden fields
+            P[i] = _unvalidated(type(base), P[i, :nf]).to_array()
     outs, _ = prob.outputs(P)
     return [[{k: o[k][i] for k in o} for o in outs] for i in range(len(values))]
 

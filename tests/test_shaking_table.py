@@ -631,7 +631,8 @@ def test_spaces_and_channels():
     assert o.shape == (OBS_DIM,) and o.dtype == np.float32 and np.all(np.isfinite(o.low))
     assert (o.low[7], o.high[7]) == (np.float32(-1.2), np.float32(1.2))
     assert o.high[8] == np.float32(ACCELEROMETER_RANGE / 10.0)
-    assert [(c.name, c.unit) for c in channels_for("shaking_table")] == [("u", "V"), ("x", "m"), ("a", "m/s^2")]
+    assert [(c.name, c.unit) for c in channels_for("shaking_table")] == [
+        ("u", "V"), ("x", "m"), ("a", "m/s^2"), ("pa", "Pa"), ("pb", "Pa")]
     env.reset(seed=0)
     ch = env.unwrapped.channel_values()
     assert list(ch) == ["u", "x", "a"] and ch["u"] == 0.0

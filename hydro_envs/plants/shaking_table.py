@@ -134,6 +134,8 @@ register_plant_channels(
         Channel("u", "V", "valve command (+-10 V = full spool stroke)"),
         Channel("x", "m", "table position from mid-stroke (potentiometer)"),
         Channel("a", "m/s^2", "table acceleration (accelerometer)"),
+        Channel("pa", "Pa", "chamber A pressure, absolute (transducer; not measured in 003)"),
+        Channel("pb", "Pa", "chamber B pressure, absolute (transducer; not measured in 003)"),
     ),
 )
 

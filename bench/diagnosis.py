@@ -1,0 +1,106 @@
+"""Diagnosis bench: hidden-effect confusion matrix, top-1 / none / shrink rates, and the time of
+the whole catalogue on one 20 s record (issue 6).
+
+    python bench/diagnosis.py [--plants slider,servo_cylinder,shaking_table] [--seeds 3]
+                              [--duration 8] [--max-effects 1] [--speed]
+
+For every plant, every applicable catalogue effect and ``--seeds`` seeds it draws the effect's
+parameters inside the catalogue's draw range, records closed-loop data with realistic sensor
+noise (identification.diagnosis.synthetic), runs the workflow from the base model and prints
+the confusion matrix (true effect x named effect) and the three rates:
+top-1 (hidden effect named first), none (effect-free data -> "none") and shrink (held-out
+NRMSE falls by >= 50 % when an effect is named).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the package, not bench/identification.py
+
+from identification.diagnosis import diagnose, effects_for  # noqa: E402
+from identification.diagnosis.synthetic import hidden_effect_records  # noqa: E402
+
+
+def run_case(plant: str, eff: str | None, seed: int, duration: float, max_effects: int) -> dict:
+    case = hidden_effect_records(plant, eff, seed, duration=duration)
+    t0 = time.perf_counter()
+    res = diagnose(plant, [case.fit], [case.holdout], base=case.base.params, max_effects=max_effects, maps=False)
+    named = res.effects[0]["name"] if res.effects else ("ambiguous" if res.verdict == "ambiguous" else "none")
+    shrink = (1 - res.effects[0]["nrmse_after"] / res.effects[0]["nrmse_before"]) if res.effects else float("nan")
+    return {"plant": plant, "true": eff or "none", "named": named, "shrink": shrink,
+            "seconds": time.perf_counter() - t0, "detail": res.ambiguous, "drawn": case.drawn}
+
+
+def matrix(plants, seeds, duration, max_effects, seed0=0):
+    rows = []
+    for plant in plants:
+        effs = [e.name for e in effects_for(plant, diagnosable_only=True)] + [None]
+        for eff in effs:
+            for s in range(seed0, seed0 + (seeds if eff else 2 * seeds)):
+                try:
+                    r = run_case(plant, eff, 1000 * (effs.index(eff) + 1) + s, duration, max_effects)
+                except Exception as err:  # noqa: BLE001 - a crash is a result of the bench, not its end
+                    r = {"plant": plant, "true": eff or "none", "named": "error", "shrink": float("nan"),
+                         "seconds": 0.0, "detail": f"{type(err).__name__}: {err}", "drawn": {}}
+                rows.append(r)
+                print(f"{plant:15s} {r['true']:20s} -> {r['named']:20s} shrink {r['shrink']:+.2f} "
+                      f"{r['seconds']:5.1f} s {r['detail']}", flush=True)
+    return rows
+
+
+def summary(rows) -> dict:
+    eff_rows = [r for r in rows if r["true"] != "none"]
+    none_rows = [r for r in rows if r["true"] == "none"]
+    named_rows = [r for r in rows if r["named"] not in ("none", "ambiguous")]
+    top1 = np.mean([r["named"] == r["true"] for r in eff_rows]) if eff_rows else float("nan")
+    none = np.mean([r["named"] == "none" for r in none_rows]) if none_rows else float("nan")
+    shrink = np.mean([r["shrink"] >= 0.5 for r in named_rows]) if named_rows else float("nan")
+    return {"top1": float(top1), "none": float(none), "shrink": float(shrink), "n_effect": len(eff_rows),
+            "n_none": len(none_rows), "n_named": len(named_rows)}
+
+
+def print_confusion(rows) -> None:
+    for plant in sorted({r["plant"] for r in rows}):
+        pr = [r for r in rows if r["plant"] == plant]
+        labels = [e.name for e in effects_for(plant, diagnosable_only=True)] + ["none"]
+        cols = labels + ["ambiguous"]
+        print(f"\nconfusion matrix, {plant} (rows: hidden effect, columns: named)")
+        w = max(len(c) for c in cols) + 1
+        print(" " * w + "".join(f"{c[:10]:>11s}" for c in cols))
+        for t in labels:
+            cnt = [sum(1 for r in pr if r["true"] == t and r["named"] == c) for c in cols]
+            print(f"{t:{w}s}" + "".join(f"{c:11d}" for c in cnt))
+
+
+def main(argv=None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--plants", default="slider,servo_cylinder,shaking_table")
+    ap.add_argument("--seeds", type=int, default=3)
+    ap.add_argument("--duration", type=float, default=8.0)
+    ap.add_argument("--max-effects", type=int, default=2)
+    ap.add_argument("--speed", action="store_true", help="also time the whole catalogue on one 20 s record")
+    a = ap.parse_args(argv)
+    rows = matrix(a.plants.split(","), a.seeds, a.duration, a.max_effects)
+    print_confusion(rows)
+    s = summary(rows)
+    print(f"\ntop-1 named: {s['top1']:.1%} of {s['n_effect']} hidden-effect cases (target >= 95 %)")
+    print(f"none on effect-free data: {s['none']:.1%} of {s['n_none']} (target >= 95 %)")
+    print(f"held-out NRMSE shrink >= 50 %: {s['shrink']:.1%} of {s['n_named']} named (target: all)")
+    print(f"mean time per case: {np.mean([r['seconds'] for r in rows]):.1f} s")
+    if a.speed:
+        for plant in a.plants.split(","):
+            case = hidden_effect_records(plant, None, 7, duration=20.0, holdout_duration=6.0)
+            t0 = time.perf_counter()
+            diagnose(plant, [case.fit], [case.holdout], base=case.base.params)
+            print(f"whole catalogue, {plant}, one 20 s record (+6 s held out): {time.perf_counter() - t0:.1f} s "
+                  "(target < 120 s)")
+
+
+if __name__ == "__main__":
+    main()

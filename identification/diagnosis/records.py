@@ -1,0 +1,225 @@
+r"""Measured records for the diagnosis workflow: checks, segmentation, state estimates.
+
+A :class:`Record` is one uniformly sampled experiment (input channels and whatever output
+channels were measured). :func:`record_from_measured` converts a
+:class:`hydro_envs.data.measured.MeasuredData` file (resampling a non-uniform time base onto
+its median step, with a note), :func:`check_records` says clearly when records cannot support a
+conclusion (missing channels, too short, too little excitation), and :func:`segments` cuts
+records into the short free-run windows the workflow fits and scores: each window starts from
+the state estimated from the measurements (position and pressures as measured, velocity from a
+Savitzky-Golay derivative of the position, unmeasured states quasi-static), so closed-loop data
+of an integrating plant can be replayed open-loop without drifting away.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Mapping, Sequence
+
+import numpy as np
+from scipy import signal
+
+from identification.diagnosis.plants import DiagnosisPlant
+from identification.greybox import Experiment
+
+__all__ = ["DiagnosisDataError", "Record", "record_from_measured", "check_records", "segments",
+           "velocity_estimate", "shifted"]
+
+
+class DiagnosisDataError(ValueError):
+    """The data cannot support a diagnosis (the message says why and what is needed)."""
+
+
+@dataclasses.dataclass
+class Record:
+    """One uniformly sampled record: ``inputs (n, n_inputs)``, measured ``channels``."""
+
+    dt: float
+    inputs: np.ndarray
+    channels: dict[str, np.ndarray]
+    name: str = ""
+    notes: list[str] = dataclasses.field(default_factory=list)
+
+    def __post_init__(self) -> None:
+        self.inputs = np.asarray(self.inputs, dtype=float)
+        if self.inputs.ndim == 1:
+            self.inputs = self.inputs[:, None]
+        n = self.inputs.shape[0]
+        for k, v in self.channels.items():
+            v = np.asarray(v, dtype=float)
+            if v.shape != (n,):
+                raise DiagnosisDataError(f"record {self.name!r}: channel {k!r} has {v.shape} samples, inputs {n}")
+            if not np.all(np.isfinite(v)):
+                raise DiagnosisDataError(f"record {self.name!r}: channel {k!r} has NaN/inf values")
+            self.channels[k] = v
+        if not np.all(np.isfinite(self.inputs)):
+            raise DiagnosisDataError(f"record {self.name!r}: the input has NaN/inf values")
+        if not (self.dt > 0 and math.isfinite(self.dt)):
+            raise DiagnosisDataError(f"record {self.name!r}: sample time {self.dt} must be > 0")
+
+    @property
+    def n(self) -> int:
+        return int(self.inputs.shape[0])
+
+    @property
+    def duration(self) -> float:
+        return (self.n - 1) * self.dt
+
+    def split(self, fraction: float) -> tuple[Record, Record]:
+        """(first ``fraction``, rest) of the record (for a held-out tail)."""
+        k = int(round(fraction * self.n))
+        a = Record(self.dt, self.inputs[:k], {c: v[:k] for c, v in self.channels.items()}, self.name + "[fit]")
+        b = Record(self.dt, self.inputs[k:], {c: v[k:] for c, v in self.channels.items()}, self.name + "[held-out]")
+        return a, b
+
+
+def record_from_measured(data, spec: DiagnosisPlant) -> Record:
+    """A :class:`Record` from a measured-data file of the plant; resamples a non-uniform time
+    base onto the median step (noted). Missing input or position channels raise."""
+    missing = [c for c in spec.required if c not in data]
+    if missing:
+        raise DiagnosisDataError(
+            f"{data.metadata.get('name', 'record')}: missing channel(s) {missing}; the diagnosis of "
+            f"{spec.name} needs {list(spec.required)} and uses {sorted(spec.outputs) + sorted(spec.derivative_outputs)} "
+            "when present")
+    t = np.asarray(data.t, dtype=float)
+    if t.size < 3:
+        raise DiagnosisDataError(f"record has {t.size} samples; need many more")
+    dt = float(np.median(np.diff(t)))
+    notes = []
+    chans = {c: np.asarray(data[c], dtype=float) for c in list(spec.outputs) + list(spec.derivative_outputs) if c in data}
+    u = np.column_stack([np.asarray(data[c], dtype=float) for c in spec.inputs])
+    if np.max(np.abs(np.diff(t) - dt)) > 1e-6 * dt:
+        tu = t[0] + dt * np.arange(int(math.floor((t[-1] - t[0]) / dt)) + 1)
+        chans = {c: np.interp(tu, t, v) for c, v in chans.items()}
+        u = np.column_stack([np.interp(tu, t, u[:, j]) for j in range(u.shape[1])])
+        notes.append(f"non-uniform time base resampled onto its median step {dt:.3g} s")
+    return Record(dt, u, chans, str(data.metadata.get("name", "")), notes)
+
+
+def velocity_estimate(x: np.ndarray, dt: float) -> np.ndarray:
+    """Velocity [m/s] from a sampled position: Savitzky-Golay first derivative over ~20 ms."""
+    w = max(5, int(round(0.02 / dt)) | 1)
+    if x.size < w + 2:
+        return np.gradient(x, dt)
+    return signal.savgol_filter(x, w, 2, deriv=1, delta=dt)
+
+
+def shifted(x: np.ndarray, dt: float, delay: float) -> np.ndarray:
+    """``x(t + delay)``: a measurement delayed by ``delay`` moved back onto the model's time
+    (linear interpolation; the last samples are held)."""
+    n = x.size
+    t = dt * np.arange(n)
+    return np.interp(t + delay, t, x)
+
+
+def noise_estimate(x: np.ndarray) -> float:
+    """White-noise level of a sampled signal: the residual of a 5-point cubic Savitzky-Golay
+    smoother (which passes signals below ~1/6 of the sample rate) divided by its white-noise
+    factor sqrt(1 - 17/35) = 0.717."""
+    if x.size < 7:
+        return float(np.std(x))
+    return float(np.std(x - signal.savgol_filter(x, 5, 3))) / math.sqrt(1 - 17 / 35)
+
+
+def check_records(records: Sequence[Record], spec: DiagnosisPlant, *, role: str = "data",
+                  min_segments: int = 2) -> list[str]:
+    """Raise :class:`DiagnosisDataError` when the records cannot support a conclusion; return
+    notes on what is usable."""
+    notes = []
+    if not records:
+        raise DiagnosisDataError(f"{role}: no records given")
+    total = 0
+    pos = spec.position_channel
+    for r in records:
+        if pos not in r.channels:
+            raise DiagnosisDataError(f"{role} {r.name!r}: no position channel {pos!r}")
+        nseg = int(r.duration // spec.segment_seconds)
+        total += nseg
+        x = r.channels[pos]
+        span = float(np.ptp(x))
+        noise = noise_estimate(x)
+        if span < 50 * max(noise, 1e-12) or span == 0.0:
+            raise DiagnosisDataError(
+                f"{role} {r.name!r}: too little excitation: position spans {span:.3g} m, only "
+                f"{span / max(noise, 1e-300):.0f} x its noise ({noise:.2g} m); need >= 50 x (move the actuator)")
+        v = velocity_estimate(x, r.dt)
+        vmax = float(np.max(np.abs(v)))
+        rev = int(np.sum(np.diff(np.sign(v[np.abs(v) > 0.05 * vmax])) != 0))
+        if rev < 2:
+            raise DiagnosisDataError(
+                f"{role} {r.name!r}: too little excitation: {rev} velocity reversal(s); need motion in "
+                "both directions (friction and leakage effects are direction-dependent)")
+        if float(np.std(r.inputs)) == 0.0:
+            raise DiagnosisDataError(f"{role} {r.name!r}: the input is constant")
+        have = [c for c in list(spec.outputs) + list(spec.derivative_outputs) if c in r.channels]
+        absent = [c for c in list(spec.outputs) + list(spec.derivative_outputs) if c not in r.channels]
+        if absent:
+            notes.append(f"{role} {r.name!r}: channels {absent} not measured; effects seen mainly in them "
+                         f"are harder to separate (measured: {have})")
+    if total < min_segments:
+        need = min_segments * spec.segment_seconds
+        have_s = sum(r.duration for r in records)
+        raise DiagnosisDataError(
+            f"{role}: too short: {have_s:.2f} s gives {total} window(s) of {spec.segment_seconds} s; "
+            f"need >= {need:.1f} s")
+    return notes
+
+
+def smoothed(x: np.ndarray, dt: float) -> np.ndarray:
+    """Savitzky-Golay smoothing over ~20 ms (start values of windows: noise-reduced)."""
+    w = max(5, int(round(0.02 / dt)) | 1)
+    if x.size < w + 2:
+        return x
+    return signal.savgol_filter(x, w, 2)
+
+
+def segments(records: Sequence[Record], spec: DiagnosisPlant, *, delay: float = 0.0,
+             delayed_channels: Sequence[str] = (), seconds: float | None = None,
+             warmup: float | None = None) -> list[Experiment]:
+    """Free-run windows (greybox experiments) tiling each record in steps of ``seconds``
+    (default ``spec.segment_seconds``). Each window starts ``warmup`` (default
+    ``spec.warmup_seconds``) earlier from the state estimated from the (delay-corrected,
+    smoothed) measurements; the warm-up samples have weight 0, so the transient of an
+    imperfect start state (unmeasured valve state, velocity estimate) is not scored."""
+    seconds = spec.segment_seconds if seconds is None else seconds
+    warmup = spec.warmup_seconds if warmup is None else warmup
+    exps = []
+    for r in records:
+        chans = dict(r.channels)
+        if delay > 0:
+            for c in delayed_channels:
+                if c in chans:
+                    chans[c] = shifted(chans[c], r.dt, delay)
+        v = velocity_estimate(chans[spec.position_channel], r.dt)
+        smooth = {c: smoothed(a, r.dt) for c, a in chans.items()}
+        m = max(3, int(round(seconds / r.dt)))
+        kw = int(round(warmup / r.dt))
+        trim = int(math.ceil(delay / r.dt)) if delay > 0 else 0
+        n_use = r.n - trim
+        for k1 in range(kw, n_use - m + 1, m):
+            k0 = k1 - kw
+            sl = slice(k0, k1 + m)
+            start = {c: float(smooth[c][k0]) for c in smooth}
+            start["v"] = float(v[k0])
+            start["u"] = float(r.inputs[k0, 0])
+            w = np.ones(kw + m)
+            w[:kw] = 0.0
+            outs = {c: chans[c][sl] for c in chans}
+            for c in spec.offset_free:  # compared without the window mean (see plants.py)
+                if c in outs:
+                    outs[c] = outs[c] - outs[c][kw:].mean()
+            u = r.inputs[sl]
+            if u.shape[1] < spec.kernel_inputs:  # kernel inputs beyond the measured ones are 0
+                u = np.hstack([u, np.zeros((u.shape[0], spec.kernel_inputs - u.shape[1]))])
+            exps.append(Experiment(
+                dt=r.dt, u=u, y0=_initial(spec, start),
+                outputs=outs, name=f"{r.name}@{k1 * r.dt:.2f}s", weights=w))
+    return exps
+
+
+def _initial(spec: DiagnosisPlant, start: Mapping[str, float]):
+    def y0(params):
+        return spec.initial_state(params, start)
+    return y0

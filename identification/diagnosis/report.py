@@ -1,0 +1,152 @@
+"""Human-readable diagnosis report: markdown plus PNG figures (matplotlib, Agg).
+
+``report.md`` holds the verdict, the effects found with their parameters and the held-out
+NRMSE before/after, every round's candidate table (signature score, held-out NRMSE, gain,
+plausibility, identifiability, reasons) and the notes; the figures are the residual maps of
+the base and the final model (RMS weighted residual binned by velocity, position, pressure
+difference and command), the residual spectrum and time traces of held-out windows
+(measured, base model, final model).
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+
+from identification.diagnosis.plants import DiagnosisPlant
+from identification.diagnosis.records import Record
+from identification.diagnosis.workflow import DiagnosisResult, _simulate, residual_maps
+
+__all__ = ["write_report"]
+
+
+def _fig_maps(path: Path, before: dict, after: dict) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    feats = [k for k in ("velocity", "position", "pressure_difference", "command") if k in before]
+    chans = list(before[feats[0]]["rms"]) if feats else []
+    fig, axes = plt.subplots(len(chans), len(feats), figsize=(3.2 * len(feats), 2.4 * len(chans)), squeeze=False)
+    for j, f in enumerate(feats):
+        for i, c in enumerate(chans):
+            ax = axes[i, j]
+            ax.plot(before[f]["bin_centres"], before[f]["rms"][c], "o-", label="base model")
+            if f in after:
+                ax.plot(after[f]["bin_centres"], after[f]["rms"][c], "s-", label="final model")
+            ax.set_xlabel(f)
+            ax.set_ylabel(f"RMS residual {c} [noise]")
+            ax.grid(alpha=0.3)
+    if chans and feats:
+        axes[0, 0].legend(fontsize=7)
+    fig.suptitle("Residual maps: where the model disagrees (weighted by noise level)")
+    fig.tight_layout()
+    fig.savefig(path, dpi=80)
+    plt.close(fig)
+
+
+def _fig_spectrum(path: Path, before: dict, after: dict) -> None:
+    import matplotlib.pyplot as plt
+
+    spec_b = before.get("frequency", {})
+    fig, ax = plt.subplots(figsize=(6, 3.2))
+    for c, d in spec_b.items():
+        ax.loglog(d["frequency"][1:], d["residual_over_measured"][1:], label=f"{c} base")
+        if c in after.get("frequency", {}):
+            da = after["frequency"][c]
+            ax.loglog(da["frequency"][1:], da["residual_over_measured"][1:], "--", label=f"{c} final")
+    ax.set_xlabel("frequency [Hz]")
+    ax.set_ylabel("residual PSD / measured PSD")
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=80)
+    plt.close(fig)
+
+
+def _fig_traces(path: Path, res: DiagnosisResult, spec: DiagnosisPlant, records: Sequence[Record]) -> None:
+    import matplotlib.pyplot as plt
+
+    sims = _simulate(spec, [res.base_model, res.final_model], records)
+    (exps, base_out), (exps_f, fin_out) = sims
+    n = min(3, len(exps))
+    chans = list(base_out[0])
+    fig, axes = plt.subplots(len(chans), n, figsize=(3.6 * n, 2.2 * len(chans)), squeeze=False)
+    for j in range(n):
+        e = exps[j]
+        t = e.dt * np.arange(e.n_samples)
+        for i, c in enumerate(chans):
+            ax = axes[i, j]
+            ax.plot(t, e.outputs[c], "k.", ms=1.5, label="measured")
+            ax.plot(t, base_out[j][c], label="base model")
+            if j < len(fin_out) and exps_f[j].n_samples == e.n_samples:
+                ax.plot(t, fin_out[j][c], "--", label="final model")
+            ax.set_ylabel(c)
+            ax.set_xlabel(f"t [s] in window {e.name}")
+    axes[0, 0].legend(fontsize=7)
+    fig.suptitle("Held-out windows (free run from the measured start state)")
+    fig.tight_layout()
+    fig.savefig(path, dpi=80)
+    plt.close(fig)
+
+
+def write_report(res: DiagnosisResult, spec: DiagnosisPlant, records: Sequence[Record],
+                 holdout: Sequence[Record] | None, out_dir: str | Path) -> Path:
+    """Write ``report.md``, ``result.json`` and the figures into ``out_dir``; return the
+    markdown path."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    data = list(records)
+    before = residual_maps(spec, res.base_model, data, res.sigma)
+    after = residual_maps(spec, res.final_model, data, res.sigma)
+    figs = {}
+    try:
+        _fig_maps(out / "residual_maps.png", before, after)
+        _fig_spectrum(out / "residual_spectrum.png", before, after)
+        _fig_traces(out / "traces.png", res, spec, list(holdout) if holdout else data)
+        figs = {"residual maps": "residual_maps.png", "residual spectrum": "residual_spectrum.png",
+                "held-out traces": "traces.png"}
+    except ImportError:  # matplotlib is an optional extra
+        pass
+    lines = [f"# Diagnosis of `{res.plant}`", "", f"**Verdict: {res.verdict}**"
+             + (f" ({res.ambiguous})" if res.ambiguous else ""), ""]
+    lines.append("Base-model fit: " + ", ".join(f"{k} = {v:.4g}" for k, v in res.base_fit.items()))
+    lines.append("")
+    if res.effects:
+        lines += ["## Effects found (in order)", "", "| effect | parameters | held-out NRMSE before | after |",
+                  "|---|---|---|---|"]
+        for e in res.effects:
+            ps = "; ".join(f"{k} = {v:.4g} +- {e['std_errors'].get(k, float('nan')):.2g}" for k, v in e["parameters"].items())
+            lines.append(f"| {e['title']} (`{e['name']}`) | {ps} | {e['nrmse_before']:.4f} | {e['nrmse_after']:.4f} |")
+        lines.append("")
+    for i, r in enumerate(res.rounds):
+        lines += [f"## Round {i + 1}: decision `{r.decision}`", "",
+                  f"Current model held-out NRMSE (mean over channels): {r.current_heldout:.4f} "
+                  f"({', '.join(f'{k} {v:.4f}' for k, v in r.current_nrmse_heldout.items())})", ""]
+        if r.locate.get("worst_windows"):
+            lines.append("Largest residuals in windows: " + ", ".join(
+                f"{w['window']} ({w['mean_square_weighted_residual']:.3g})" for w in r.locate["worst_windows"]))
+            lines.append("")
+        if r.separating_experiment:
+            lines += [f"Experiment that would separate them: {r.separating_experiment}", ""]
+        lines += ["| candidate | signature score | held-out NRMSE | gain | plausible | identifiable | parameters | reasons |",
+                  "|---|---|---|---|---|---|---|---|"]
+        for c in r.candidates:
+            ps = "; ".join(f"{k} = {v:.4g}" for k, v in c.parameters.items())
+            lines.append(f"| {c.name} | {c.signature_score:.3f} | {c.heldout:.4f} | {c.gain:+.1%} | {c.plausible} | "
+                         f"{c.identifiable} | {ps} | {'; '.join(c.reasons)} |")
+        lines.append("")
+    if res.notes:
+        lines += ["## Notes", ""] + [f"- {n}" for n in res.notes] + [""]
+    for title, f in figs.items():
+        lines += [f"## {title.capitalize()}", "", f"![{title}]({f})", ""]
+    lines.append(f"Run time: {res.seconds:.1f} s.")
+    md = out / "report.md"
+    md.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    (out / "result.json").write_text(json.dumps(res.to_json_dict(), allow_nan=False, indent=1), encoding="utf-8")
+    return md
+

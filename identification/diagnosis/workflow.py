@@ -1,0 +1,779 @@
+r"""The diagnosis loop: fit, locate, propose, refit, score on held-out data, accept or not.
+
+One round (:func:`diagnose`)::
+
+    1. fit the current model (base-fit parameters + the effects already present) to the fit
+       windows by grey-box output error (identification.greybox, batched kernel);
+    2. residuals: free-run simulation residual of every window and the k-step (equation-error)
+       prediction residual; LOCATE them: RMS/mean residual binned by velocity, position,
+       pressure difference and command, residual spectrum vs the measured one, and the
+       windows (times) where the residual is largest;
+    3. PROPOSE: every catalogue effect that applies to the plant, is absent and whose
+       prerequisites are present, ranked by how much of the weighted residual its *signature*
+       explains -- the output change the effect causes at a typical size, i.e. the score test
+       (Lagrange multiplier test) of the effect's parameters at their null value;
+    4. REFIT each augmented model (base parameters + effect parameters, bounded NLS);
+    5. SCORE every model by free-run NRMSE on held-out windows (a separate record or the
+       record's tail): per channel, the band-limited error over the window spread
+       (:func:`_nrmse`), combined over channels by the geometric mean (:func:`_mean`);
+    6. ACCEPT the best only if it (a) lowers the held-out NRMSE by >= ``accept_gain`` of the
+       current model's, (b) its held-out NRMSE is below the runner-up's (among candidates that
+       pass (a), (c), (d)) by the factor ``1 + margin``, (c) has
+       physically plausible parameters (not on a bound, parameter relations hold) and (d)
+       identifiable ones (standard error < ``max_rel_se`` of the effect size); candidates that
+       fail (c) or (d) are set aside with the reason. No winner -> ``none``; a winner that does
+       not beat the runner-up -> ``ambiguous: A vs B`` with the experiment that separates them.
+    Repeat with the accepted effect added until nothing more is accepted (``max_effects``).
+
+Sparse regression is deliberately not used to decide: the score test only orders the refits;
+the decision is always the held-out free-run error of refitted physical models.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+from scipy import signal
+
+from hydro_envs.params import ParameterError, PhysicalParams
+from identification import greybox as gb
+from identification._json import jsonable
+from identification.diagnosis.catalogue import Effect, effect, effects_for
+from identification.diagnosis.plants import DiagnosisPlant, diagnosis_plant
+from identification.diagnosis.records import (
+    Record,
+    check_records,
+    segments,
+    velocity_estimate,
+)
+
+__all__ = ["Model", "Candidate", "Round", "DiagnosisResult", "diagnose", "fit_model", "heldout_nrmse",
+           "present_effects", "with_effect", "null_base"]
+
+ACCEPT_GAIN = 0.10
+MARGIN = 0.15
+MAX_REL_SE = 0.3
+BOUND_TOL = 1e-3
+
+
+# ======================================================================================
+# models
+# ======================================================================================
+
+
+@dataclasses.dataclass
+class Model:
+    """A plant parameter set plus the measuring-chain effects (delay of named channels)."""
+
+    params: PhysicalParams
+    delay: float = 0.0
+
+    def copy(self, **kw) -> Model:
+        return dataclasses.replace(self, **kw)
+
+
+def present_effects(spec: DiagnosisPlant, model: Model) -> list[str]:
+    """Catalogue effects already present in ``model``."""
+    out = []
+    for e in effects_for(spec.name):
+        if e.kind == "sensor":
+            if model.delay > 0:
+                out.append(e.name)
+        elif e.on(spec.name).is_present(model.params):
+            out.append(e.name)
+    return out
+
+
+def _apply_ties(spec: DiagnosisPlant, params: PhysicalParams, present: Sequence[str]) -> PhysicalParams:
+    changes = {}
+    for e in effects_for(spec.name):
+        if e.kind == "plant" and e.name not in present:
+            for tgt, src in e.on(spec.name).ties.items():
+                changes[tgt] = getattr(params, src)
+    return dataclasses.replace(params, **changes) if changes else params
+
+
+def _tie_function(spec: DiagnosisPlant, params: PhysicalParams, present: Sequence[str]):
+    names = type(params).names()
+    pairs = []
+    for e in effects_for(spec.name):
+        if e.kind == "plant" and e.name not in present:
+            for tgt, src in e.on(spec.name).ties.items():
+                pairs.append((names.index(tgt), names.index(src)))
+    if not pairs:
+        return None
+
+    def tie(P):
+        for t, s in pairs:
+            P[:, t] = P[:, s]
+    return tie
+
+
+def null_base(spec: DiagnosisPlant, params: PhysicalParams | None = None,
+              keep: Sequence[str] = ()) -> PhysicalParams:
+    """``params`` (default nominal) with every applicable plant effect not in ``keep`` at its
+    null value (the effect-free base model)."""
+    p = params or spec.params_factory()
+    changes: dict[str, float] = {}
+    for e in effects_for(spec.name):
+        if e.kind != "plant" or e.name in keep:
+            continue
+        for f, v in e.on(spec.name).null.items():
+            if not isinstance(v, str):
+                changes[f] = v
+    for e in effects_for(spec.name):  # ties of the absent effects, on the nulled values
+        if e.kind == "plant" and e.name not in keep:
+            for f, v in e.on(spec.name).ties.items():
+                changes[f] = changes.get(v, getattr(p, v))
+    return dataclasses.replace(p, **changes)
+
+
+def with_effect(spec: DiagnosisPlant, model: Model, name: str, values: dict[str, float] | None = None) -> Model:
+    """``model`` with effect ``name`` added at ``values`` (default: the effect's start values)."""
+    e = effect(name)
+    r = e.on(spec.name)
+    vals = {}
+    for p in r.parameters:
+        if values and p.field in values:
+            vals[p.field] = float(values[p.field])
+        elif p.relative_to is not None:
+            vals[p.field] = p.start * float(getattr(model.params, p.relative_to))
+        else:
+            vals[p.field] = p.start
+    if e.kind == "sensor":
+        return model.copy(delay=vals["delay"])
+    present = present_effects(spec, model) + [name]
+    changes = {**dict(r.switch), **vals}
+    for other in effects_for(spec.name):  # ties of the effects still absent
+        if other.kind == "plant" and other.name not in present:
+            for tgt, src in other.on(spec.name).ties.items():
+                changes[tgt] = changes.get(src, getattr(model.params, src))
+    return model.copy(params=dataclasses.replace(model.params, **changes))
+
+
+def _scored(e: gb.Experiment) -> np.ndarray | slice:
+    """Samples of a window that are scored (after its warm-up)."""
+    return slice(None) if e.weights is None else e.weights > 0
+
+
+def _demeaned_state(i: int, frac: float):
+    """Output function: state ``i`` minus its mean over the scored part of the window."""
+    def func(S, P):
+        kw = int(round(frac * S.shape[1]))
+        y = S[:, :, i]
+        return y - y[:, kw:].mean(axis=1, keepdims=True)
+    return func
+
+
+def _channels(spec: DiagnosisPlant) -> list[gb.OutputChannel]:
+    frac = spec.warmup_seconds / (spec.warmup_seconds + spec.segment_seconds)
+    ch = [gb.OutputChannel(k, func=i) if callable(i)
+          else gb.OutputChannel(k, func=_demeaned_state(i, frac)) if k in spec.offset_free
+          else gb.OutputChannel(k, state=i) for k, i in spec.outputs.items()]
+    ch += [gb.OutputChannel(k, derivative=i) for k, i in spec.derivative_outputs.items()]
+    return ch
+
+
+def _delayed_channels(spec: DiagnosisPlant) -> tuple[str, ...]:
+    for e in effects_for(spec.name):
+        if e.kind == "sensor":
+            return e.on(spec.name).channels
+    return ()
+
+
+def _fit_names(spec: DiagnosisPlant, model: Model) -> tuple[list[str], dict[str, tuple[float, float]], dict[str, bool]]:
+    """Fitted fields (base-fit + present effects), their bounds and log-scaling."""
+    names = list(spec.base_fit)
+    bounds = {}
+    log = {n: float(getattr(model.params, n)) > 0 for n in names}  # signed ones (offsets) linear
+    for name in present_effects(spec, model):
+        e = effect(name)
+        if e.kind == "sensor":
+            continue
+        for p in e.on(spec.name).parameters:
+            if p.field not in names:
+                names.append(p.field)
+                bounds[p.field] = p.bounds
+                log[p.field] = p.log
+    return names, bounds, log
+
+
+# ======================================================================================
+# fit and score
+# ======================================================================================
+
+
+@dataclasses.dataclass
+class FitOutcome:
+    model: Model
+    result: gb.GreyboxResult | None
+    delay_se: float = math.nan
+    seconds: float = 0.0
+
+
+def fit_model(spec: DiagnosisPlant, model: Model, records: Sequence[Record], *, max_nfev: int = 25,
+              sigma: dict[str, float] | None = None) -> FitOutcome:
+    """Grey-box fit of the base-fit parameters and every present effect's parameters."""
+    t0 = time.perf_counter()
+    names, bounds, log = _fit_names(spec, model)
+    present = present_effects(spec, model)
+    exps = segments(records, spec, delay=model.delay, delayed_channels=_delayed_channels(spec))
+    base = model.params
+    # start values strictly inside the bounds (an effect added at its start value always is)
+    for n, (lo, hi) in bounds.items():
+        v = float(getattr(base, n))
+        if not lo < v < hi:
+            base = dataclasses.replace(base, **{n: min(max(v, lo + 1e-6 * (hi - lo)), hi - 1e-6 * (hi - lo))})
+    res = gb.fit_greybox(base, names, spec.kernel_id, exps, _channels(spec), bounds=bounds, sigma=sigma, log_scale=log,
+                         max_nfev=max_nfev, tol=1e-8, tie=_tie_function(spec, base, present))
+    params = res.params
+    if params is None:  # relation violated: keep the raw values (flagged implausible later)
+        params = _raw(base, res.values)
+    return FitOutcome(model.copy(params=params), res, seconds=time.perf_counter() - t0)
+
+
+def _raw(base: PhysicalParams, values: dict[str, float]) -> PhysicalParams:
+    obj = object.__new__(type(base))
+    for f in dataclasses.fields(base):
+        object.__setattr__(obj, f.name, float(values.get(f.name, getattr(base, f.name))))
+    return obj
+
+
+def _simulate(spec: DiagnosisPlant, models: Sequence[Model], records: Sequence[Record]):
+    """Outputs of every model on the windows of ``records``: list per model of (experiments,
+    outputs per experiment)."""
+    out = []
+    by_delay: dict[float, list[int]] = {}
+    for i, m in enumerate(models):
+        by_delay.setdefault(m.delay, []).append(i)
+    res: dict[int, Any] = {}
+    for d, idx in by_delay.items():
+        exps = segments(records, spec, delay=d, delayed_channels=_delayed_channels(spec))
+        base = models[idx[0]].params
+        values = [{n: float(getattr(models[i].params, n)) for n in type(base).names()
+                   if float(getattr(models[i].params, n)) != float(getattr(base, n))} for i in idx]
+        sims = gb.simulate_outputs(base, spec.kernel_id, exps, _channels(spec), values=values)
+        for i, s in zip(idx, sims):
+            res[i] = (exps, s)
+    for i in range(len(models)):
+        out.append(res[i])
+    return out
+
+
+def _band_limited(err: np.ndarray, dt: float, band: float) -> np.ndarray:
+    if band <= 0 or band >= 0.45 / dt or err.size < 16:
+        return err
+    b, a = signal.butter(2, band * 2 * dt)
+    return signal.filtfilt(b, a, err)
+
+
+def _nrmse(exps, outs, band: float = 0.0) -> dict[str, float]:
+    """Free-run NRMSE per channel over the scored samples of every window:
+    ``||LP(y - y_hat)|| / ||y - mean_window(y)||`` with the error low-passed (zero phase) at
+    ``band`` Hz (0: raw), pooled over windows."""
+    num: dict[str, float] = {}
+    den: dict[str, float] = {}
+    for e, o in zip(exps, outs):
+        sel = slice(None) if e.weights is None else e.weights > 0
+        for k, v in o.items():
+            y = e.outputs[k][sel]
+            err = _band_limited(y - v[sel], e.dt, band)
+            num[k] = num.get(k, 0.0) + float(np.sum(err**2))
+            den[k] = den.get(k, 0.0) + float(np.sum((y - y.mean()) ** 2))
+    nr = {}
+    for k in num:
+        nr[k] = math.sqrt(num[k] / den[k]) if den[k] > 0 else math.inf
+        if not math.isfinite(nr[k]):
+            nr[k] = 1e6
+    return nr
+
+
+def heldout_nrmse(spec: DiagnosisPlant, models: Sequence[Model], records: Sequence[Record]) -> list[dict[str, float]]:
+    """Free-run NRMSE per measured channel of every model on the windows of ``records``."""
+    return [_nrmse(exps, outs, spec.score_bandwidth) for exps, outs in _simulate(spec, models, records)]
+
+
+def _mean(nr: dict[str, float]) -> float:
+    """Held-out score: the geometric mean of the per-channel NRMSEs, so that every measured
+    channel's *relative* improvement counts the same whatever its noise floor (a position
+    channel at 1e-3 and pressure channels at 3e-2 of their spread)."""
+    v = np.maximum(np.array(list(nr.values()), dtype=float), 1e-12)
+    return float(np.exp(np.mean(np.log(v))))
+
+
+# ======================================================================================
+# locate: residual maps
+# ======================================================================================
+
+
+def residual_maps(spec: DiagnosisPlant, model: Model, records: Sequence[Record], sigma: dict[str, float],
+                  n_bins: int = 10) -> dict[str, Any]:
+    """Where and when the model disagrees with the records (see the module docstring)."""
+    ((exps, outs),) = _simulate(spec, [model], records)
+    res = {k: [] for k in sigma}
+    feats: dict[str, list] = {"velocity": [], "position": [], "command": []}
+    has_dp = "p1" in spec.outputs and "p2" in spec.outputs
+    if has_dp:
+        feats["pressure_difference"] = []
+    t_win, e_win = [], []
+    for e, o in zip(exps, outs):
+        sel = slice(None) if e.weights is None else e.weights > 0
+        x = e.outputs[spec.position_channel]
+        feats["velocity"].append(velocity_estimate(x, e.dt)[sel])
+        feats["position"].append(x[sel])
+        feats["command"].append(e.u[sel, 0])
+        if has_dp:
+            if "p1" in e.outputs and "p2" in e.outputs:
+                feats["pressure_difference"].append((e.outputs["p1"] - e.outputs["p2"])[sel])
+            else:
+                feats["pressure_difference"].append(np.full(x[sel].size, np.nan))
+        energy = 0.0
+        for k in sigma:
+            r = ((e.outputs[k] - o[k]) / sigma[k])[sel] if k in o else np.full(x[sel].size, np.nan)
+            res[k].append(r)
+            energy += float(np.nanmean(r**2))
+        t_win.append(e.name)
+        e_win.append(energy)
+    R = {k: np.concatenate(v) for k, v in res.items()}
+    F = {k: np.concatenate(v) for k, v in feats.items()}
+    maps: dict[str, Any] = {}
+    for fname, f in F.items():
+        ok = np.isfinite(f)
+        if ok.sum() < n_bins * 5:
+            continue
+        edges = np.unique(np.quantile(f[ok], np.linspace(0, 1, n_bins + 1)))
+        centres, rms, mean = [], {k: [] for k in R}, {k: [] for k in R}
+        for a, b in zip(edges[:-1], edges[1:]):
+            sel = ok & (f >= a) & (f <= b)
+            centres.append(float(0.5 * (a + b)))
+            for k, r in R.items():
+                rr = r[sel]
+                rr = rr[np.isfinite(rr)]
+                rms[k].append(float(np.sqrt(np.mean(rr**2))) if rr.size else math.nan)
+                mean[k].append(float(np.mean(rr)) if rr.size else math.nan)
+        maps[fname] = {"bin_centres": centres, "rms": rms, "mean": mean}
+    # frequency: residual spectrum over measured spectrum per channel (Welch)
+    spectra = {}
+    dt = exps[0].dt
+    for k in R:
+        r = R[k][np.isfinite(R[k])]
+        y = np.concatenate([e.outputs[k] - e.outputs[k].mean() for e in exps if k in e.outputs]) / sigma[k]
+        if r.size < 64:
+            continue
+        nper = min(256, r.size)
+        f, pr = signal.welch(r, fs=1 / dt, nperseg=nper)
+        _, py = signal.welch(y, fs=1 / dt, nperseg=nper)
+        spectra[k] = {"frequency": f.tolist(), "residual_over_measured": (pr / np.maximum(py, 1e-300)).tolist()}
+    maps["frequency"] = spectra
+    order = np.argsort(e_win)[::-1][:3]
+    maps["worst_windows"] = [{"window": t_win[i], "mean_square_weighted_residual": float(e_win[i])} for i in order]
+    maps["rms_weighted_residual"] = {k: float(np.sqrt(np.nanmean(v**2))) for k, v in R.items()}
+    maps["mean_weighted_residual"] = {k: float(np.nanmean(v)) for k, v in R.items()}
+    return maps
+
+
+def prediction_residual(spec: DiagnosisPlant, model: Model, records: Sequence[Record], sigma: dict[str, float],
+                        horizon_s: float = 0.02) -> dict[str, float]:
+    """Equation-error view: RMS weighted residual of ``horizon_s``-ahead predictions started
+    from the measured state at every window start shifted through the record (short windows,
+    so drift cannot build up)."""
+    short = dataclasses.replace(spec, segment_seconds=horizon_s, warmup_seconds=0.0)
+    ((exps, outs),) = _simulate(short, [model], records)
+    acc: dict[str, list] = {}
+    for e, o in zip(exps, outs):
+        for k, v in o.items():
+            if k in sigma:
+                acc.setdefault(k, []).append(((e.outputs[k] - v) / sigma[k])[1:])
+    return {k: float(np.sqrt(np.mean(np.concatenate(v) ** 2))) for k, v in acc.items()}
+
+
+# ======================================================================================
+# propose: score test of each candidate's signature
+# ======================================================================================
+
+
+def _candidates(spec: DiagnosisPlant, model: Model, allowed: Sequence[str] | None) -> list[Effect]:
+    present = set(present_effects(spec, model))
+    out = []
+    for e in effects_for(spec.name, diagnosable_only=True):
+        if e.name in present or (allowed is not None and e.name not in allowed):
+            continue
+        if all(r in present for r in e.on(spec.name).requires):
+            out.append(e)
+    return out
+
+
+def signature_scores(spec: DiagnosisPlant, model: Model, records: Sequence[Record], sigma: dict[str, float],
+                     cands: Sequence[Effect]) -> dict[str, float]:
+    """Fraction of the weighted simulation residual explained by each candidate's signature
+    (least-squares projection onto the output changes its parameters cause at their start
+    values; 0 = orthogonal, 1 = explains everything)."""
+    variants: list[Model] = [model]
+    cols: dict[str, list[tuple[int, int]]] = {}
+    for e in cands:
+        if e.kind == "sensor":
+            continue
+        r = e.on(spec.name)
+        m0 = with_effect(spec, model, e.name)
+        i0 = len(variants)
+        variants.append(m0)
+        pairs = [(i0, 0)]
+        for p in r.parameters[1:]:
+            v = float(getattr(m0.params, p.field))
+            v2 = v * 1.5 if p.log else v + 0.5 * abs(p.start)
+            variants.append(with_effect(spec, model, e.name, {p.field: v2} | {
+                q.field: float(getattr(m0.params, q.field)) for q in r.parameters if q.field != p.field}))
+            pairs.append((len(variants) - 1, i0))
+        cols[e.name] = pairs
+    sims = _simulate(spec, variants, records)
+    exps, base_out = sims[0]
+    keys = [k for k in sigma]
+
+    def stack(outs):
+        return np.concatenate([(o[k] / sigma[k])[_scored(e)] for e, o in zip(exps, outs) for k in keys if k in o])
+
+    y = np.concatenate([(e.outputs[k] / sigma[k])[_scored(e)] for e, o in zip(exps, base_out) for k in keys if k in o])
+    y0 = stack(base_out)
+    r = y - y0
+    rr = float(r @ r)
+    scores = {}
+    for name, pairs in cols.items():
+        S = np.column_stack([stack(sims[a][1]) - stack(sims[b][1]) if b else stack(sims[a][1]) - y0
+                             for a, b in pairs])
+        S = np.where(np.isfinite(S), S, 0.0)
+        beta, *_ = np.linalg.lstsq(S, r, rcond=None)
+        e_ = r - S @ beta
+        scores[name] = float(max(0.0, 1.0 - (e_ @ e_) / rr)) if rr > 0 else 0.0
+    for e in cands:
+        if e.kind == "sensor":
+            ch = e.on(spec.name).channels
+            parts = []
+            for ex, o in zip(exps, base_out):
+                sel = _scored(ex)
+                for k in keys:
+                    if k not in o:
+                        continue
+                    if k in ch:
+                        parts.append((-np.gradient(o[k], ex.dt) / sigma[k])[sel])
+                    else:
+                        parts.append(np.zeros(o[k].size)[sel])
+            s = np.concatenate(parts)
+            scores[e.name] = float((s @ r) ** 2 / max(s @ s, 1e-300) / rr) if rr > 0 else 0.0
+    return scores
+
+
+# ======================================================================================
+# candidates, decision
+# ======================================================================================
+
+
+@dataclasses.dataclass
+class Candidate:
+    """One refitted augmented model and its scores."""
+
+    name: str
+    signature_score: float
+    parameters: dict[str, float]
+    std_errors: dict[str, float]
+    nrmse_fit: dict[str, float]
+    nrmse_heldout: dict[str, float]
+    heldout: float
+    gain: float  # fraction of the current model's held-out NRMSE removed
+    plausible: bool
+    identifiable: bool
+    reasons: list[str]
+    seconds: float
+    model: Model | None = None
+    fit: Any = None
+
+    def to_json_dict(self) -> dict[str, Any]:
+        return jsonable({
+            "name": self.name, "signature_score": self.signature_score, "parameters": self.parameters,
+            "std_errors": self.std_errors, "nrmse_fit": self.nrmse_fit, "nrmse_heldout": self.nrmse_heldout,
+            "heldout_nrmse": self.heldout, "gain": self.gain, "plausible": self.plausible,
+            "identifiable": self.identifiable, "reasons": self.reasons, "seconds": self.seconds,
+        })
+
+
+def _fit_delay(spec: DiagnosisPlant, model: Model, records: Sequence[Record], sigma: dict[str, float],
+               e: Effect) -> FitOutcome:
+    """Sensor delay: grid search of the delay on the current model's windows (one batched
+    simulation per grid value), parabolic refinement, then a refit of the base parameters."""
+    t0 = time.perf_counter()
+    r = e.on(spec.name)
+    p = r.parameters[0]
+    dt = records[0].dt
+    grid = np.arange(0.0, min(p.bounds[1], 0.012) + 1e-12, max(dt / 2, 2.5e-4))
+    costs = []
+    for d in grid:
+        ((exps, outs),) = _simulate(spec, [model.copy(delay=float(d))], records)
+        c = 0.0
+        for ex, o in zip(exps, outs):
+            sel = _scored(ex)
+            for k in sigma:
+                if k in o:
+                    c += float(np.sum(((ex.outputs[k] - o[k]) / sigma[k])[sel] ** 2))
+        costs.append(c)
+    costs = np.array(costs)
+    i = int(np.argmin(costs))
+    d = float(grid[i])
+    se = math.nan
+    if 0 < i < grid.size - 1:
+        h = grid[1] - grid[0]
+        c0, cm, cp = costs[i], costs[i - 1], costs[i + 1]
+        curv = (cp - 2 * c0 + cm) / h**2
+        if curv > 0:
+            d = d + 0.5 * h * (cm - cp) / (cp - 2 * c0 + cm)
+            n_res = sum(int(np.count_nonzero(_scored(ex))) for ex, o in zip(exps, outs) for k in sigma if k in o)
+            s2 = c0 / max(n_res - 1, 1)
+            se = math.sqrt(2 * s2 / curv)
+    d = max(d, p.bounds[0])
+    fit = fit_model(spec, model.copy(delay=d), records)
+    fit.delay_se = se
+    fit.seconds = time.perf_counter() - t0
+    return fit
+
+
+def _fit_candidate(spec: DiagnosisPlant, current: Model, start: Model, name: str,
+                   records: Sequence[Record]) -> FitOutcome:
+    """Refit with effect ``name`` added, from two starts: the current fit (warm) and the
+    parameters of the starting model (cold: a base fit without the effect may have bent the
+    base parameters to absorb it, e.g. a heavier mass and a lower Coulomb level for missing
+    Stribeck friction); the start with the lower fit NRMSE wins."""
+    warm = fit_model(spec, with_effect(spec, current, name), records)
+    names, _, _ = _fit_names(spec, current)
+    reset = {n: getattr(start.params, n) for n in names if getattr(start.params, n) != getattr(current.params, n)}
+    present_at_start = set(present_effects(spec, start))
+    for e in present_effects(spec, current):  # effects added in earlier rounds keep their fit
+        if e not in present_at_start and effect(e).kind == "plant":
+            for p in effect(e).on(spec.name).parameters:
+                reset.pop(p.field, None)
+    if not reset:
+        return warm
+    present = present_effects(spec, current)
+    for e in effects_for(spec.name):  # ties of the absent effects, on the reset values
+        if e.kind == "plant" and e.name not in present:
+            for tgt, src in e.on(spec.name).ties.items():
+                reset[tgt] = reset.get(src, getattr(current.params, src))
+    try:
+        cold_params = dataclasses.replace(current.params, **reset)
+        cold = fit_model(spec, with_effect(spec, current.copy(params=cold_params), name), records)
+    except (ParameterError, gb.GreyboxError):
+        return warm
+    return cold if _mean(cold.result.nrmse) < _mean(warm.result.nrmse) else warm
+
+
+def _judge(spec: DiagnosisPlant, e: Effect, fit: FitOutcome) -> tuple[dict, dict, bool, bool, list[str]]:
+    r = e.on(spec.name)
+    reasons: list[str] = []
+    if e.kind == "sensor":
+        d = fit.model.delay
+        p = r.parameters[0]
+        vals = {"delay": d}
+        ses = {"delay": fit.delay_se}
+        plausible = p.bounds[0] < d < min(p.bounds[1], 0.012) * (1 - BOUND_TOL)
+        if not plausible:
+            reasons.append(f"delay {d:.4g} s at the end of the searched range")
+        ident = math.isfinite(fit.delay_se) and fit.delay_se < MAX_REL_SE * d
+        if not ident:
+            reasons.append(f"delay not identifiable (se {fit.delay_se:.3g} s)")
+        return vals, ses, plausible, ident, reasons
+    res = fit.result
+    vals = {p.field: float(getattr(fit.model.params, p.field)) for p in r.parameters}
+    ses = {p.field: float(res.std_errors.get(p.field, math.nan)) for p in r.parameters}
+    plausible = res.params is not None
+    if res.params is None:
+        reasons.append("fitted parameters violate a parameter relation: " + "; ".join(res.notes[-1:]))
+    for p in r.parameters:
+        v = vals[p.field]
+        lo, hi = p.bounds
+        if p.log:
+            near = math.log(v) - math.log(lo) < BOUND_TOL * 10 or math.log(hi) - math.log(v) < BOUND_TOL * 10
+        else:
+            near = (v - lo) < BOUND_TOL * (hi - lo) or (hi - v) < BOUND_TOL * (hi - lo)
+        if near:
+            plausible = False
+            reasons.append(f"{p.field} = {v:.4g} on its plausibility bound [{lo:.3g}, {hi:.3g}]")
+    ident = True
+    for p in r.parameters:
+        null = r.null.get(p.field, None)
+        if isinstance(null, str):
+            ref = float(getattr(fit.model.params, null))
+        elif null is None or not math.isfinite(float(null)):
+            ref = 0.0
+        else:
+            ref = float(null)
+        size = abs(vals[p.field] - ref) if p.field in r.null else abs(vals[p.field])
+        se = ses[p.field]
+        if not (math.isfinite(se) and se < MAX_REL_SE * max(size, 1e-300)):
+            ident = False
+            reasons.append(f"{p.field} not identifiable: se {se:.3g} vs effect size {size:.3g}")
+    return vals, ses, plausible, ident, reasons
+
+
+@dataclasses.dataclass
+class Round:
+    """One round of the loop: the current model's scores, the candidates and the decision."""
+
+    current_heldout: float
+    current_nrmse_heldout: dict[str, float]
+    locate: dict[str, Any]
+    prediction_residual: dict[str, float]
+    candidates: list[Candidate]
+    decision: str  # effect name, "none" or "ambiguous: A vs B"
+    separating_experiment: str = ""
+
+    def to_json_dict(self) -> dict[str, Any]:
+        return jsonable({
+            "current_heldout_nrmse": self.current_heldout, "current_nrmse_heldout": self.current_nrmse_heldout,
+            "locate": self.locate, "prediction_residual": self.prediction_residual,
+            "candidates": [c.to_json_dict() for c in self.candidates], "decision": self.decision,
+            "separating_experiment": self.separating_experiment,
+        })
+
+
+@dataclasses.dataclass
+class DiagnosisResult:
+    """Outcome of :func:`diagnose` (``to_json_dict`` is what ``hydro diagnose --json`` prints)."""
+
+    plant: str
+    verdict: str  # "named", "none" or "ambiguous"
+    effects: list[dict[str, Any]]
+    rounds: list[Round]
+    base_model: Model
+    final_model: Model
+    base_fit: dict[str, float]
+    notes: list[str]
+    seconds: float
+    sigma: dict[str, float]  # channel weights of the base fit (noise-level estimates)
+    ambiguous: str = ""
+
+    def to_json_dict(self) -> dict[str, Any]:
+        cands = []
+        for i, r in enumerate(self.rounds):
+            for c in r.candidates:
+                d = c.to_json_dict()
+                d["round"] = i + 1
+                cands.append(d)
+        return jsonable({
+            "plant": self.plant, "verdict": self.verdict, "effects": self.effects, "candidates": cands,
+            "ambiguous": self.ambiguous, "base_fit": self.base_fit,
+            "rounds": [r.to_json_dict() for r in self.rounds], "notes": self.notes, "seconds": self.seconds,
+        })
+
+
+def diagnose(plant: str | DiagnosisPlant, records: Sequence[Record], holdout: Sequence[Record] | None = None, *,
+             base: PhysicalParams | None = None, effects: Sequence[str] | None = None, max_effects: int = 3,
+             accept_gain: float = ACCEPT_GAIN, margin: float = MARGIN, holdout_fraction: float = 0.3,
+             maps: bool = True, progress=None) -> DiagnosisResult:
+    """Run the diagnosis loop (module docstring) on ``records``; ``holdout`` records score the
+    candidates (default: the last ``holdout_fraction`` of every record). ``base`` is the model
+    to start from (default: the plant's nominal parameters with every catalogue effect at its
+    null value); ``effects`` restricts the candidates to these catalogue names."""
+    t0 = time.perf_counter()
+    spec = plant if isinstance(plant, DiagnosisPlant) else diagnosis_plant(plant)
+    say = progress or (lambda msg: None)
+    records = list(records)
+    notes: list[str] = [n for r in records for n in r.notes]
+    if effects is not None:
+        known = {e.name for e in effects_for(spec.name, diagnosable_only=True)}
+        bad = [e for e in effects if e not in known]
+        if bad:
+            raise ValueError(f"effects {bad} do not apply to {spec.name}; applicable: {sorted(known)}")
+    if holdout is None:
+        pairs = [r.split(1 - holdout_fraction) for r in records]
+        records = [a for a, _ in pairs]
+        holdout = [b for _, b in pairs]
+        notes.append(f"held-out data: the last {holdout_fraction:.0%} of each record")
+    else:
+        holdout = list(holdout)
+    notes += check_records(records, spec, role="fit data", min_segments=3)
+    notes += check_records(holdout, spec, role="held-out data", min_segments=1)
+
+    model = Model(base if base is not None else null_base(spec))
+    start_model = model
+    say(f"fit base model of {spec.name} ({', '.join(spec.base_fit)})")
+    cur = fit_model(spec, model, records)
+    base_model = cur.model
+    sigma = dict(cur.result.sigma)
+    base_fit = dict(cur.result.values)
+    (h_nr,) = heldout_nrmse(spec, [cur.model], holdout)
+    h_cur = _mean(h_nr)
+    rounds: list[Round] = []
+    accepted: list[dict[str, Any]] = []
+    ambiguous = ""
+    for _ in range(max_effects):
+        locate = residual_maps(spec, cur.model, records, sigma) if maps else {}
+        pred = prediction_residual(spec, cur.model, records, sigma) if maps else {}
+        cands = _candidates(spec, cur.model, effects)
+        if not cands:
+            rounds.append(Round(h_cur, h_nr, locate, pred, [], "none"))
+            break
+        scores = signature_scores(spec, cur.model, records, sigma, cands)
+        cands.sort(key=lambda e: -scores.get(e.name, 0.0))
+        results: list[Candidate] = []
+        for e in cands:
+            say(f"  candidate {e.name} (signature {scores.get(e.name, 0.0):.2f})")
+            tc = time.perf_counter()
+            try:
+                if e.kind == "sensor":
+                    fit = _fit_delay(spec, cur.model, records, sigma, e)
+                else:
+                    fit = _fit_candidate(spec, cur.model, start_model, e.name, records)
+            except (ParameterError, gb.GreyboxError) as err:
+                results.append(Candidate(e.name, scores.get(e.name, 0.0), {}, {}, {}, {}, math.inf, -math.inf,
+                                         False, False, [f"fit failed: {err}"], time.perf_counter() - tc))
+                continue
+            (nr,) = heldout_nrmse(spec, [fit.model], holdout)
+            h = _mean(nr)
+            vals, ses, plausible, ident, reasons = _judge(spec, e, fit)
+            results.append(Candidate(
+                e.name, scores.get(e.name, 0.0), vals, ses, dict(fit.result.nrmse) if fit.result else {}, nr, h,
+                (h_cur - h) / h_cur, plausible, ident, reasons, time.perf_counter() - tc, fit.model, fit))
+        results.sort(key=lambda c: c.heldout)
+        decision, sep = _decide(spec, results, accept_gain, margin)
+        rounds.append(Round(h_cur, h_nr, locate, pred, results, decision, sep))
+        say(f"  -> {decision}")
+        if decision.startswith("ambiguous"):
+            ambiguous = decision
+            break
+        if decision == "none":
+            break
+        best = next(c for c in results if c.name == decision)
+        accepted.append({"name": decision, "title": effect(decision).title, "parameters": best.parameters,
+                         "std_errors": best.std_errors, "nrmse_before": h_cur, "nrmse_after": best.heldout,
+                         "nrmse_before_per_channel": h_nr, "nrmse_after_per_channel": best.nrmse_heldout})
+        cur = best.fit
+        h_cur, h_nr = best.heldout, best.nrmse_heldout
+    if accepted:
+        verdict = "named"
+    elif ambiguous:
+        verdict = "ambiguous"
+    else:
+        verdict = "none"
+    for k, v in (rounds[-1].locate.get("mean_weighted_residual", {}) if rounds else {}).items():
+        if abs(v) > 0.5:
+            notes.append(f"channel {k!r}: mean residual {v:+.2f} noise levels after the final model -- a "
+                         "sensor offset or drift the catalogue does not model")
+    return DiagnosisResult(spec.name, verdict, accepted, rounds, base_model, cur.model, base_fit, notes,
+                           time.perf_counter() - t0, sigma, ambiguous)
+
+
+def _decide(spec: DiagnosisPlant, results: Sequence[Candidate], accept_gain: float, margin: float) -> tuple[str, str]:
+    ok = [c for c in results if c.plausible and c.identifiable and c.gain >= accept_gain]
+    if not ok:
+        return "none", ""
+    best = min(ok, key=lambda c: c.heldout)
+    rivals = [c for c in ok if c is not best]
+    if rivals:
+        runner = min(rivals, key=lambda c: c.heldout)
+        if runner.heldout < (1 + margin) * best.heldout:
+            a, b = effect(best.name), effect(runner.name)
+            sep = f"{a.name}: {a.separating_experiment} | {b.name}: {b.separating_experiment}"
+            return f"ambiguous: {best.name} vs {runner.name}", sep
+    return best.name, ""

@@ -1,0 +1,208 @@
+"""Diagnosis workflow (identification/diagnosis): catalogue consistency, models with and
+without effects, data checks, hidden-effect recovery at CI size, CLI and report.
+
+The full confusion matrix (every applicable effect x several seeds, longer records) is
+``bench/diagnosis.py``; ``test_hidden_effect_rates_full`` runs it under ``-m slow``."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+
+import numpy as np
+import pytest
+
+from hydro_envs.data.measured import write_measured
+from identification.diagnosis import CATALOGUE, DiagnosisDataError, diagnose, diagnosis_plant, effects_for
+from identification.diagnosis.plants import PLANTS
+from identification.diagnosis.records import Record, check_records
+from identification.diagnosis.synthetic import base_for, hidden_effect_records
+from identification.diagnosis.workflow import Model, null_base, present_effects, with_effect
+
+REQUIRED_EFFECTS = {"coulomb", "stribeck", "asymmetric_friction", "pressure_friction", "internal_leakage",
+                    "external_leakage", "valve_lap", "valve_dynamics", "ifas", "modified_ifas", "sensor_delay"}
+
+
+# ------------------------------------------------------------------------- catalogue
+def test_catalogue_is_consistent_with_the_plants():
+    assert REQUIRED_EFFECTS <= set(CATALOGUE)
+    for plant in PLANTS:
+        spec = diagnosis_plant(plant)
+        nominal = spec.params_factory()
+        names = set(type(nominal).names())
+        assert effects_for(plant), plant
+        for e in effects_for(plant):
+            r = e.on(plant)
+            assert r.source, (e.name, plant)
+            for req in r.requires:
+                assert CATALOGUE[req].applies_to(plant)
+            if e.kind == "sensor":
+                assert set(r.channels) <= set(spec.outputs) | set(spec.derivative_outputs)
+                continue
+            for p in r.parameters:
+                assert p.field in names, (e.name, p.field)
+                meta = {f.name: f.metadata for f in dataclasses.fields(nominal)}[p.field]
+                lo, hi = meta["allowed"]
+                assert lo <= p.bounds[0] and p.bounds[1] <= hi, (e.name, p.field, p.bounds, meta["allowed"])
+            for f in list(r.null) + list(r.switch):
+                assert f in names
+
+
+@pytest.mark.parametrize("plant", PLANTS)
+def test_null_base_has_no_effect_and_with_effect_adds_exactly_one(plant):
+    spec = diagnosis_plant(plant)
+    base = Model(null_base(spec))
+    assert present_effects(spec, base) == []
+    for e in effects_for(plant):
+        keep = Model(base_for(spec, e.name))
+        m = with_effect(spec, keep, e.name)
+        assert set(present_effects(spec, m)) == set(present_effects(spec, keep)) | {e.name}, e.name
+
+
+def test_unknown_names_raise_clearly():
+    with pytest.raises(KeyError, match="supported"):
+        diagnosis_plant("no_such_plant")
+    with pytest.raises(KeyError, match="does not apply"):
+        CATALOGUE["modified_ifas"].on("slider")
+    case = hidden_effect_records("slider", None, 0, duration=4.0)
+    with pytest.raises(ValueError, match="do not apply"):
+        diagnose("slider", [case.fit], [case.holdout], effects=["modified_ifas"])
+
+
+# ------------------------------------------------------------------------- data checks
+def _slider_case():
+    return hidden_effect_records("slider", "coulomb", 3, duration=5.0)
+
+
+def test_data_that_cannot_support_a_conclusion_is_refused():
+    spec = diagnosis_plant("slider")
+    case = _slider_case()
+    short = Record(case.fit.dt, case.fit.inputs[:800], {k: v[:800] for k, v in case.fit.channels.items()}, "short")
+    with pytest.raises(DiagnosisDataError, match="too short"):
+        check_records([short], spec, min_segments=3)
+    n = case.fit.n
+    still = Record(case.fit.dt, np.full(n, 0.1), {"x": 0.1 + 1e-6 * np.random.default_rng(0).standard_normal(n)}, "still")
+    with pytest.raises(DiagnosisDataError, match="too little excitation"):
+        check_records([still], spec)
+    one_way = Record(case.fit.dt, np.ones(n), {"x": np.linspace(0.05, 0.15, n)}, "ramp")
+    with pytest.raises(DiagnosisDataError, match="reversal"):
+        check_records([one_way], spec)
+    with pytest.raises(DiagnosisDataError, match="no position channel"):
+        check_records([Record(case.fit.dt, case.fit.inputs, {}, "none")], spec)
+
+
+def test_other_sample_rate_and_missing_channels_still_diagnose():
+    """Servo record at 2 ms sampling with only the position measured (no pressures)."""
+    case = hidden_effect_records("servo_cylinder", "coulomb", 21, duration=6.0, dt=2e-3)
+    only_x = [Record(r.dt, r.inputs, {"x": r.channels["x"]}, r.name) for r in (case.fit, case.holdout)]
+    res = diagnose("servo_cylinder", [only_x[0]], [only_x[1]], base=case.base.params, max_effects=1, maps=False,
+                   effects=["coulomb", "valve_dynamics", "internal_leakage"])
+    assert res.verdict == "named" and res.effects[0]["name"] == "coulomb"
+    assert any("not measured" in n for n in res.notes)
+
+
+# ------------------------------------------------------------------------- hidden effects (CI size)
+CI_CASES = [
+    ("slider", "coulomb"), ("slider", "stribeck"), ("slider", "sensor_delay"), ("slider", None),
+    ("servo_cylinder", "stribeck"), ("servo_cylinder", "external_leakage"), ("servo_cylinder", None),
+    ("shaking_table", "modified_ifas"), ("shaking_table", None),
+    ("rodless_cylinder", "coulomb"), ("ls_compensator", "lvdt"), ("force_actuator", "valve_hysteresis"),
+]
+
+
+@pytest.fixture(scope="module")
+def ci_results():
+    out = []
+    for i, (plant, eff) in enumerate(CI_CASES):
+        case = hidden_effect_records(plant, eff, 500 + i, duration=5.0 if plant != "force_actuator" else 2.0)
+        res = diagnose(plant, [case.fit], [case.holdout], base=case.base.params, max_effects=1, maps=False)
+        out.append((plant, eff, case, res))
+    return out
+
+
+def test_hidden_effects_are_named_and_effect_free_data_gives_none(ci_results):
+    wrong = [(p, e, r.verdict, [x["name"] for x in r.effects], r.ambiguous) for p, e, _, r in ci_results
+             if (r.effects[0]["name"] if r.effects else "none") != (e or "none")]
+    n_eff = sum(1 for _, e, _, _ in ci_results if e)
+    n_none = len(ci_results) - n_eff
+    top1 = 1 - sum(1 for w in wrong if w[1]) / n_eff
+    none = 1 - sum(1 for w in wrong if not w[1]) / n_none
+    assert top1 >= 0.95 and none >= 0.95, wrong
+
+
+def test_named_effects_shrink_the_heldout_error_and_recover_the_parameters(ci_results):
+    for plant, eff, case, res in ci_results:
+        if not eff or not res.effects:
+            continue
+        e = res.effects[0]
+        assert e["nrmse_after"] <= 0.5 * e["nrmse_before"], (plant, eff, e["nrmse_before"], e["nrmse_after"])
+        for k, v in case.drawn.items():
+            assert e["parameters"][k] == pytest.approx(v, rel=0.35), (plant, eff, k)
+
+
+# ------------------------------------------------------------------------- CLI and report
+def _write(path, rec, spec):
+    t = rec.dt * np.arange(rec.n)
+    chans = {c: rec.inputs[:, j] for j, c in enumerate(spec.inputs)} | rec.channels
+    write_measured(path, t, chans, plant=spec.name)
+
+
+def test_cli_json_and_report(tmp_path, capsys):
+    from hydro_envs.cli import main
+
+    spec = diagnosis_plant("slider")
+    case = _slider_case()
+    _write(tmp_path / "fit.csv", case.fit, spec)
+    _write(tmp_path / "hold.csv", case.holdout, spec)
+    rc = main(["diagnose", "--plant", "slider", "--data", str(tmp_path / "fit.csv"), "--holdout",
+               str(tmp_path / "hold.csv"), "--max-effects", "2", "--out", str(tmp_path / "rep"), "--json"])
+    assert rc == 0
+    d = json.loads(capsys.readouterr().out)
+    assert d["verdict"] == "named" and d["effects"][0]["name"] == "coulomb"
+    e = d["effects"][0]
+    assert set(e) >= {"name", "parameters", "nrmse_before", "nrmse_after"}
+    assert e["parameters"]["coulomb_friction"] == pytest.approx(case.drawn["coulomb_friction"], rel=0.1)
+    assert {c["name"] for c in d["candidates"]} >= {"coulomb", "sensor_delay"}
+    md = (tmp_path / "rep" / "report.md").read_text()
+    assert "Verdict: named" in md and "| candidate |" in md
+    for png in ("residual_maps.png", "residual_spectrum.png", "traces.png"):
+        assert (tmp_path / "rep" / png).stat().st_size > 1000
+
+
+def test_cli_refuses_poor_data_with_exit_code_3(tmp_path, capsys):
+    from hydro_envs.cli import main
+
+    spec = diagnosis_plant("slider")
+    case = _slider_case()
+    short = Record(case.fit.dt, case.fit.inputs[:1500], {k: v[:1500] for k, v in case.fit.channels.items()})
+    _write(tmp_path / "short.csv", short, spec)
+    rc = main(["diagnose", "--plant", "slider", "--data", str(tmp_path / "short.csv"), "--json"])
+    assert rc == 3
+    d = json.loads(capsys.readouterr().out)
+    assert d["verdict"] is None and "too short" in d["error"]
+    rc = main(["diagnose", "--plant", "nope", "--data", str(tmp_path / "short.csv")])
+    assert rc == 2
+
+
+@pytest.mark.slow
+def test_demo_finds_both_hidden_effects(tmp_path):
+    from identification.diagnosis.demo import main
+
+    assert main(["--out", str(tmp_path), "--seconds", "6"]) == 0
+    assert (tmp_path / "servo_cylinder" / "report" / "report.md").exists()
+
+
+@pytest.mark.slow
+def test_hidden_effect_rates_full():
+    import importlib.util
+    import pathlib
+
+    path = pathlib.Path(__file__).resolve().parents[1] / "bench" / "diagnosis.py"
+    spec = importlib.util.spec_from_file_location("bench_diagnosis", path)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    rows = mod.matrix(list(PLANTS), seeds=1, duration=6.0, max_effects=1, seed0=100)
+    s = mod.summary(rows)
+    assert s["top1"] >= 0.95 and s["none"] >= 0.95 and s["shrink"] >= 0.95, s
+    assert math.isfinite(s["top1"])
