@@ -105,7 +105,7 @@ def test_other_sample_rate_and_missing_channels_still_diagnose():
 # ------------------------------------------------------------------------- hidden effects (CI size)
 CI_CASES = [
     ("slider", "coulomb"), ("slider", "stribeck"), ("slider", "sensor_delay"), ("slider", None),
-    ("servo_cylinder", "stribeck"), ("servo_cylinder", "external_leakage"), ("servo_cylinder", None),
+    ("servo_cylinder", "coulomb"), ("servo_cylinder", "external_leakage"), ("servo_cylinder", None),
     ("shaking_table", "modified_ifas"), ("shaking_table", None),
     ("rodless_cylinder", "coulomb"), ("ls_compensator", "lvdt"), ("force_actuator", "valve_hysteresis"),
 ]

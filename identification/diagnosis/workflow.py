@@ -500,13 +500,10 @@ class Candidate:
         })
 
 
-def _fit_delay(spec: DiagnosisPlant, model: Model, records: Sequence[Record], sigma: dict[str, float],
-               e: Effect) -> FitOutcome:
-    """Sensor delay: grid search of the delay on the current model's windows (one batched
-    simulation per grid value), parabolic refinement, then a refit of the base parameters."""
-    t0 = time.perf_counter()
-    r = e.on(spec.name)
-    p = r.parameters[0]
+def _delay_grid_search(spec: DiagnosisPlant, model: Model, records: Sequence[Record], sigma: dict[str, float],
+                       p) -> tuple[float, float]:
+    """Delay minimising the weighted scored residual of ``model`` (grid, one batched
+    simulation per value, parabolic refinement) and its standard error from the curvature."""
     dt = records[0].dt
     grid = np.arange(0.0, min(p.bounds[1], 0.012) + 1e-12, max(dt / 2, 2.5e-4))
     costs = []
@@ -532,8 +529,27 @@ def _fit_delay(spec: DiagnosisPlant, model: Model, records: Sequence[Record], si
             n_res = sum(int(np.count_nonzero(_scored(ex))) for ex, o in zip(exps, outs) for k in sigma if k in o)
             s2 = c0 / max(n_res - 1, 1)
             se = math.sqrt(2 * s2 / curv)
-    d = max(d, p.bounds[0])
-    fit = fit_model(spec, model.copy(delay=d), records)
+    return max(d, p.bounds[0]), se
+
+
+def _fit_delay(spec: DiagnosisPlant, model: Model, records: Sequence[Record], sigma: dict[str, float],
+               e: Effect) -> FitOutcome:
+    """Sensor delay: alternate a grid search of the delay (:func:`_delay_grid_search`) with a
+    refit of the other parameters at that delay until the delay settles (at most 4 times: the
+    first search runs on parameters fitted without the delay, which absorbed part of it)."""
+    t0 = time.perf_counter()
+    p = e.on(spec.name).parameters[0]
+    current = model
+    fit = None
+    se = math.nan
+    d_prev = -1.0
+    for _ in range(4):  # until the delay moves by less than a quarter sample
+        d, se = _delay_grid_search(spec, current, records, sigma, p)
+        fit = fit_model(spec, current.copy(delay=d), records)
+        current = fit.model
+        if abs(d - d_prev) < 0.25 * records[0].dt:
+            break
+        d_prev = d
     fit.delay_se = se
     fit.seconds = time.perf_counter() - t0
     return fit
