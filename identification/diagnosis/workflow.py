@@ -89,13 +89,16 @@ def present_effects(spec: DiagnosisPlant, model: Model) -> list[str]:
     return out
 
 
-def _apply_ties(spec: DiagnosisPlant, params: PhysicalParams, present: Sequence[str]) -> PhysicalParams:
-    changes = {}
+def _replace_tied(spec: DiagnosisPlant, params: PhysicalParams, changes: dict[str, float],
+                  present: Sequence[str]) -> PhysicalParams:
+    """``params`` with ``changes`` and the ties of every absent effect applied on the changed
+    values (one ``replace``, so relations are checked only on the consistent result)."""
+    changes = dict(changes)
     for e in effects_for(spec.name):
         if e.kind == "plant" and e.name not in present:
             for tgt, src in e.on(spec.name).ties.items():
-                changes[tgt] = getattr(params, src)
-    return dataclasses.replace(params, **changes) if changes else params
+                changes[tgt] = changes.get(src, getattr(params, src))
+    return dataclasses.replace(params, **changes)
 
 
 def _tie_function(spec: DiagnosisPlant, params: PhysicalParams, present: Sequence[str]):
@@ -126,11 +129,7 @@ def null_base(spec: DiagnosisPlant, params: PhysicalParams | None = None,
         for f, v in e.on(spec.name).null.items():
             if not isinstance(v, str):
                 changes[f] = v
-    for e in effects_for(spec.name):  # ties of the absent effects, on the nulled values
-        if e.kind == "plant" and e.name not in keep:
-            for f, v in e.on(spec.name).ties.items():
-                changes[f] = changes.get(v, getattr(p, v))
-    return dataclasses.replace(p, **changes)
+    return _replace_tied(spec, p, changes, keep)
 
 
 def with_effect(spec: DiagnosisPlant, model: Model, name: str, values: dict[str, float] | None = None) -> Model:
@@ -148,12 +147,7 @@ def with_effect(spec: DiagnosisPlant, model: Model, name: str, values: dict[str,
     if e.kind == "sensor":
         return model.copy(delay=vals["delay"])
     present = present_effects(spec, model) + [name]
-    changes = {**dict(r.switch), **vals}
-    for other in effects_for(spec.name):  # ties of the effects still absent
-        if other.kind == "plant" and other.name not in present:
-            for tgt, src in other.on(spec.name).ties.items():
-                changes[tgt] = changes.get(src, getattr(model.params, src))
-    return model.copy(params=dataclasses.replace(model.params, **changes))
+    return model.copy(params=_replace_tied(spec, model.params, {**dict(r.switch), **vals}, present))
 
 
 def _scored(e: gb.Experiment) -> np.ndarray | slice:
@@ -571,13 +565,8 @@ def _fit_candidate(spec: DiagnosisPlant, current: Model, start: Model, name: str
                 reset.pop(p.field, None)
     if not reset:
         return warm
-    present = present_effects(spec, current)
-    for e in effects_for(spec.name):  # ties of the absent effects, on the reset values
-        if e.kind == "plant" and e.name not in present:
-            for tgt, src in e.on(spec.name).ties.items():
-                reset[tgt] = reset.get(src, getattr(current.params, src))
     try:
-        cold_params = dataclasses.replace(current.params, **reset)
+        cold_params = _replace_tied(spec, current.params, reset, present_effects(spec, current))
         cold = fit_model(spec, with_effect(spec, current.copy(params=cold_params), name), records)
     except (ParameterError, gb.GreyboxError):
         return warm
