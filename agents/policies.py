@@ -17,6 +17,16 @@ Run-folder layout (names are the constants below)::
 
 The model is read with SB3's ``load`` (its tensors with ``torch.load(weights_only=True)``).
 ``vecnormalize.pkl`` is SB3's own pickle format: load run folders you trust, as with any pickle.
+
+Compact folders (:func:`export_compact`, the pre-trained baselines in ``agents/pretrained/``)
+hold only what evaluation needs, about 45 kB for a 64-64 PPO policy instead of 330 kB, and no
+pickle::
+
+    config.yml, args.json   as above
+    policy.pt               the policy's ``state_dict`` (read with ``weights_only=True``)
+    obs_normalization.npz   mean, var, clip_obs, epsilon of the frozen observation statistics
+
+:func:`load_trained` opens both layouts; the compact one gives bit-identical actions (tested).
 """
 
 from __future__ import annotations
@@ -40,8 +50,12 @@ __all__ = [
     "EVAL_CSV",
     "EVAL_NPZ",
     "TB_DIR",
+    "POLICY_FILE",
+    "OBS_NORM_FILE",
+    "ObsNormalizer",
     "TrainedPolicy",
     "algo_class",
+    "export_compact",
     "load_trained",
 ]
 
@@ -55,6 +69,8 @@ ARGS_FILE = "args.json"
 EVAL_CSV = "evaluations.csv"
 EVAL_NPZ = "evaluations.npz"
 TB_DIR = "tb"
+POLICY_FILE = "policy.pt"
+OBS_NORM_FILE = "obs_normalization.npz"
 
 
 def algo_class(algo: str) -> type:
@@ -65,6 +81,37 @@ def algo_class(algo: str) -> type:
     if algo not in classes:
         raise ValueError(f"algo = {algo!r}; allowed {ALGOS}")
     return classes[algo]
+
+
+class ObsNormalizer:
+    """Frozen observation normalisation ``clip((o - mean) / sqrt(var + eps), +-clip_obs)``, the
+    formula of SB3's ``VecNormalize.normalize_obs``, from plain arrays (no pickle)."""
+
+    norm_obs = True
+
+    def __init__(self, mean: Any, var: Any, clip_obs: float, epsilon: float) -> None:
+        self.mean = np.asarray(mean, dtype=np.float64)
+        self.var = np.asarray(var, dtype=np.float64)
+        if self.mean.shape != self.var.shape or not (np.all(np.isfinite(self.mean)) and np.all(self.var >= 0)):
+            raise ValueError("obs normalisation: mean and var must be finite arrays of one shape, var >= 0")
+        self.clip_obs, self.epsilon = float(clip_obs), float(epsilon)
+        self.training, self.norm_reward = False, False
+
+    @classmethod
+    def from_vecnormalize(cls, vn: Any) -> "ObsNormalizer":
+        return cls(vn.obs_rms.mean, vn.obs_rms.var, vn.clip_obs, vn.epsilon)
+
+    @classmethod
+    def load(cls, path: str | Path) -> "ObsNormalizer":
+        with np.load(path, allow_pickle=False) as z:
+            return cls(z["mean"], z["var"], float(z["clip_obs"]), float(z["epsilon"]))
+
+    def save(self, path: str | Path) -> None:
+        np.savez(path, mean=self.mean, var=self.var, clip_obs=self.clip_obs, epsilon=self.epsilon)
+
+    def normalize_obs(self, obs: Any) -> np.ndarray:
+        o = np.asarray(obs)
+        return np.clip((o - self.mean) / np.sqrt(self.var + self.epsilon), -self.clip_obs, self.clip_obs).astype(o.dtype)
 
 
 class TrainedPolicy:
@@ -119,6 +166,8 @@ def load_trained(run_dir: str | Path, which: str = "final", device: str = "cpu")
     run = Path(run_dir)
     if which not in ("final", "best"):
         raise ValueError(f"which = {which!r}; allowed ('final', 'best')")
+    if (run / POLICY_FILE).is_file() and not (run / MODEL_FILE).is_file():
+        return _load_compact(run, device)
     model_file, vn_file = (MODEL_FILE, VECNORM_FILE) if which == "final" else (BEST_MODEL_FILE, BEST_VECNORM_FILE)
     for f in (ARGS_FILE, CONFIG_FILE, model_file):
         if not (run / f).is_file():
@@ -133,3 +182,55 @@ def load_trained(run_dir: str | Path, which: str = "final", device: str = "cpu")
             normalizer = pickle.load(fh)  # SB3 VecNormalize state (venv excluded)
     return TrainedPolicy(model, normalizer, env_id=env_id, algo=algo,
                          config=config_all.get(env_id, {}), run_dir=run)
+
+
+def _policy_class(algo: str, policy: str) -> type:
+    cls = algo_class(algo)
+    if policy not in cls.policy_aliases:
+        raise ValueError(f"policy = {policy!r}; {algo} has {sorted(cls.policy_aliases)}")
+    return cls.policy_aliases[policy]
+
+
+def export_compact(run_dir: str | Path, dest: str | Path, which: str = "final") -> Path:
+    """Write the compact evaluation-only copy of a run folder (module docstring) to ``dest``."""
+    import shutil
+
+    import torch
+
+    pol = load_trained(run_dir, which)
+    dest = Path(dest)
+    dest.mkdir(parents=True, exist_ok=True)
+    state = {k: v.detach().cpu().clone() for k, v in pol.model.policy.state_dict().items()}
+    torch.save(state, dest / POLICY_FILE)
+    if pol.obs_normalizer is not None and pol.obs_normalizer.norm_obs:
+        ObsNormalizer.from_vecnormalize(pol.obs_normalizer).save(dest / OBS_NORM_FILE)
+    for f in (CONFIG_FILE, ARGS_FILE, EVAL_CSV):
+        if (Path(run_dir) / f).is_file():
+            shutil.copyfile(Path(run_dir) / f, dest / f)
+    return dest
+
+
+def _load_compact(run: Path, device: str = "cpu") -> TrainedPolicy:
+    import gymnasium as gym
+    import torch
+
+    import hydro_envs  # noqa: F401  (registers the env ids)
+    from agents.train import _policy_kwargs_obj
+
+    for f in (ARGS_FILE, CONFIG_FILE):
+        if not (run / f).is_file():
+            raise FileNotFoundError(f"{run / f} not found: not a compact policy folder (agents.policies.export_compact)")
+    args = json.loads((run / ARGS_FILE).read_text())
+    env_id, algo = args["env_id"], args["algo"]
+    cfg = (yaml.safe_load((run / CONFIG_FILE).read_text()) or {}).get(env_id, {})
+    env = gym.make(env_id)
+    obs_space, act_space = env.observation_space, env.action_space
+    env.close()
+    policy = _policy_class(algo, cfg.get("policy", "MlpPolicy"))(
+        obs_space, act_space, lambda _: 0.0, **_policy_kwargs_obj(cfg.get("policy_kwargs", {})))
+    state = torch.load(run / POLICY_FILE, map_location=device, weights_only=True)
+    policy.load_state_dict(state)
+    policy.set_training_mode(False)
+    policy.to(device)
+    normalizer = ObsNormalizer.load(run / OBS_NORM_FILE) if (run / OBS_NORM_FILE).is_file() else None
+    return TrainedPolicy(policy, normalizer, env_id=env_id, algo=algo, config=cfg, run_dir=run)

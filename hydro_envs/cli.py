@@ -98,13 +98,23 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser(
         "demo",
-        help="short servo-cylinder rollouts under a proportional controller, with a summary",
-        description="Run randomised ServoCylinderPosition-v0 episodes under a proportional "
-        "controller tuned from the plant's linearisation, print tracking metrics per "
-        "episode and the vector-env throughput.",
+        help="the main job: identify friction, calibrate, train PPO, benchmark against PID",
+        description="The main job (agents/demo.py): identify the servo cylinder's friction from a "
+        "virtual constant-velocity test, calibrate PID and PID + friction feedforward, train a "
+        "short PPO (or SAC) with domain randomisation, benchmark all three on frozen parameter "
+        "draws and write tables and figures. Needs the [rl,torch,plot] extras (make install). "
+        "--rollouts runs the old quick look instead: randomised episodes under a P controller.",
     )
-    p.add_argument("--episodes", type=_positive_int, default=5, metavar="N")
+    p.add_argument("--rollouts", action="store_true",
+                   help="only the quick P-controller rollouts (core install)")
+    p.add_argument("--episodes", type=_positive_int, default=5, metavar="N", help="(--rollouts) episodes")
     p.add_argument("--seed", type=int, default=0, metavar="S")
+    p.add_argument("--out", default="runs/demo", help="output folder of the main job")
+    p.add_argument("--algo", choices=("ppo", "sac"), default="ppo")
+    p.add_argument("--timesteps", type=_positive_int, default=None, metavar="N")
+    p.add_argument("--n", type=_positive_int, default=20, metavar="N", help="frozen draws per parameter set")
+    p.add_argument("--pretrained", action="store_true", help="skip training: use agents/pretrained/")
+    p.add_argument("--quick", action="store_true", help="a short smoke run")
     p.set_defaults(func=_cmd_demo)
 
     # `hydro identify METHOD ...`: the registry lives in identification/cli.py, which imports
@@ -135,9 +145,21 @@ def _add_benchmark_parser(sub: Any) -> None:
 
 
 def _cmd_demo(args: argparse.Namespace) -> int:
-    from hydro_envs.demo import run_demo
+    if args.rollouts:
+        from hydro_envs.demo import run_demo
 
-    return run_demo(episodes=args.episodes, seed=args.seed)
+        return run_demo(episodes=args.episodes, seed=args.seed)
+    try:
+        from agents.demo import main as demo_main
+    except ModuleNotFoundError as e:
+        print(f"hydro demo: error: the main job needs the agents package and its extras ({e}); "
+              "run `make install` or `pip install -e .[all]`, or use `hydro demo --rollouts`", file=sys.stderr)
+        return 2
+    argv = ["--out", args.out, "--algo", args.algo, "--n", str(args.n), "--seed", str(args.seed)]
+    if args.timesteps is not None:
+        argv += ["--timesteps", str(args.timesteps)]
+    argv += ["--pretrained"] * args.pretrained + ["--quick"] * args.quick
+    return demo_main(argv)
 
 
 def _positive_int(text: str) -> int:

@@ -1,0 +1,358 @@
+r"""The main job (``make demo``, ``hydro demo``): identify, calibrate, train, benchmark.
+
+One script that walks through what the suite is for, on ``ServoCylinderPosition-v0`` (seed 002):
+
+1. **Identify** the friction of the "rig" -- the nominal servo cylinder seen through realistic
+   sensors (0.03 mm encoder, 20 kPa pressure noise low-passed at 50 Hz,
+   :meth:`identification.experiments.SensorModel.realistic`) -- from the virtual
+   constant-velocity square-wave test of 002 sec. 4
+   (:func:`~identification.experiments.run_friction_experiment`, plateau velocities and
+   ``A (p_1 - p_2)`` per plateau, eq (10)), and fit the Stribeck law 002 eq (1) by nonlinear
+   least squares (:func:`identification.friction.fit_friction`). The fit is printed beside the
+   rig's true values, with standard errors.
+2. **Calibrate** the classical controllers: the PID from the plant's linearisation
+   (:func:`agents.controllers.servo.pid_tuning`: crossover ``zeta_h omega_h`` below the
+   hydraulic resonance), and the PID + friction feedforward whose compensator
+   (:class:`identification.compensators.FrictionCompensator`) uses the Stribeck law just
+   identified. The identified friction is checked against the training randomisation ranges
+   (``configs/randomization/servo_cylinder.yaml``): the learned agent must have seen the rig.
+3. **Train** a PPO (default; ``--algo sac`` also works) agent with domain randomisation
+   (:func:`agents.train.train`, ``configs/agents/<algo>.yml``, the batched-kernel SB3 adapter,
+   rich progress bar). ``--pretrained`` skips training and uses the small baseline shipped in
+   ``agents/pretrained/`` (see :mod:`agents.pretrain`).
+4. **Benchmark** PID, PID + identified friction feedforward and the learned agent on the same
+   ``--n`` (20) frozen, seeded parameter draws from the training ranges (``in``) and on draws
+   beyond them (``out``) (:func:`agents.benchmark.run_benchmark`), print the table, write
+   markdown, CSV and figures (box plots per metric, example traces, the friction fit) to
+   ``--out``.
+
+Measured on the 2-core development machine (see the README): the whole job takes about four
+minutes after the one-off install and numba compilation.
+
+Usage::
+
+    python -m agents.demo [--out runs/demo] [--algo ppo|sac] [--timesteps N] [--n 20]
+                          [--seed 0] [--pretrained] [--quick]
+"""
+
+from __future__ import annotations
+
+import os
+
+# numba's OpenMP workers spin after each parallel env step and starve torch on 2 cores
+# (agents/train.py); must be set before numba or torch load libgomp.
+os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
+
+import argparse  # noqa: E402
+import time  # noqa: E402
+from pathlib import Path  # noqa: E402
+from typing import Any, Callable, Sequence  # noqa: E402
+
+import numpy as np  # noqa: E402
+
+ENV_ID = "hydro_envs/ServoCylinderPosition-v0"
+DEFAULT_TIMESTEPS = {"ppo": 1_000_000, "sac": 60_000}
+QUICK_TIMESTEPS = {"ppo": 65_536, "sac": 12_000}
+FF_NAME = "pid_ff_identified"
+FF_SPEC = "identified:stribeck"  # policy_loader key of the calibrated feedforward controller
+STRIBECK_FIELDS = (  # fit parameter -> ServoCylinderParams field, unit, display scale
+    ("F_c", "coulomb_friction", "N", 1.0),
+    ("F_s", "static_friction", "N", 1.0),
+    ("v_s", "stribeck_velocity", "mm/s", 1e3),
+    ("F_v", "viscous_friction", "N s/m", 1.0),
+)
+
+
+class Stage:
+    """Prints numbered stage headers and their wall times (the demo's progress)."""
+
+    def __init__(self, total: int, console: Any) -> None:
+        self.total, self.k, self.console = total, 0, console
+        self.t0 = time.perf_counter()
+        self.times: list[tuple[str, float]] = []
+        self._t = self.t0
+        self._title = ""
+
+    def start(self, title: str) -> None:
+        self.k += 1
+        self._title, self._t = title, time.perf_counter()
+        self.console.rule(f"[bold][{self.k}/{self.total}] {title}")
+
+    def done(self) -> float:
+        dt = time.perf_counter() - self._t
+        self.times.append((self._title, dt))
+        self.console.print(f"[dim]... {self._title.split(':')[0]} took {dt:.1f} s "
+                           f"(total {time.perf_counter() - self.t0:.0f} s)[/dim]")
+        return dt
+
+
+# ------------------------------------------------------------------ 1. identify
+def identify_friction(seed: int = 0):
+    """Run the 002 sec. 4 test on the nominal rig with realistic sensors and fit 002 eq (1).
+
+    Returns ``(fit, points, experiment)``. The sign regularisation of the fit is the plant's
+    (``friction_sign_velocity``), as a user would read it from the model they calibrate.
+    """
+    from identification.experiments import (
+        SensorModel,
+        friction_points_from_square_wave,
+        run_friction_experiment,
+    )
+    from identification.friction import fit_friction
+
+    exp = run_friction_experiment(sensors=SensorModel.realistic(), seed=seed, period_max=3.0)
+    points = friction_points_from_square_wave(exp.data)
+    fit = fit_friction(points, model="stribeck", sign_velocity=exp.params.friction_sign_velocity)
+    return fit, points, exp
+
+
+def friction_table(fit: Any, truth: Any) -> list[tuple[str, str, float, float, float]]:
+    """Rows ``(name, unit, identified, std error, rig value)`` in display units."""
+    rows = []
+    for name, field, unit, scale in STRIBECK_FIELDS:
+        rows.append((name, unit, fit.parameters[name] * scale, fit.std_errors.get(name, np.nan) * scale,
+                     getattr(truth, field) * scale))
+    return rows
+
+
+def inside_training_ranges(fit: Any) -> list[tuple[str, float, float, float, bool]]:
+    """``(field, identified, low, high, inside)`` for the friction fields the env randomises."""
+    from hydro_envs.plants.servo_cylinder import ServoCylinderParams
+    from hydro_envs.randomization import load_randomization
+
+    spec = load_randomization("servo_cylinder", ServoCylinderParams)
+    ranges = {r["name"]: r["value_range"] for r in spec.table()}
+    out = []
+    for name, field, _, _ in STRIBECK_FIELDS:
+        if field in ranges:
+            lo, hi = ranges[field]
+            val = fit.parameters[name]
+            out.append((field, val, lo, hi, bool(lo <= val <= hi)))
+    return out
+
+
+def friction_figure(fit: Any, points: Any, truth: Any, path: Path) -> Path | None:
+    """Measured plateau points, the identified law and the rig's law (PNG); None without
+    matplotlib."""
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:  # pragma: no cover - plotting extra not installed
+        return None
+    from identification.friction import static_friction
+
+    v = np.asarray(points.v)
+    vv = np.linspace(v.min(), v.max(), 801)
+    true_params = {name: getattr(truth, field) for name, field, _, _ in STRIBECK_FIELDS}
+    fig, ax = plt.subplots(figsize=(6.4, 4.0))
+    ax.plot(v * 1e3, points.force, "o", ms=3, label="plateaus of the virtual test (noisy sensors)")
+    ax.plot(vv * 1e3, fit.predict(vv), "-", label="identified Stribeck law, 002 eq (1)")
+    ax.plot(vv * 1e3, static_friction("stribeck", vv, true_params, None, truth.friction_sign_velocity),
+            "--", label="rig (truth)")
+    ax.set_xlabel("piston velocity [mm/s]")
+    ax.set_ylabel("friction force A (p1 - p2) [N]")
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+# ------------------------------------------------------------------ 2. calibrate
+def calibrated_controllers(fit: Any) -> tuple[Any, Any, dict[str, float]]:
+    """``(pid, pid_ff, tuning)``: the PID from the nominal linearisation and the same PID with
+    the feedforward of the identified friction law."""
+    from agents.controllers.servo import PIDController, PIDFrictionFeedforwardController, pid_tuning
+    from hydro_envs.plants.servo_cylinder import ServoCylinderParams
+
+    p = ServoCylinderParams()
+    return (PIDController.from_params(p), PIDFrictionFeedforwardController.from_params(p, model=fit),
+            pid_tuning(p))
+
+
+# ------------------------------------------------------------------ 3. train
+def train_agent(algo: str, timesteps: int, seed: int, out: Path, progress_bar: bool = True) -> Path:
+    """:func:`agents.train.train` with randomisation; returns the run folder."""
+    from agents.train import train
+
+    return train(ENV_ID, algo, timesteps=timesteps, seed=seed, randomize=True, out=out,
+                 name=f"{algo}_seed{seed}", progress_bar=progress_bar, eval_freq=0,
+                 n_eval_episodes=8, torch_threads=1)
+
+
+def pretrained_run(algo: str = "ppo") -> Path:
+    """The shipped baseline of the servo env (``agents/pretrained/``)."""
+    from agents.pretrain import pretrained_dir
+
+    return pretrained_dir(ENV_ID, algo)
+
+
+# ------------------------------------------------------------------ 4. benchmark
+def benchmark(agent_run: Path, algo: str, ff_controller: Any, n: int, seed: int, out: Path,
+              params: str, progress: Callable[[str], None]):
+    """PID, PID + identified feedforward and the agent on ``n`` frozen draws of ``params``."""
+    from agents.benchmark import _load_policy, run_benchmark
+
+    def loader(spec: str) -> Any:  # the calibrated controller is built here, not by name
+        return ff_controller if spec == FF_SPEC else _load_policy(spec)
+
+    specs = ["pid", f"{FF_NAME}=sb3:{FF_SPEC}", f"{algo}=sb3:{agent_run}"]
+    return run_benchmark(ENV_ID, specs, params=params, n=n, seed=seed, out_dir=out,
+                         policy_loader=loader, progress=progress)
+
+
+SUMMARY_METRICS = (  # key, label, scale
+    ("rmse", "RMSE [mm]", 1e3),
+    ("max_error", "max error [mm]", 1e3),
+    ("rmse_rel_pid", "RMSE / PID", 1.0),
+    ("overshoot", "overshoot [%]", 1.0),
+    ("settling_time", "settling [s]", 1.0),
+    ("effort", "effort (RMS action)", 1.0),
+    ("pressure_violations", "p-violation steps", 1.0),
+    ("endstop_steps", "end-stop steps", 1.0),
+    ("failed", "failure rate", 1.0),
+    ("cvar10_rmse", "CVaR10 RMSE [mm]", 1e3),
+)
+
+
+def print_benchmark(res: Any, console: Any) -> None:
+    from rich.table import Table
+
+    tab = Table(title=f"{res.env_id}: params = {res.params}, n = {res.n} frozen draws (mean [95 % CI])")
+    tab.add_column("metric")
+    for c in res.summary:
+        tab.add_column(c, justify="right")
+    for key, label, scale in SUMMARY_METRICS:
+        if not all(key in s for s in res.summary.values()):
+            continue
+        cells = []
+        for s in res.summary.values():
+            m, lo, hi, _ = s[key]
+            cells.append("n/a" if not np.isfinite(m) else f"{m * scale:.3g} [{lo * scale:.3g}, {hi * scale:.3g}]")
+        tab.add_row(label, *cells)
+    console.print(tab)
+
+
+def verdict(results: Sequence[Any], algo: str) -> list[str]:
+    """One honest sentence per parameter set: who has the lowest mean RMSE, by how much."""
+    lines = []
+    for res in results:
+        rm = {c: s["rmse"][0] for c, s in res.summary.items()}
+        best = min(rm, key=rm.get)
+        rel = res.summary[algo]["rmse_rel_pid"]
+        lines.append(f"{res.params}: lowest mean RMSE {best} ({rm[best] * 1e3:.2f} mm); {algo} / PID paired "
+                     f"RMSE ratio {rel[0]:.2f} [{rel[1]:.2f}, {rel[2]:.2f}]; PID+identified FF / PID "
+                     f"{res.summary[FF_NAME]['rmse_rel_pid'][0]:.2f}")
+    return lines
+
+
+# ------------------------------------------------------------------ main
+def run(out: str | Path = "runs/demo", *, algo: str = "ppo", timesteps: int | None = None, n: int = 20,
+        seed: int = 0, pretrained: bool = False, quick: bool = False, params: Sequence[str] = ("in", "out"),
+        progress_bar: bool = True, agent_run: str | Path | None = None) -> dict[str, Any]:
+    """Run the four stages; return a summary dict (fit, run folder, benchmark results, times).
+
+    ``agent_run``: an existing run folder (of :mod:`agents.train` or a compact one) to benchmark
+    instead of training; ``pretrained``: the shipped baseline.
+    """
+    from rich.console import Console
+
+    console = Console()
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    if algo not in DEFAULT_TIMESTEPS:
+        raise ValueError(f"algo = {algo!r}; allowed {tuple(DEFAULT_TIMESTEPS)}")
+    if timesteps is None:
+        timesteps = (QUICK_TIMESTEPS if quick else DEFAULT_TIMESTEPS)[algo]
+    if timesteps < 1:
+        raise ValueError(f"timesteps must be >= 1, got {timesteps}")
+    if n < 2:
+        raise ValueError(f"n must be >= 2 draws (confidence intervals), got {n}")
+    stage = Stage(4, console)
+    console.print(f"[bold]hydro-envs demo[/bold]: identify -> calibrate -> train -> benchmark on {ENV_ID}; "
+                  f"outputs in {out}/")
+
+    stage.start("Identify: friction from the virtual constant-velocity test (002 sec. 4)")
+    fit, points, exp = identify_friction(seed)
+    console.print(f"{len(points.v)} constant-velocity plateaus from a {exp.data.t[-1]:.0f} s square-wave test, "
+                  "realistic sensors (0.03 mm encoder, 20 kPa pressure noise, 50 Hz filter)")
+    from rich.table import Table
+
+    tab = Table(title="Stribeck law 002 eq (1), nonlinear least squares")
+    for col in ("parameter", "identified", "std error", "rig (truth)", "error"):
+        tab.add_column(col, justify="right")
+    for name, unit, val, se, true in friction_table(fit, exp.params):
+        tab.add_row(f"{name} [{unit}]", f"{val:.4g}", f"{se:.2g}", f"{true:.4g}", f"{100 * (val - true) / true:+.1f} %")
+    console.print(tab)
+    fig = friction_figure(fit, points, exp.params, out / "friction_fit.png")
+    stage.done()
+
+    stage.start("Calibrate: PID from the linearisation, feedforward from the identified friction")
+    pid, pid_ff, tuning = calibrated_controllers(fit)
+    console.print(f"PID: omega_h = {tuning['omega_h']:.0f} rad/s at mid-stroke, crossover omega_c = "
+                  f"{tuning['omega_c']:.1f} rad/s, K_p = {tuning['kp']:.1f} 1/m, T_i = {tuning['ti'] * 1e3:.0f} ms, "
+                  f"T_d = {tuning['td'] * 1e3:.2f} ms")
+    console.print(f"{FF_NAME}: the same PID + the valve-command increment that delivers the reference "
+                  "velocity against the identified friction (identification.compensators)")
+    for field, val, lo, hi, ok in inside_training_ranges(fit):
+        console.print(f"  {field:>18} = {val:.4g}  training range [{lo:.4g}, {hi:.4g}]  "
+                      + ("[green]inside[/green]" if ok else "[red]OUTSIDE: the agent never saw this rig[/red]"))
+    stage.done()
+
+    if pretrained or agent_run is not None:
+        run_dir = Path(agent_run) if agent_run is not None else pretrained_run(algo)
+        stage.start(f"Train: skipped, using {'the shipped baseline' if agent_run is None else 'a given run'}")
+        console.print(f"agent: {run_dir}")
+    else:
+        stage.start(f"Train: {algo.upper()} for {timesteps:,} steps with domain randomisation")
+        run_dir = train_agent(algo, timesteps, seed, out / "agents", progress_bar=progress_bar)
+        console.print(f"run folder: {run_dir}")
+    stage.done()
+
+    stage.start(f"Benchmark: PID vs PID+identified FF vs {algo.upper()} on {n} frozen draws")
+    results = []
+    for ps in params:
+        res = benchmark(run_dir, algo, pid_ff, n, seed, out, ps, progress=lambda m: console.print(f"  {m}"))
+        print_benchmark(res, console)
+        results.append(res)
+    stage.done()
+
+    console.rule("[bold]Summary")
+    for line in verdict(results, algo):
+        console.print(line)
+    files = sorted({str(f) for r in results for f in r.files} | ({str(fig)} if fig else set()))
+    console.print("files: " + ", ".join(files))
+    total = time.perf_counter() - stage.t0
+    console.print("stage times: " + ", ".join(f"{t.split(':')[0]} {s:.0f} s" for t, s in stage.times)
+                  + f"; total {total:.0f} s")
+    return {"fit": fit, "run_dir": run_dir, "results": results, "times": stage.times, "total_s": total,
+            "files": files}
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    p = argparse.ArgumentParser(prog="python -m agents.demo", description=__doc__.split("\n\n")[0])
+    p.add_argument("--out", default="runs/demo", help="output folder (default runs/demo)")
+    p.add_argument("--algo", choices=tuple(DEFAULT_TIMESTEPS), default="ppo")
+    p.add_argument("--timesteps", type=int, default=None,
+                   help=f"training steps (default {DEFAULT_TIMESTEPS}; --quick {QUICK_TIMESTEPS})")
+    p.add_argument("--n", type=int, default=20, help="frozen parameter draws per set (default 20)")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--params", nargs="+", default=["in", "out"], choices=("nominal", "in", "out"))
+    p.add_argument("--pretrained", action="store_true", help="skip training: use agents/pretrained/")
+    p.add_argument("--quick", action="store_true", help="a short smoke run (few training steps)")
+    p.add_argument("--no-progress-bar", action="store_true")
+    a = p.parse_args(argv)
+    try:
+        run(a.out, algo=a.algo, timesteps=a.timesteps, n=a.n, seed=a.seed, pretrained=a.pretrained,
+            quick=a.quick, params=a.params, progress_bar=not a.no_progress_bar)
+    except (ValueError, FileNotFoundError) as exc:
+        print(f"hydro demo: error: {exc}")
+        return 2
+    return 0
+
+
+if __name__ == "__main__":  # pragma: no cover
+    raise SystemExit(main())
