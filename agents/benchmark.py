@@ -56,6 +56,8 @@ from typing import Any
 
 import numpy as np
 
+from agents.backend import add_backend_args, check_backend, import_ray
+
 __all__ = [
     "ADAPTERS",
     "METRICS",
@@ -436,13 +438,20 @@ def rollout(env_id: str, controller: Any, draws: Sequence[Mapping[str, float]], 
 
 
 def episode_metrics(track: Rollout, step: Rollout | None, adapter: EnvAdapter) -> dict[str, np.ndarray]:
-    """Per-episode metrics (see the module docstring) from a tracking and a step rollout."""
-    e = track.ref - track.y
+    """Per-episode metrics (see the module docstring) from a tracking and a step rollout.
+
+    Every per-episode mean runs over one contiguous row per episode (episodes x steps), so an
+    episode's value does not depend on how many other episodes share the batch: numpy sums a
+    contiguous row pairwise but accumulates a column of a (steps x episodes) array step by
+    step, and the two differ in the last bit. This keeps chunked (Ray) runs bit-identical.
+    """
+    e = np.ascontiguousarray((track.ref - track.y).T)  # (n, steps)
     with np.errstate(invalid="ignore"):
-        rmse = np.sqrt(np.mean(e**2, axis=0))
-        max_err = np.max(np.abs(e), axis=0)
-        hold = np.sqrt(np.mean((track.ref - track.y[0][None, :]) ** 2, axis=0))
-    effort = np.sqrt(np.mean(track.actions**2, axis=(0, 2)))
+        rmse = np.sqrt(np.mean(e**2, axis=1))
+        max_err = np.max(np.abs(e), axis=1)
+        hold = np.sqrt(np.mean(np.ascontiguousarray((track.ref - track.y[0][None, :]).T) ** 2, axis=1))
+    acts = np.ascontiguousarray(np.swapaxes(track.actions, 0, 1)).reshape(track.actions.shape[1], -1)
+    effort = np.sqrt(np.mean(acts**2, axis=1))
     failed = track.nonfinite | ~np.isfinite(rmse) | (rmse >= hold)
     n = rmse.size
     over = np.full(n, np.nan)
@@ -601,6 +610,10 @@ def run_benchmark(
     policy_loader: Callable[[str], Any] | None = None,
     env_kwargs: Mapping[str, Any] | None = None,
     progress: Callable[[str], None] | None = None,
+    backend: str = "serial",
+    chunk_size: int | None = None,
+    ray_address: str | None = None,
+    num_cpus: int | None = None,
 ) -> BenchmarkResult:
     """Evaluate ``controllers`` on ``n`` frozen draws of the ``params`` set (module docstring).
 
@@ -609,42 +622,44 @@ def run_benchmark(
     kind from :data:`ADAPTERS`; ``None``: skip the step episodes). Writes
     ``<plant>_<params>.md``, ``.csv``, ``_episodes.csv``, ``_draws.csv`` and (``figures``)
     ``_box.png``, ``_traces.png`` to ``out_dir`` if given.
+
+    ``backend="ray"`` evaluates the pieces as Ray core tasks (:mod:`agents.backend`; cluster
+    ``ray_address`` or ``$RAY_ADDRESS``, else a local Ray with ``num_cpus``): a classical
+    controller on a contiguous chunk of ``chunk_size`` draws per task (default: enough chunks
+    to give every CPU one task), a learned policy on all draws in one task. A chunk starting
+    at draw ``lo`` resets its copy ``j`` with seed ``seed + lo + j``, the seed of draw
+    ``lo + j`` in the serial batch, so every metric is the same bit for bit.
     """
     t0 = time.perf_counter()
-    ad = _adapter(env_id)
+    _adapter(env_id)
     if params not in PARAM_SETS:
         raise ValueError(f"params = {params!r}; allowed {PARAM_SETS}")
+    if check_backend(backend) == "ray":
+        import_ray()  # fail before any work when the extra is missing
     specs = parse_controllers(env_id, controllers)
     draws = draw_parameters(env_id, params, n, seed)
-    step_kind = ad.step_reference if step_reference == "auto" else step_reference
+    step_kind = ADAPTERS[env_id].step_reference if step_reference == "auto" else step_reference
     loader = policy_loader or _load_policy
     say = progress or (lambda msg: None)
-    from agents.controllers import make_controller
+    common = (env_id, seed, reference, step_kind, episode_steps, dict(env_kwargs or {}), loader)
+
+    if backend == "serial":  # one piece per controller spec, all draws in one batch
+        parts = []
+        for name, kind, run in specs:
+            say(f"{env_id} [{params}] {name}{'' if kind == 'classical' else ' <- ' + run} ...")
+            parts.append(_evaluate_piece(kind, run, 0, draws, *common))
+    else:
+        parts = _evaluate_on_ray(specs, draws, common, chunk_size, ray_address, num_cpus, say,
+                                 f"{env_id} [{params}]")
 
     episodes: dict[str, dict[str, list[np.ndarray]]] = {}
     members: dict[str, int] = {}
     param_arrays: dict[str, np.ndarray] = {}
     traces: dict[str, tuple[np.ndarray, np.ndarray]] = {}
     dt = 0.0
-    for name, kind, run in specs:
-        say(f"{env_id} [{params}] {name}{'' if kind == 'classical' else ' <- ' + run} ...")
-        if kind == "classical":
-            ctrl_factory = (lambda body=run: make_controller(env_id, body))
-        else:
-            ctrl_factory = (lambda path=run: _checked_policy(loader(path), path, env_id))
-        ctrl = ctrl_factory()  # one object for both episode sets (episode_start resets its state)
-        if kind == "classical" and hasattr(ctrl, "reset"):
-            ctrl.reset()
-        track = rollout(env_id, ctrl, draws, seed=seed, reference=reference, steps=episode_steps,
-                        env_kwargs=env_kwargs)
-        step = None
-        if step_kind is not None:
-            if kind == "classical" and hasattr(ctrl, "reset"):
-                ctrl.reset()
-            step = rollout(env_id, ctrl, draws, seed=seed, reference=step_kind, steps=episode_steps,
-                           env_kwargs=env_kwargs)
-        m = episode_metrics(track, step, ad)
-        dt = track.dt
+    for (name, _kind, _run), part in zip(specs, parts):
+        m = part.metrics
+        dt = part.dt
         if name in episodes:
             for k, v in m.items():
                 episodes[name][k].append(v)
@@ -652,9 +667,9 @@ def run_benchmark(
         else:
             episodes[name] = {k: [v] for k, v in m.items()}
             members[name] = 1
-            traces[name] = (track.y[:, 0].copy(), track.ref[:, 0].copy())
-        param_arrays.setdefault(name, track.params)
-        if not np.array_equal(param_arrays[name], track.params):  # pragma: no cover - invariant
+            traces[name] = part.trace
+        param_arrays.setdefault(name, part.params)
+        if not np.array_equal(param_arrays[name], part.params):  # pragma: no cover - invariant
             raise RuntimeError("parameter draws differ between members of one controller")
     pooled = {c: {k: np.concatenate(v) for k, v in d.items()} for c, d in episodes.items()}
     if PAIRED_REFERENCE in pooled:
@@ -668,6 +683,90 @@ def run_benchmark(
         res.files = write_outputs(res, Path(out_dir), figures=figures)
     res.seconds = time.perf_counter() - t0
     return res
+
+
+# ------------------------------------------------------------------ pieces (serial or Ray tasks)
+@dataclasses.dataclass
+class _Piece:
+    """Metrics of one controller on the draws ``[lo, hi)`` (a whole spec, or one Ray task)."""
+
+    metrics: dict[str, np.ndarray]
+    params: np.ndarray  # (hi - lo, n_params)
+    trace: tuple[np.ndarray, np.ndarray]  # (y, ref) of the piece's first copy
+    dt: float
+
+
+def _evaluate_piece(kind: str, run: str, lo: int, part: Sequence[Mapping[str, float]], env_id: str,
+                    seed: int, reference: str | None, step_kind: str | None, steps: int | None,
+                    env_kwargs: Mapping[str, Any], loader: Callable[[str], Any]) -> _Piece:
+    """Tracking (and step) episodes of one controller on ``part`` = draws ``lo, lo + 1, ...``.
+
+    Copy ``j`` of the batch is draw ``lo + j`` reset with seed ``seed + lo + j``: the same
+    episode as in a batch of all draws, so pieces can run anywhere and be concatenated.
+    """
+    from agents.controllers import make_controller
+
+    if kind == "classical":
+        ctrl = make_controller(env_id, run)
+    else:
+        ctrl = _checked_policy(loader(run), run, env_id)
+    # one controller object for both episode sets (episode_start resets its state)
+    if kind == "classical" and hasattr(ctrl, "reset"):
+        ctrl.reset()
+    part = list(part)
+    track = rollout(env_id, ctrl, part, seed=seed + lo, reference=reference, steps=steps, env_kwargs=env_kwargs)
+    step = None
+    if step_kind is not None:
+        if kind == "classical" and hasattr(ctrl, "reset"):
+            ctrl.reset()
+        step = rollout(env_id, ctrl, part, seed=seed + lo, reference=step_kind, steps=steps, env_kwargs=env_kwargs)
+    m = episode_metrics(track, step, ADAPTERS[env_id])
+    return _Piece(m, track.params, (track.y[:, 0].copy(), track.ref[:, 0].copy()), track.dt)
+
+
+def _merge(pieces: Sequence[_Piece]) -> _Piece:
+    """Concatenate the pieces of one controller (in draw order) into the whole-batch result."""
+    first = pieces[0]
+    metrics = {k: np.concatenate([p.metrics[k] for p in pieces]) for k in first.metrics}
+    return _Piece(metrics, np.concatenate([p.params for p in pieces]), first.trace, first.dt)
+
+
+def _evaluate_on_ray(specs: Sequence[tuple[str, str, str]], draws: Sequence[Mapping[str, float]], common: tuple,
+                     chunk_size: int | None,
+                     address: str | None, num_cpus: int | None, say: Callable[[str], None],
+                     label: str) -> list[_Piece]:
+    """One Ray task per (controller, chunk of draws); the merged piece of every spec, in order.
+
+    Learned policies are not split: a network's output may depend on the batch size in the
+    last bits (BLAS blocking), and loading the policy is the expensive part of its task.
+    """
+    from agents.backend import chunk_ranges, cluster_cpus, run_tasks
+
+    n = len(draws)
+    if chunk_size is None:
+        classical = sum(1 for _, kind, _ in specs if kind == "classical")
+        cpus = cluster_cpus("ray", address, num_cpus)
+        chunk_size = n if classical == 0 else min(n, max(1, math.ceil(classical * n / cpus)))
+    calls, owner = [], []
+    for s, (_name, kind, run) in enumerate(specs):
+        ranges = chunk_ranges(n, chunk_size) if kind == "classical" else [(0, n)]
+        for lo, hi in ranges:
+            calls.append((kind, run, lo, list(draws[lo:hi]), *common))
+            owner.append(s)
+    say(f"{label}: {len(calls)} Ray tasks ({len(specs)} controller specs, chunks of <= {chunk_size} draws) ...")
+    done = [0] * len(specs)
+    total = [owner.count(s) for s in range(len(specs))]
+
+    def report(i: int, _piece: _Piece) -> None:
+        s = owner[i]
+        done[s] += 1
+        if done[s] == total[s]:
+            name, kind, run = specs[s]
+            say(f"{label} {name}{'' if kind == 'classical' else ' <- ' + run} done")
+
+    pieces = run_tasks(_evaluate_piece, calls, backend="ray", address=address, num_cpus=num_cpus,
+                       on_result=report)
+    return [_merge([p for p, o in zip(pieces, owner) if o == s]) for s in range(len(specs))]
 
 
 # ------------------------------------------------------------------ outputs
@@ -785,6 +884,9 @@ def add_cli(subparsers: Any) -> argparse.ArgumentParser:
     p.add_argument("--policy", nargs="+", action="extend", metavar="RUN_DIR", default=[],
                    help="trained run folder(s) (several training seeds pool by name)")
     p.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
+    add_backend_args(p)
+    p.add_argument("--chunk-size", type=int, metavar="N", default=None,
+                   help="draws per Ray task for classical controllers (default: one task per CPU)")
     p.set_defaults(func=cli_benchmark)
     return p
 
@@ -829,13 +931,19 @@ def cli_benchmark(args: argparse.Namespace) -> int:
         out = args.out or cfg.get("out")
         steps = args.steps if args.steps is not None else cfg.get("episode_steps")
         figures = (not args.no_figures) and bool(cfg.get("figures", True))
+        backend = getattr(args, "backend", "serial")
+        chunk = getattr(args, "chunk_size", None)
+        if chunk is not None and chunk < 1:
+            raise ValueError(f"--chunk-size must be >= 1, got {chunk}")
         for s in psets:
             res = run_benchmark(env, ctrls, s, n, seed, out, episode_steps=steps, reference=cfg.get("reference"),
                                 step_reference=cfg.get("step_reference", "auto"), figures=figures,
-                                progress=lambda msg: print(msg, file=sys.stderr, flush=True))
+                                progress=lambda msg: print(msg, file=sys.stderr, flush=True),
+                                backend=backend, chunk_size=chunk, ray_address=getattr(args, "ray_address", None),
+                                num_cpus=getattr(args, "num_cpus", None))
             print(res.markdown())
             print(f"({res.seconds:.1f} s)" + (f"; wrote {', '.join(str(f) for f in res.files)}" if res.files else ""))
-    except (ValueError, OSError) as e:
+    except (ValueError, OSError, ImportError) as e:
         print(f"hydro: error: {e}", file=sys.stderr)
         return 2
     return 0
