@@ -221,7 +221,9 @@ SUMMARY_METRICS = (  # key, label, scale
 def print_benchmark(res: Any, console: Any) -> None:
     from rich.table import Table
 
-    tab = Table(title=f"{res.env_id}: params = {res.params}, n = {res.n} frozen draws (mean [95 % CI])")
+    from rich.markup import escape
+
+    tab = Table(title=escape(f"{res.env_id}: params = {res.params}, n = {res.n} frozen draws (mean [95 % CI])"))
     tab.add_column("metric")
     for c in res.summary:
         tab.add_column(c, justify="right")
@@ -232,7 +234,7 @@ def print_benchmark(res: Any, console: Any) -> None:
         for s in res.summary.values():
             m, lo, hi, _ = s[key]
             cells.append("n/a" if not np.isfinite(m) else f"{m * scale:.3g} [{lo * scale:.3g}, {hi * scale:.3g}]")
-        tab.add_row(label, *cells)
+        tab.add_row(escape(label), *(escape(c) for c in cells))
     console.print(tab)
 
 
@@ -279,13 +281,14 @@ def run(out: str | Path = "runs/demo", *, algo: str = "ppo", timesteps: int | No
     fit, points, exp = identify_friction(seed)
     console.print(f"{len(points.v)} constant-velocity plateaus from a {exp.data.t[-1]:.0f} s square-wave test, "
                   "realistic sensors (0.03 mm encoder, 20 kPa pressure noise, 50 Hz filter)")
+    from rich.markup import escape
     from rich.table import Table
 
     tab = Table(title="Stribeck law 002 eq (1), nonlinear least squares")
     for col in ("parameter", "identified", "std error", "rig (truth)", "error"):
         tab.add_column(col, justify="right")
     for name, unit, val, se, true in friction_table(fit, exp.params):
-        tab.add_row(f"{name} [{unit}]", f"{val:.4g}", f"{se:.2g}", f"{true:.4g}", f"{100 * (val - true) / true:+.1f} %")
+        tab.add_row(escape(f"{name} [{unit}]"), f"{val:.4g}", f"{se:.2g}", f"{true:.4g}", f"{100 * (val - true) / true:+.1f} %")
     console.print(tab)
     fig = friction_figure(fit, points, exp.params, out / "friction_fit.png")
     stage.done()
