@@ -3,6 +3,7 @@ the whole catalogue on one 20 s record (issue 6).
 
     python bench/diagnosis.py [--plants slider,servo_cylinder,shaking_table] [--seeds 3]
                               [--duration 8] [--max-effects 1] [--speed]
+                              [--backend serial|ray] [--ray-address ADDR] [--num-cpus N]
 
 For every plant, every applicable catalogue effect and ``--seeds`` seeds it draws the effect's
 parameters inside the catalogue's draw range, records closed-loop data with realistic sensor
@@ -10,6 +11,9 @@ noise (identification.diagnosis.synthetic), runs the workflow from the base mode
 the confusion matrix (true effect x named effect) and the three rates:
 top-1 (hidden effect named first), none (effect-free data -> "none") and shrink (held-out
 NRMSE falls by >= 50 % when an effect is named).
+
+``--backend ray`` runs every case as one Ray core task (agents/backend.py; a cluster by
+``--ray-address`` or ``$RAY_ADDRESS``, else a local Ray); rows, matrix and rates are the same.
 """
 
 from __future__ import annotations
@@ -21,37 +25,73 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the package, not bench/identification.py
+# the package, not bench/identification.py: drop this folder from the path (Ray would also put
+# it first on its workers' path) and put the repository root first
+sys.path[:] = [p for p in sys.path if Path(p or ".").resolve() != Path(__file__).resolve().parent]
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from agents.backend import add_backend_args, import_ray  # noqa: E402
 from identification.diagnosis import diagnose, effects_for  # noqa: E402
 from identification.diagnosis.synthetic import hidden_effect_records  # noqa: E402
 
 
-def run_case(plant: str, eff: str | None, seed: int, duration: float, max_effects: int) -> dict:
+def run_case(plant: str, eff: str | None, seed: int, duration: float, max_effects: int,
+             candidates: tuple[str, ...] | None = None) -> dict:
     case = hidden_effect_records(plant, eff, seed, duration=duration)
     t0 = time.perf_counter()
-    res = diagnose(plant, [case.fit], [case.holdout], base=case.base.params, max_effects=max_effects, maps=False)
+    res = diagnose(plant, [case.fit], [case.holdout], base=case.base.params, max_effects=max_effects, maps=False,
+                   effects=None if candidates is None else list(candidates))
     named = res.effects[0]["name"] if res.effects else ("ambiguous" if res.verdict == "ambiguous" else "none")
     shrink = (1 - res.effects[0]["nrmse_after"] / res.effects[0]["nrmse_before"]) if res.effects else float("nan")
     return {"plant": plant, "true": eff or "none", "named": named, "shrink": shrink,
             "seconds": time.perf_counter() - t0, "detail": res.ambiguous, "drawn": case.drawn}
 
 
-def matrix(plants, seeds, duration, max_effects, seed0=0):
-    rows = []
+def case_row(plant: str, eff: str | None, seed: int, duration: float, max_effects: int,
+             candidates: tuple[str, ...] | None = None) -> dict:
+    """:func:`run_case`, with a crash recorded as the row's result (it is a result of the bench,
+    not its end). Module level, so a Ray task can run it."""
+    try:
+        return run_case(plant, eff, seed, duration, max_effects, candidates)
+    except Exception as err:  # noqa: BLE001
+        return {"plant": plant, "true": eff or "none", "named": "error", "shrink": float("nan"),
+                "seconds": 0.0, "detail": f"{type(err).__name__}: {err}", "drawn": {}}
+
+
+def cases(plants, seeds, seed0=0) -> list[tuple[str, str | None, int]]:
+    """``(plant, effect, seed)`` of every case: each diagnosable effect ``seeds`` times and
+    effect-free data twice as often; the seed depends on the effect's position, not on the run."""
+    out = []
     for plant in plants:
         effs = [e.name for e in effects_for(plant, diagnosable_only=True)] + [None]
         for eff in effs:
             for s in range(seed0, seed0 + (seeds if eff else 2 * seeds)):
-                try:
-                    r = run_case(plant, eff, 1000 * (effs.index(eff) + 1) + s, duration, max_effects)
-                except Exception as err:  # noqa: BLE001 - a crash is a result of the bench, not its end
-                    r = {"plant": plant, "true": eff or "none", "named": "error", "shrink": float("nan"),
-                         "seconds": 0.0, "detail": f"{type(err).__name__}: {err}", "drawn": {}}
-                rows.append(r)
-                print(f"{plant:15s} {r['true']:20s} -> {r['named']:20s} shrink {r['shrink']:+.2f} "
-                      f"{r['seconds']:5.1f} s {r['detail']}", flush=True)
-    return rows
+                out.append((plant, eff, 1000 * (effs.index(eff) + 1) + s))
+    return out
+
+
+def print_row(r: dict) -> None:
+    print(f"{r['plant']:15s} {r['true']:20s} -> {r['named']:20s} shrink {r['shrink']:+.2f} "
+          f"{r['seconds']:5.1f} s {r['detail']}", flush=True)
+
+
+def run_cases(case_list, duration, max_effects, *, candidates=None, backend="serial", address=None,
+              num_cpus=None, verbose=True) -> list[dict]:
+    """One row per case, in order (``candidates``: restrict the catalogue to these effects).
+    ``backend="ray"``: one Ray core task per case (a case takes seconds, far above a task's
+    overhead, and cases differ in cost, so single cases balance best); the rows are the same as
+    serial ones except ``seconds``."""
+    from agents.backend import run_tasks
+
+    cand = None if candidates is None else tuple(candidates)
+    calls = [(plant, eff, seed, duration, max_effects, cand) for plant, eff, seed in case_list]
+    return run_tasks(case_row, calls, backend=backend, address=address, num_cpus=num_cpus,
+                     on_result=(lambda i, r: print_row(r)) if verbose else None)
+
+
+def matrix(plants, seeds, duration, max_effects, seed0=0, *, backend="serial", address=None, num_cpus=None):
+    return run_cases(cases(plants, seeds, seed0), duration, max_effects, backend=backend, address=address,
+                     num_cpus=num_cpus)
 
 
 def summary(rows) -> dict:
@@ -85,14 +125,24 @@ def main(argv=None) -> None:
     ap.add_argument("--duration", type=float, default=8.0)
     ap.add_argument("--max-effects", type=int, default=2)
     ap.add_argument("--speed", action="store_true", help="also time the whole catalogue on one 20 s record")
+    add_backend_args(ap)
     a = ap.parse_args(argv)
-    rows = matrix(a.plants.split(","), a.seeds, a.duration, a.max_effects)
+    if a.backend == "ray":
+        try:
+            import_ray()
+        except ImportError as err:
+            ap.error(str(err))
+    t0 = time.perf_counter()
+    rows = matrix(a.plants.split(","), a.seeds, a.duration, a.max_effects, backend=a.backend,
+                  address=a.ray_address, num_cpus=a.num_cpus)
+    wall = time.perf_counter() - t0
     print_confusion(rows)
     s = summary(rows)
     print(f"\ntop-1 named: {s['top1']:.1%} of {s['n_effect']} hidden-effect cases (target >= 95 %)")
     print(f"none on effect-free data: {s['none']:.1%} of {s['n_none']} (target >= 95 %)")
     print(f"held-out NRMSE shrink >= 50 %: {s['shrink']:.1%} of {s['n_named']} named (target: all)")
-    print(f"mean time per case: {np.mean([r['seconds'] for r in rows]):.1f} s")
+    print(f"mean time per case: {np.mean([r['seconds'] for r in rows]):.1f} s; "
+          f"sweep wall time ({a.backend}): {wall:.1f} s")
     if a.speed:
         for plant in a.plants.split(","):
             case = hidden_effect_records(plant, None, 7, duration=20.0, holdout_duration=6.0)

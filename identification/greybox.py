@@ -180,6 +180,7 @@ class Experiment:
     outputs: dict[str, np.ndarray]
     name: str = ""
     weights: np.ndarray | None = None  # per-sample residual weights (0 = not scored), default 1
+    group: str = ""  # experiments of one group share the sensor offsets of ``offsets`` channels
 
     def __post_init__(self) -> None:
         u = np.asarray(self.u, dtype=np.float64)
@@ -284,6 +285,7 @@ class _Problem:
     stiffness: Callable[[Any], Mapping[str, float]] | None
     fixed_nsub: int | None
     tie: Callable[[np.ndarray], None] | None = None
+    offsets: tuple[str, ...] = ()
 
     def to_values(self, theta: np.ndarray) -> np.ndarray:
         return np.where(self.log, np.exp(theta), theta * self.scale)
@@ -356,8 +358,34 @@ class _Problem:
             res.append((out[sel], None if dout is None else dout[sel], Pall[sel]))
         return res, n
 
+    def offset_estimates(self, outs) -> dict[tuple[str, str], np.ndarray]:
+        """Sensor offsets profiled out of the ``offsets`` channels: for every (group, channel)
+        and copy, the weighted mean of ``y - y_hat`` over the group's samples (the least-squares
+        value of a constant offset, given the model outputs)."""
+        num: dict[tuple[str, str], np.ndarray] = {}
+        den: dict[tuple[str, str], float] = {}
+        for e, chans in zip(self.experiments, outs):
+            w2 = np.ones(e.n_samples) if e.weights is None else e.weights**2
+            for name, yhat in chans.items():
+                if name in self.offsets:
+                    key = (e.group, name)
+                    num[key] = num.get(key, 0.0) + ((e.outputs[name][None, :] - yhat) * w2[None, :]).sum(axis=1)
+                    den[key] = den.get(key, 0.0) + float(w2.sum())
+        return {k: num[k] / den[k] for k in num if den[k] > 0}
+
     def outputs(self, P: np.ndarray, nsub: int | None = None):
-        """Model outputs: list per experiment of {channel: (c, n_samples)}; and nsub used."""
+        """Model outputs: list per experiment of {channel: (c, n_samples)}; and nsub used.
+        Channels in ``offsets`` include their estimated sensor offset (:meth:`offset_estimates`)."""
+        result, n = self._raw_outputs(P, nsub)
+        if self.offsets:
+            b = self.offset_estimates(result)
+            for e, chans in zip(self.experiments, result):
+                for name in chans:
+                    if (e.group, name) in b:
+                        chans[name] = chans[name] + b[(e.group, name)][:, None]
+        return result, n
+
+    def _raw_outputs(self, P: np.ndarray, nsub: int | None = None):
         sims, n = self.states(P, nsub)
         result = []
         for e, (S, D, Pe) in zip(self.experiments, sims):
@@ -417,7 +445,7 @@ class _RawParams:
 
 
 def _build_problem(base, fit, kernel_id, experiments, channels, sigma, log_scale, bounds,
-                   n_substeps, tie=None) -> _Problem:
+                   n_substeps, tie=None, offsets=()) -> _Problem:
     if not isinstance(base, PhysicalParams):
         raise GreyboxError(f"base must be a PhysicalParams instance, got {type(base).__name__}")
     names_all = type(base).names()
@@ -505,20 +533,23 @@ def _build_problem(base, fit, kernel_id, experiments, channels, sigma, log_scale
         n_steps=np.array([e.n_samples - 1 for e in experiments], dtype=np.int64),
         dts=np.array([e.dt for e in experiments], dtype=np.float64), n_states=n_states,
         stiffness=getattr(mod, "stiffness_modes", None), fixed_nsub=n_substeps, tie=tie,
+        offsets=tuple(offsets),
     )
 
 
 def simulate_outputs(base: PhysicalParams, kernel_id: int, experiments, channels,
                      values: Sequence[Mapping[str, float]] | None = None,
-                     n_substeps: int | None = None) -> list[list[dict[str, np.ndarray]]]:
+                     n_substeps: int | None = None, offsets: Sequence[str] = ()) -> list[list[dict[str, np.ndarray]]]:
     """Outputs of ``base`` (or of each override mapping in ``values``) on every experiment,
     in one batched kernel call: ``[copy][experiment] -> {channel: (n_samples,)}``.
 
-    Experiments' ``outputs`` only name the channels to produce (their values are unused)."""
+    Experiments' ``outputs`` only name the channels to produce (their values are unused),
+    except for ``offsets`` channels: their outputs include the sensor offset estimated from
+    the measured values (per experiment group, see :func:`fit_greybox`)."""
     values = list(values) if values is not None else [{}]
     names = sorted({k for v in values for k in v}) or [type(base).names()[0]]
     prob = _build_problem(base, names, kernel_id, experiments, channels, {k: 1.0 for k in (c.name for c in channels)},
-                          False, {n: (-np.inf, np.inf) for n in names}, n_substeps)
+                          False, {n: (-np.inf, np.inf) for n in names}, n_substeps, offsets=offsets)
     P = np.repeat(base.to_array()[None, :], len(values), axis=0)
     nf = len(type(base).names())
     for i, v in enumerate(values):
@@ -567,6 +598,7 @@ class GreyboxResult:
     seconds: float
     params: PhysicalParams | None  # the fitted parameter set (None if a relation fails)
     notes: list[str] = dataclasses.field(default_factory=list)
+    offsets: dict[str, float] = dataclasses.field(default_factory=dict)  # profiled sensor offsets
 
     @property
     def identifiable(self) -> bool:
@@ -606,6 +638,7 @@ class GreyboxResult:
             "success": self.success,
             "message": self.message,
             "notes": self.notes,
+            "offsets": self.offsets,
         })
 
 
@@ -630,6 +663,8 @@ def fit_greybox(
     max_nfev: int = 60,
     tol: float = 1e-8,
     tie: Callable[[np.ndarray], None] | None = None,
+    jacobian: str = "central",
+    offsets: Sequence[str] = (),
 ) -> GreyboxResult:
     """Fit parameters ``fit`` of ``base`` to the experiments (see the module docstring).
 
@@ -642,10 +677,24 @@ def fit_greybox(
     parameter rows ``P (c, n_params)`` in place after the fitted columns are written, for
     parameters that follow fitted ones (e.g. a static friction level kept equal to the
     Coulomb level while no Stribeck effect is modelled).
+
+    ``jacobian``: finite differences of the Jacobians the iterations use: ``"central"``
+    (``2 p`` perturbed copies per Jacobian) or ``"forward"`` (``p`` copies, re-using the
+    residual the solver has just evaluated at the same point: about half the simulation cost
+    of a fit; the optimum is defined by the residual, so only the path to it changes). The
+    Jacobian of the statistics (covariance, standard errors) is always central.
+
+    ``offsets``: channels with an unknown constant sensor offset per experiment ``group``
+    (a pressure transducer's zero error): nuisance parameters profiled out of the residual
+    (variable projection: at every parameter set the offsets take their least-squares values,
+    the weighted mean residual of the group), reported in ``offsets`` of the result and
+    counted in the degrees of freedom.
     """
+    if jacobian not in ("central", "forward"):
+        raise GreyboxError(f"jacobian must be 'central' or 'forward', got {jacobian!r}")
     t0 = time.perf_counter()
     prob = _build_problem(base, fit, kernel_id, experiments, channels, sigma,
-                          True if log_scale is None else log_scale, bounds, n_substeps, tie)
+                          True if log_scale is None else log_scale, bounds, n_substeps, tie, offsets)
     p = len(prob.names)
     theta0 = prob.to_theta(np.array([getattr(base, n) for n in prob.names]))
     if prob.fixed_nsub is None:
@@ -660,11 +709,34 @@ def fit_greybox(
         state["nsub"] = n
         return n
 
+    last: dict[str, Any] = {}
+
     def fun(theta):
         state["nfev"] += 1
         P = prob.param_arrays(theta[None, :])
-        r, _ = prob.residuals(P, nsub_for(P))
+        n = nsub_for(P)
+        r, _ = prob.residuals(P, n)
+        last.update(theta=theta.copy(), r=r[0], nsub=n)
         return r[0]
+
+    def jac_forward(theta):
+        state["njev"] += 1
+        h = fd_step
+        th = np.repeat(theta[None, :], p, axis=0)
+        for i in range(p):  # forward step, backward where the upper bound leaves no room
+            th[i, i] += h if prob.hi[i] - theta[i] >= h else -min(h, max(theta[i] - prob.lo[i], 0.0))
+        P = prob.param_arrays(th)
+        n = nsub_for(P)
+        r, _ = prob.residuals(P, n)
+        if "theta" in last and last["nsub"] == n and np.array_equal(last["theta"], theta):
+            r0 = last["r"]
+        else:  # residual at theta on the same integration grid
+            r0 = prob.residuals(prob.param_arrays(theta[None, :]), n)[0][0]
+        J = np.empty((r.shape[1], p))
+        for i in range(p):
+            step = th[i, i] - theta[i]
+            J[:, i] = (r[i] - r0) / step if step != 0 else 0.0
+        return J
 
     def jac(theta):
         state["njev"] += 1
@@ -684,7 +756,8 @@ def fit_greybox(
         return J
 
     def solve(theta_start):
-        return optimize.least_squares(fun, theta_start, jac=jac, bounds=(prob.lo, prob.hi), method="trf",
+        return optimize.least_squares(fun, theta_start, jac=jac_forward if jacobian == "forward" else jac,
+                                      bounds=(prob.lo, prob.hi), method="trf",
                                       x_scale=1.0, ftol=tol, xtol=tol, gtol=tol, max_nfev=max_nfev)
 
     sol = solve(np.clip(theta0, prob.lo, prob.hi))
@@ -711,7 +784,8 @@ def fit_greybox(
     J = jac(theta)
     r = sol.fun
     n_res = r.size
-    dof = max(n_res - p, 1)
+    n_off = len({(e.group, k) for e in prob.experiments for k in e.outputs if k in prob.offsets})
+    dof = max(n_res - p - n_off, 1)
     s2 = float(r @ r) / dof
     norms = np.linalg.norm(J, axis=0)
     safe = np.where(norms > 0, norms, 1.0)
@@ -754,6 +828,8 @@ def fit_greybox(
     # metrics
     P = prob.param_arrays(theta[None, :])
     outs, _ = prob.outputs(P, state["nsub"])
+    offs = {f"{k}@{g}" if g else k: float(v[0])
+            for (g, k), v in prob.offset_estimates(prob._raw_outputs(P, state["nsub"])[0]).items()}
     nr_e, mse_e = [], []
     pooled: dict[str, tuple[list, list]] = {}
     for e, o in zip(prob.experiments, outs):
@@ -796,7 +872,7 @@ def fit_greybox(
         nrmse=nrmse, mse=mse, nrmse_per_experiment=nr_e, mse_per_experiment=mse_e,
         sigma=dict(prob.sigma), cost=float(sol.cost), noise_variance=s2, n_residuals=int(n_res),
         n_substeps=int(state["nsub"]), nfev=state["nfev"], njev=state["njev"], success=bool(sol.success),
-        message=str(sol.message), seconds=time.perf_counter() - t0, params=fitted, notes=notes,
+        message=str(sol.message), seconds=time.perf_counter() - t0, params=fitted, notes=notes, offsets=offs,
     )
 
 

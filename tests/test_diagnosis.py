@@ -108,14 +108,16 @@ CI_CASES = [
     ("servo_cylinder", "coulomb"), ("servo_cylinder", "external_leakage"), ("servo_cylinder", None),
     ("shaking_table", "modified_ifas"), ("shaking_table", None),
     ("rodless_cylinder", "coulomb"), ("ls_compensator", "lvdt"), ("force_actuator", "valve_hysteresis"),
+    ("force_actuator_load", "flow_force_damping"), ("force_actuator_load", None),
 ]
+_CI_SECONDS = {"force_actuator": 2.0, "force_actuator_load": 3.0}
 
 
 @pytest.fixture(scope="module")
 def ci_results():
     out = []
     for i, (plant, eff) in enumerate(CI_CASES):
-        case = hidden_effect_records(plant, eff, 500 + i, duration=5.0 if plant != "force_actuator" else 2.0)
+        case = hidden_effect_records(plant, eff, 500 + i, duration=_CI_SECONDS.get(plant, 5.0))
         res = diagnose(plant, [case.fit], [case.holdout], base=case.base.params, max_effects=1, maps=False)
         out.append((plant, eff, case, res))
     return out
@@ -139,6 +141,56 @@ def test_named_effects_shrink_the_heldout_error_and_recover_the_parameters(ci_re
         assert e["nrmse_after"] <= 0.5 * e["nrmse_before"], (plant, eff, e["nrmse_before"], e["nrmse_after"])
         for k, v in case.drawn.items():
             assert e["parameters"][k] == pytest.approx(v, rel=0.35), (plant, eff, k)
+
+
+# ------------------------------------------------------------------------- sensor offsets and drift
+def _with_offset(rec, channels, offset, drift):
+    """``rec`` with a constant ``offset`` and a linear ``drift`` (over the record) added to
+    ``channels`` (a transducer's zero error and its slow drift)."""
+    ramp = np.linspace(0.0, 1.0, rec.n)
+    chans = dict(rec.channels)
+    for c in channels:
+        chans[c] = chans[c] + offset + drift * ramp
+    return Record(rec.dt, rec.inputs, chans, rec.name)
+
+
+@pytest.mark.parametrize("eff,channels,offset", [
+    (None, ("p1", "p2"), -3e4),  # common mode: the signature of external leakage
+    ("external_leakage", ("p1",), 3e4),
+])
+def test_pressure_offsets_and_drift_are_not_named_as_effects(eff, channels, offset):
+    """A 0.3 bar offset plus 0.1 bar drift on the pressure transducers: an offset-only record
+    gives ``none`` and the offset is flagged; with a real effect the effect is still named."""
+    case = hidden_effect_records("servo_cylinder", eff, 506 if eff is None else 505, duration=5.0)
+    fit, hold = (_with_offset(r, channels, offset, 1e4) for r in (case.fit, case.holdout))
+    res = diagnose("servo_cylinder", [fit], [hold], base=case.base.params, max_effects=1, maps=False)
+    assert (res.effects[0]["name"] if res.effects else "none") == (eff or "none"), (res.verdict, res.ambiguous)
+    flagged = [n for n in res.notes if "sensor offset" in n]
+    for c in channels:
+        assert any(f"'{c}'" in n for n in flagged), res.notes
+    if eff:
+        e = res.effects[0]
+        assert e["nrmse_after"] <= 0.5 * e["nrmse_before"]
+        for k, v in case.drawn.items():
+            assert e["parameters"][k] == pytest.approx(v, rel=0.35)
+
+
+def test_greybox_profiles_out_sensor_offsets():
+    """The offset nuisance of identification.greybox: fitted parameters unchanged by an offset
+    on a channel, the offset recovered, the model outputs carry it."""
+    from identification import greybox as gb
+    from identification.diagnosis.records import segments
+    from identification.diagnosis.workflow import _channels
+
+    spec = diagnosis_plant("servo_cylinder")
+    case = hidden_effect_records("servo_cylinder", None, 31, duration=3.0)
+    rec = _with_offset(case.fit, ("p1",), 4e4, 0.0)
+    exps = segments([rec], spec)
+    res = gb.fit_greybox(case.base.params, ["viscous_friction"], spec.kernel_id, exps, _channels(spec),
+                         offsets=("p1", "p2"), max_nfev=10)
+    assert res.offsets["p1@record 0"] == pytest.approx(4e4, abs=2e3)
+    assert abs(res.offsets["p2@record 0"]) < 2e3
+    assert res.values["viscous_friction"] == pytest.approx(case.base.params.viscous_friction, rel=0.05)
 
 
 # ------------------------------------------------------------------------- CLI and report

@@ -336,7 +336,10 @@ def _jacobian(y, u, pa):
 
 def test_stiffness_bound_covers_the_numerical_jacobian(spec):
     rng = np.random.default_rng(0)
-    sets = [NOMINAL, spec.corner(False), spec.corner(True), dataclasses.replace(NOMINAL, piston_locked=0.0)]
+    sets = [NOMINAL, spec.corner(False), spec.corner(True), dataclasses.replace(NOMINAL, piston_locked=0.0),
+            # static friction curve on a free piston with a load (the moving-piston diagnosis rig)
+            dataclasses.replace(NOMINAL, piston_locked=0.0, load_mass=5.0, load_stiffness=5e4, friction_model=1.0),
+            dataclasses.replace(NOMINAL, friction_model=1.0)]
     for p in sets:
         bound = max(fa.stiffness_modes(p).values())
         vb = fa.velocity_bound(p)

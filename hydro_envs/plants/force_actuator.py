@@ -92,7 +92,11 @@ Decisions (each one documented where it is made):
   ``F_c/sigma0 = 26 um``, inside the 10-100 um of elastomer seals) instead of eq (1)'s
   6.76e6 N/m: eq (1) is "only intended for improving the numerical integration" (sec. 3.4),
   and 6.76e6 N/m would need RK4 steps of ~10 us. The guard projects ``|F_f|`` onto the
-  largest static level.
+  largest static level. Option ``friction_model = 1``: the static curve ``g(v) tanh(v /
+  v_eps)`` with no pre-sliding state (``ff`` stays 0) -- the moving-piston diagnosis rig uses
+  it (its base model is smooth Coulomb + viscous friction, as every other diagnosis base
+  model; the Dahl state's relaxation rate at a free piston's speed would cost ~4x the
+  sub-steps). ``hydro_envs.sim.soak``'s energy balance reads ``ff`` and assumes the default.
 * **Hydraulic damping (eq (5), sec. 4.4)**: ``F_d = A(tanh(s(|v|+d)) - tanh(s d)) sgn(v)
   + c_lin v`` on the band-limited velocity ``v_f`` (first-order pole at 40 Hz), times the
   output gain 0.4. Fig. 6 (the fitted family A, s, d) is missing: assumed
@@ -401,6 +405,20 @@ class ForceActuatorParams(PhysicalParams):
     stop_damping: float = physical(
         2.0, "s/m", (0.0, 100.0), "assumed: Hunt-Crossley alpha (as the servo cylinder)"
     )
+    friction_model: float = physical(
+        0.0, "1", (0.0, 1.0),
+        "0 = eq (1) with its Dahl pre-sliding state (default); 1 = the static curve "
+        "g(v) tanh(v / friction_sign_velocity) without a pre-sliding state (smooth Coulomb-"
+        "Stribeck, as the other cylinders' static friction; used by the moving-piston "
+        "diagnosis rig, identification.diagnosis.plants, where the Dahl state's relaxation "
+        "4 sigma0 v / F_c at the free piston's speed bound would need ~15 RK4 sub-steps per 0.2 ms)",
+    )
+    friction_sign_velocity: float = physical(
+        5e-3, "m/s", (1e-5, 1.0),
+        "assumed: tanh regularisation velocity of the static curve (friction_model = 1); 5 mm/s "
+        "= the Stribeck velocity, so the curve's slope g/v_eps stays below the sensor's k_s / b_s",
+        open_low=True,
+    )
 
     def _check_relations(self) -> None:
         if self.rod_area >= self.bore_area:
@@ -410,12 +428,14 @@ class ForceActuatorParams(PhysicalParams):
         lo = min(self.stiction_retract, self.stiction_extend)
         if lo < self.coulomb_friction:
             raise ParameterError(
-                f"ForceActuatorParams: stiction levels ({self.stiction_retract}, {self.stiction_extend} N) "
-                f"must be >= coulomb_friction = {self.coulomb_friction} N"
+                f"ForceActuatorParams: stiction levels (stiction_retract, stiction_extend) = "
+                f"({self.stiction_retract}, {self.stiction_extend} N) must be >= coulomb_friction = "
+                f"{self.coulomb_friction} N"
             )
         if self.coulomb_friction == 0.0 and max(self.stiction_retract, self.stiction_extend) > 0.0:
             raise ParameterError(
-                "ForceActuatorParams: coulomb_friction = 0 needs zero stiction too (a frictionless set); "
+                "ForceActuatorParams: coulomb_friction = 0 needs zero stiction_retract and stiction_extend "
+                "too (a frictionless set); "
                 "the Dahl state relaxes at sigma0 |v| / F_c"
             )
         if self.current_max < self.rated_current:
@@ -425,6 +445,8 @@ class ForceActuatorParams(PhysicalParams):
             )
         if self.piston_locked not in (0.0, 1.0):
             raise ParameterError(f"ForceActuatorParams.piston_locked must be 0 or 1, got {self.piston_locked}")
+        if self.friction_model not in (0.0, 1.0):
+            raise ParameterError(f"ForceActuatorParams.friction_model must be 0 or 1, got {self.friction_model}")
 
     # convenience
     @property
@@ -441,9 +463,11 @@ class ForceActuatorParams(PhysicalParams):
 (
     I_PS, I_A1, I_AR, I_L, I_IR, I_IMAX, I_XOFF, I_HW, I_HR, I_M, I_KS, I_BS, I_MP, I_ML, I_KL,
     I_LOCK, I_FC, I_FSR, I_FSE, I_VS, I_SIG, I_DG, I_DLIN, I_WC, I_DA, I_DV, I_DK, I_KSTOP, I_ASTOP,
-) = range(29)
-N_PARAMS = 29
+    I_FMOD, I_VEPS,
+) = range(31)
+N_PARAMS = 31
 assert ForceActuatorParams.names()[I_ASTOP] == "stop_damping" and len(ForceActuatorParams.names()) == N_PARAMS
+assert ForceActuatorParams.names()[I_VEPS] == "friction_sign_velocity"
 
 _PHI0 = 0.1  # damping family floor at the valve null (module doc)
 
@@ -534,7 +558,10 @@ def force_actuator_rhs(y, u, p, dy):
     q = y[XP] + y[XS]
     f_damp = p[I_DG] * hydraulic_damping(xi, y[VF], p[I_DA], p[I_DV], p[I_DK], p[I_DLIN])  # (5)
     f_stop = end_stop_force(q, vrel, 0.0, p[I_L], p[I_KSTOP], p[I_ASTOP])
-    f_h = f_fluid - f_damp - y[FF] + f_stop
+    g = stiction_level(vrel, p[I_FC], p[I_FSR], p[I_FSE], p[I_VS])
+    static = p[I_FMOD] > 0.5
+    f_fric = g * math.tanh(vrel / p[I_VEPS]) if static else y[FF]
+    f_h = f_fluid - f_damp - f_fric + f_stop
     dy[XS] = y[VS]
     dy[VS] = (f_h - p[I_BS] * y[VS] - p[I_KS] * y[XS]) / p[I_M]  # (2)
     if p[I_LOCK] > 0.5:
@@ -543,8 +570,9 @@ def force_actuator_rhs(y, u, p, dy):
     else:
         dy[XP] = y[VP]
         dy[VP] = (f_h - p[I_KL] * (y[XP] - 0.5 * p[I_L])) / (p[I_MP] + p[I_ML])
-    g = stiction_level(vrel, p[I_FC], p[I_FSR], p[I_FSE], p[I_VS])
-    if g > 0.0:
+    if static:  # static curve: no pre-sliding state (ff stays at 0)
+        dy[FF] = 0.0
+    elif g > 0.0:
         dy[FF] = dahl_friction_rate(vrel, y[FF], g, p[I_SIG])  # (1) with stiction level g(v)
     else:  # frictionless set: the friction state relaxes to zero
         dy[FF] = -p[I_SIG] * abs(vrel) * y[FF] * 1e-3
@@ -604,6 +632,9 @@ def stiffness_modes(params: ForceActuatorParams) -> dict[str, float]:
       g(v)``, level >= F_c) up to the velocity bound ``v_b`` (:func:`velocity_bound`). Right
       after a breakaway ``|u|`` reaches ``1 + F_s/F_c``, but then ``|v|`` is of the order of
       the Stribeck velocity, far below ``v_b``; the guard's projection is the safety net.
+      Static curve (``friction_model = 1``): its largest slope ``g_max / v_eps`` (at v = 0)
+      acting on the relative velocity through the sensor mass and the free piston,
+      ``g_max / v_eps (1/m + 1/m_p)``; no pre-sliding spring in ``sensor`` / ``piston``.
     """
     m = params.sensor_mass
     c_d = params.damping_gain * (
@@ -611,23 +642,30 @@ def stiffness_modes(params: ForceActuatorParams) -> dict[str, float]:
     )
     # the damping acts through the 40 Hz filter: with v_f it forms the 2x2 block
     # [[0, -c_d/m], [w_c, -w_c]], |lambda| <= sqrt(w_c c_d / m) (+ w_c)
-    k_eff = params.sensor_stiffness + params.friction_stiffness + c_d * params.damping_filter_frequency
+    static = params.friction_model > 0.5
+    k_pre = 0.0 if static else params.friction_stiffness  # pre-sliding spring of the Dahl state
+    k_eff = params.sensor_stiffness + k_pre + c_d * params.damping_filter_frequency
+    g_max = max(params.coulomb_friction, params.stiction_retract, params.stiction_extend)
+    mp = params.piston_mass + params.load_mass
     modes = {
         "fluid": max(w for w, _ in FLUID_RESONANCES),
         "delay": max(DELAY_REAL_POLE, DELAY_OMEGA),
         "valve": VALVE_A,
         "sensor": math.sqrt(k_eff / m) + params.sensor_damping / m + params.damping_filter_frequency,
         "friction": (
-            4.0 * params.friction_stiffness * velocity_bound(params) / params.coulomb_friction
+            # static curve: its slope g_max / v_eps on the relative velocity, which both the
+            # sensor mass and (free) the piston carry: |lambda| = slope (1/m + 1/m_p)
+            g_max / params.friction_sign_velocity * (1.0 / m + (1.0 / mp if params.piston_locked < 0.5 else 0.0))
+            if static
+            else 4.0 * params.friction_stiffness * velocity_bound(params) / params.coulomb_friction
             if params.coulomb_friction > 0.0
             else 1e-3 * params.friction_stiffness * velocity_bound(params)  # frictionless set
         ),
     }
     if params.piston_locked < 0.5:
-        mp = params.piston_mass + params.load_mass
         f_max = params.max_thrust
         modes["piston"] = (
-            math.sqrt((params.friction_stiffness + params.load_stiffness + params.stop_stiffness) / mp)
+            math.sqrt((k_pre + params.load_stiffness + params.stop_stiffness) / mp)
             + params.stop_damping * f_max / mp
             + math.sqrt(c_d * params.damping_filter_frequency / mp)
         )

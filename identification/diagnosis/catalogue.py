@@ -18,10 +18,10 @@ Stribeck effect the static level equals the Coulomb level).
 Every realisation names its source: the seed equation it comes from or the seed/data sheet
 its range is taken from.
 
-Not yet in the catalogue: the hydraulic damping by flow forces of 001 eq (5). It acts only on a
-moving piston, and the force actuator's free-piston model needs ~140 RK4 sub-steps per 0.2 ms
-(its Dahl friction stiffness bound), too slow for the diagnosis loop; the diagnosis uses 001's
-blocked-piston rig.
+The hydraulic damping by flow forces of 001 eq (5) acts only on a moving piston: it is
+diagnosed on ``force_actuator_load`` (001's actuator driving a spring-loaded mass, static
+friction curve instead of the Dahl state; identification.diagnosis.plants), not on the
+blocked-piston rig ``force_actuator``.
 
 Stribeck friction is kept for the shaking table only for its null value (static = Coulomb
 level in the base model) and is never proposed (``diagnosable=False``): 003 eqs (11)-(12) multiply the whole
@@ -353,9 +353,33 @@ _EFFECTS: list[Effect] = [
                 (_p("hysteresis_width", (1e-3, 0.3), 0.03, (0.04, 0.10)),), {"hysteresis_width": 0.0},
                 source=f"{_FORCE} sec. 3.3 (Prandtl-Ishlinskii play model, hydro_envs.laws.hysteresis); "
                 "'significant' hysteresis, above the <= 3 % of catalogue servo-valves"),
+            "force_actuator_load": Realisation(
+                (_p("hysteresis_width", (1e-3, 0.3), 0.03, (0.04, 0.10)),), {"hysteresis_width": 0.0},
+                source=f"{_FORCE} sec. 3.3 (as the blocked-piston rig)"),
         },
         separating_experiment="slow triangular current sweep with the piston blocked (001 sec. 3.1): "
         "the force branches separate by the hysteresis width",
+    ),
+    Effect(
+        "flow_force_damping", "Hydraulic damping by flow forces (001 eq (5))",
+        "a force opposing the piston velocity that grows steeply as the speed approaches the "
+        "valve's flow-limited (knee) speed and saturates past it: sensed-force residual odd in "
+        "velocity, small at low speed, largest in the fast parts of the motion",
+        {
+            "force_actuator_load": Realisation(
+                (_p("damping_force_scale", (1.0, 2e4), 1000.0, (1000.0, 2500.0)),
+                 _p("damping_knee_velocity", (0.01, 3.0), 0.25, (0.15, 0.4)),
+                 _p("damping_sharpness", (0.3, 15.0), 3.0, (2.0, 5.0))),
+                {"damping_force_scale": 0.0},
+                source=f"{_FORCE} eq (5) F_d = A (tanh(s(|v| + d)) - tanh(s d)) sgn(v) + c v, sec. 4.4 "
+                "(output gain 0.4, 40 Hz velocity filter); A(x_v), d(x_v), s(x_v) by the family of "
+                "hydro_envs.plants.force_actuator (fig. 6 missing: A_sat 1700 N, knee 0.25 m/s, kappa 3 "
+                "assumed); draws around those; the linear term c is the base model's viscous damping "
+                "(damping_linear, calibrated in every model)"),
+        },
+        separating_experiment="constant-current steps with the piston free against the load: the "
+        "force drop with speed saturates at the valve's flow-limited speed (eq (5)); viscous "
+        "damping grows linearly",
     ),
     Effect(
         "sensor_delay", "Transport delay of the measurement (sensor dynamics)",
@@ -375,6 +399,9 @@ _EFFECTS: list[Effect] = [
                 (_p("delay", (1e-5, 0.05), 2e-3, (2e-3, 6e-3), log=False),), {"delay": 0.0},
                 channels=("y",), source="assumed: encoder interface delay of 1-10 ms"),
             "force_actuator": Realisation(
+                (_p("delay", (1e-5, 0.05), 5e-4, (4e-4, 1.2e-3), log=False),), {"delay": 0.0},
+                channels=("f",), source="assumed: strain-gauge amplifier and acquisition delay of 0.4-1.2 ms"),
+            "force_actuator_load": Realisation(
                 (_p("delay", (1e-5, 0.05), 5e-4, (4e-4, 1.2e-3), log=False),), {"delay": 0.0},
                 channels=("f",), source="assumed: strain-gauge amplifier and acquisition delay of 0.4-1.2 ms"),
         },

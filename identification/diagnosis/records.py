@@ -186,7 +186,7 @@ def segments(records: Sequence[Record], spec: DiagnosisPlant, *, delay: float = 
     seconds = spec.segment_seconds if seconds is None else seconds
     warmup = spec.warmup_seconds if warmup is None else warmup
     exps = []
-    for r in records:
+    for i_rec, r in enumerate(records):
         chans = dict(r.channels)
         if delay > 0:
             for c in delayed_channels:
@@ -215,7 +215,7 @@ def segments(records: Sequence[Record], spec: DiagnosisPlant, *, delay: float = 
                 u = np.hstack([u, np.zeros((u.shape[0], spec.kernel_inputs - u.shape[1]))])
             exps.append(Experiment(
                 dt=r.dt, u=u, y0=_initial(spec, start),
-                outputs=outs, name=f"{r.name}@{k1 * r.dt:.2f}s", weights=w))
+                outputs=outs, name=f"{r.name}@{k1 * r.dt:.2f}s", weights=w, group=f"record {i_rec}"))
     return exps
 
 
