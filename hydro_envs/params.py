@@ -71,6 +71,8 @@ class PhysicalParams:
         for f in dataclasses.fields(self):
             value = getattr(self, f.name)
             try:
+                if isinstance(value, (bool, np.bool_)):  # float(True) == 1.0: a typo, not a value
+                    raise TypeError
                 value = float(value)
             except (TypeError, ValueError):
                 raise ParameterError(

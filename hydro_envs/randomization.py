@@ -47,6 +47,7 @@ __all__ = [
 _DISTRIBUTIONS = ("uniform", "loguniform")
 _MODES = ("absolute", "scale")
 _KEYS = {"distribution", "mode", "range", "unit", "source", "note"}
+_TOP_KEYS = {"plant", "parameters", "note"}
 
 
 class RandomizationError(ValueError):
@@ -123,6 +124,11 @@ class RandomizationSpec:
         where = f"randomisation spec {source_file}"
         if not isinstance(data, Mapping):
             raise RandomizationError(f"{where}: top level must be a mapping")
+        extra_top = set(data) - _TOP_KEYS
+        if extra_top:
+            raise RandomizationError(
+                f"{where}: unknown top-level key(s) {sorted(map(repr, extra_top))}; allowed {sorted(_TOP_KEYS)}"
+            )
         plant = data.get("plant")
         if plant != params_cls.plant:
             raise RandomizationError(

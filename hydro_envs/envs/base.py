@@ -48,8 +48,19 @@ def check_nonnegative(**values: float) -> None:
 
 def check_actions(action: Any, n: int, dim: int) -> np.ndarray:
     """Validate actions for ``n`` copies of a ``dim``-dimensional Box(-1, 1); clip; return
-    ``(n, dim)`` float64. NaN/inf or a wrong shape raise ``ValueError``."""
-    arr = np.asarray(action, dtype=np.float64)
+    ``(n, dim)`` float64. Real numbers (float or integer arrays, lists, scalars) are
+    accepted; NaN/inf, a wrong shape or anything that is not real numbers (strings, None,
+    booleans, complex, objects, ragged lists) raise ``ValueError``."""
+    try:
+        raw = np.asarray(action)
+    except (ValueError, TypeError) as exc:  # e.g. a ragged nested list
+        raise ValueError(f"action must be an array of real numbers in [-1, 1], got {action!r} ({exc})") from None
+    if raw.dtype.kind not in "fiu":
+        raise ValueError(
+            f"action must be real numbers (float or integer) in [-1, 1], got dtype {raw.dtype} "
+            f"({type(action).__name__}: {action!r})"
+        )
+    arr = raw.astype(np.float64, copy=False)
     ok_shapes = {(n, dim)} | ({(n,)} if dim == 1 else set()) | ({(dim,)} if n == 1 else set())
     if n == 1 and dim == 1:
         ok_shapes.add(())  # a plain number for a one-dimensional single env
@@ -266,7 +277,7 @@ class BatchedEnv(gym.Env):
         # fast path for a float array of the action's shape (scalar checks are much cheaper
         # than numpy calls on tiny arrays); anything else is fully checked
         b.prev_a[0] = b.last_a[0]
-        if type(action) is np.ndarray and action.shape == (self._dim,):
+        if type(action) is np.ndarray and action.shape == (self._dim,) and action.dtype.kind == "f":
             last = b.last_a[0]
             for j in range(self._dim):
                 a = float(action[j])

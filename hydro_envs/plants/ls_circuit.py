@@ -246,7 +246,8 @@ class LSCircuitParams(PhysicalParams):
         if self.spring_chamber_volume <= a * (self.spool_stroke + 1e-4):
             raise ParameterError(
                 "LSCircuitParams.spring_chamber_volume must exceed the spool's swept volume "
-                f"A * stroke = {a * self.spool_stroke} m^3"
+                f"A * stroke + 0.1 mm of travel (A from spool_diameter, stroke = spool_stroke) = "
+                f"{a * (self.spool_stroke + 1e-4)} m^3, got {self.spring_chamber_volume} m^3"
             )
 
     def to_array(self) -> np.ndarray:

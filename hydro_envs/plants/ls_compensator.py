@@ -316,8 +316,8 @@ class LSCompensatorParams(PhysicalParams):
             )
         if not (self.pressure_floor < self.spring_chamber_pressure or self.spring_chamber_pressure == 0.0):
             raise ParameterError(
-                "LSCompensatorParams.spring_chamber_pressure must be above pressure_floor, got "
-                f"{self.spring_chamber_pressure} Pa"
+                "LSCompensatorParams.spring_chamber_pressure must be above pressure_floor (or 0), got "
+                f"{self.spring_chamber_pressure} <= {self.pressure_floor} Pa"
             )
 
     # kernel array: the fields, then derived columns (viscosity-dependent c and R, ...),

@@ -289,8 +289,8 @@ class RodlessCylinderParams(PhysicalParams):
             )
         if self.min_chamber_volume >= min(self.dead_volume_a, self.dead_volume_b):
             raise ParameterError(
-                f"{name}.min_chamber_volume must be below the dead volumes "
-                f"({self.min_chamber_volume} >= {min(self.dead_volume_a, self.dead_volume_b)} m^3)"
+                f"{name}.min_chamber_volume must be below the dead volumes dead_volume_a and "
+                f"dead_volume_b ({self.min_chamber_volume} >= {min(self.dead_volume_a, self.dead_volume_b)} m^3)"
             )
 
     # kernel array: the fields, then derived columns computed once per parameter set so the

@@ -215,8 +215,9 @@ class ServoCylinderParams(PhysicalParams):
             )
         if self.min_chamber_volume >= min(self.line_volume_1, self.line_volume_2):
             raise ParameterError(
-                "ServoCylinderParams.min_chamber_volume must be below the line volumes "
-                f"({self.min_chamber_volume} >= {min(self.line_volume_1, self.line_volume_2)} m^3)"
+                "ServoCylinderParams.min_chamber_volume must be below the line volumes line_volume_1 "
+                f"and line_volume_2 ({self.min_chamber_volume} >= "
+                f"{min(self.line_volume_1, self.line_volume_2)} m^3)"
             )
 
 

@@ -260,7 +260,8 @@ class ShakingTableParams(PhysicalParams):
         if 1.0 + self.oil_exponent * (self.pressure_floor - self.p0) / self.e0 <= 0.0:
             raise ParameterError(
                 f"{name}: 1 + m (p_floor - P_0) / E_0 <= 0: the IFAS oil term of eq (13) is undefined "
-                f"(m = {self.oil_exponent}, P_0 = {self.p0}, E_0 = {self.e0})"
+                f"(m = oil_exponent = {self.oil_exponent}, p_floor = pressure_floor = {self.pressure_floor}, "
+                f"P_0 = p0 = {self.p0}, E_0 = e0 = {self.e0})"
             )
         if self.min_chamber_volume >= self.dead_volume:
             raise ParameterError(
