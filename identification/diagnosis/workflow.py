@@ -630,18 +630,16 @@ def _delay_grid_search(spec: DiagnosisPlant, model: Model, records: Sequence[Rec
     return max(d, p.bounds[0]), se
 
 
-def _fit_delay(spec: DiagnosisPlant, model: Model, records: Sequence[Record], sigma: dict[str, float],
-               e: Effect) -> FitOutcome:
-    """Sensor delay: alternate a grid search of the delay (:func:`_delay_grid_search`) with a
-    refit of the other parameters at that delay until the delay settles (at most 4 times: the
-    first search runs on parameters fitted without the delay, which absorbed part of it)."""
-    t0 = time.perf_counter()
-    p = e.on(spec.name).parameters[0]
+def _alternate_delay(spec: DiagnosisPlant, model: Model, records: Sequence[Record], sigma: dict[str, float],
+                     p) -> FitOutcome:
+    """Alternate a grid search of the delay (:func:`_delay_grid_search`) with a refit of the
+    other parameters at that delay until the delay moves by less than a quarter sample (at
+    most 4 times)."""
     current = model
     fit = None
     se = math.nan
     d_prev = -1.0
-    for _ in range(4):  # until the delay moves by less than a quarter sample
+    for _ in range(4):
         d, se = _delay_grid_search(spec, current, records, sigma, p)
         fit = fit_model(spec, current.copy(delay=d), records, sigma=sigma)
         current = fit.model
@@ -649,8 +647,49 @@ def _fit_delay(spec: DiagnosisPlant, model: Model, records: Sequence[Record], si
             break
         d_prev = d
     fit.delay_se = se
+    return fit
+
+
+def _fit_delay(spec: DiagnosisPlant, model: Model, records: Sequence[Record], sigma: dict[str, float],
+               e: Effect, start: Model | None = None) -> FitOutcome:
+    """Sensor delay, from a warm and a cold start like the plant effects
+    (:func:`_fit_candidate`): the alternation of :func:`_alternate_delay` from the current
+    fit, and again from the starting model's parameters (a base fit without the delay may have
+    absorbed it into other dynamics: on the blocked force actuator the warm alternation stopped
+    at 0.35 ms for a true 0.86 ms). The start with the lower band-limited score *on the fit
+    records* wins (the held-out score's measure, :func:`heldout_nrmse`): the fit NRMSE, which
+    is dominated there by broadband sensor noise, preferred the wrong start (0.149 vs 0.157)
+    where the band-limited score tells them apart (0.0149 vs 0.0043)."""
+    t0 = time.perf_counter()
+    p = e.on(spec.name).parameters[0]
+    fit = _alternate_delay(spec, model, records, sigma, p)
+    cold_params = _cold_start_params(spec, model, start) if start is not None else None
+    if cold_params is not None:
+        try:
+            cold = _alternate_delay(spec, model.copy(params=cold_params), records, sigma, p)
+        except (ParameterError, gb.GreyboxError):
+            cold = None
+        if cold is not None:
+            warm_score, cold_score = heldout_nrmse(spec, [fit.model, cold.model], records)
+            if _mean(cold_score) < _mean(warm_score):
+                fit = cold
     fit.seconds = time.perf_counter() - t0
     return fit
+
+
+def _cold_start_params(spec: DiagnosisPlant, current: Model, start: Model):
+    """The current parameters with every fitted base parameter reset to the starting model's
+    value (effects added in earlier rounds keep their fit); None if nothing differs."""
+    names, _, _ = _fit_names(spec, current)
+    reset = {n: getattr(start.params, n) for n in names if getattr(start.params, n) != getattr(current.params, n)}
+    present_at_start = set(present_effects(spec, start))
+    for pe in present_effects(spec, current):
+        if pe not in present_at_start and effect(pe).kind == "plant":
+            for q in effect(pe).on(spec.name).parameters:
+                reset.pop(q.field, None)
+    if not reset:
+        return None
+    return _replace_tied(spec, current.params, reset, present_effects(spec, current))
 
 
 def _fit_candidate(spec: DiagnosisPlant, current: Model, start: Model, name: str,
@@ -855,7 +894,7 @@ def diagnose(plant: str | DiagnosisPlant, records: Sequence[Record], holdout: Se
             tc = time.perf_counter()
             try:
                 if e.kind == "sensor":
-                    fit = _fit_delay(spec, cur.model, records, sigma, e)
+                    fit = _fit_delay(spec, cur.model, records, sigma, e, start_model)
                 else:
                     fit = _fit_candidate(spec, cur.model, start_model, e.name, records, sigma,
                                          scores.get(e.name, 0.0))
