@@ -373,6 +373,7 @@ def test_malformed_file_gives_a_clear_error(tmp_path_factory, table, kind, data)
 @given(st.binary(max_size=200), st.booleans())
 @example(b"t,x\x00,u\n0,1,2\n1,2,3\n", True)
 @example(b"\xff\xfe\x00t", False)
+@example(b"t\rx,u\n0,1,2\n", False)  # a lone CR inside a line: csv.Error before the fix
 def test_garbage_bytes_never_crash_the_loader(tmp_path_factory, raw, with_plant):
     path = tmp_path_factory.mktemp("garbage") / "rec.csv"
     path.write_bytes((b"# plant: servo_cylinder\n" if with_plant else b"") + raw)

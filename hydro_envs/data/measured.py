@@ -493,6 +493,14 @@ def _load_csv(
         ) from None
     lines = text.split("\n")
     lines = [ln[:-1] if ln.endswith("\r") else ln for ln in lines]
+    for k, ln in enumerate(lines):  # the csv module rejects a lone CR inside a field
+        if "\r" in ln:
+            raise MeasuredDataError(
+                path,
+                f"line {k + 1}: carriage return (CR) inside the line; lines must end with LF or "
+                "CRLF (old Mac 'CR only' files: convert the line ends)",
+                line=k + 1,
+            )
 
     # --- comments / metadata ---------------------------------------------------------
     metadata: dict[str, str] = {}
@@ -537,7 +545,10 @@ def _load_csv(
 
     # --- header ----------------------------------------------------------------------
     hline = h + 1
-    header = next(csv.reader([lines[h]]))
+    try:
+        header = next(csv.reader([lines[h]]))
+    except csv.Error as e:
+        raise MeasuredDataError(path, f"line {hline}: unreadable header ({e})", line=hline) from None
     if header and _NUMBER_RE.fullmatch(header[0].strip()):
         raise MeasuredDataError(
             path,
