@@ -663,10 +663,11 @@ def _fit_delay(spec: DiagnosisPlant, model: Model, records: Sequence[Record], si
     t0 = time.perf_counter()
     p = e.on(spec.name).parameters[0]
     fit = _alternate_delay(spec, model, records, sigma, p)
-    cold_params = _cold_start_params(spec, model, start) if start is not None else None
-    if cold_params is not None:
+    if start is not None:
         try:
-            cold = _alternate_delay(spec, model.copy(params=cold_params), records, sigma, p)
+            cold_params = _cold_start_params(spec, model, start)
+            cold = None if cold_params is None else _alternate_delay(spec, model.copy(params=cold_params),
+                                                                     records, sigma, p)
         except (ParameterError, gb.GreyboxError):
             cold = None
         if cold is not None:
@@ -716,19 +717,17 @@ def _fit_candidate(spec: DiagnosisPlant, current: Model, start: Model, name: str
         _, _, plausible, _, _ = _judge(spec, e, warm)
         if plausible:
             return warm
-    names, _, _ = _fit_names(spec, current)
-    reset = {n: getattr(start.params, n) for n in names if getattr(start.params, n) != getattr(current.params, n)}
-    present_at_start = set(present_effects(spec, start))
-    for pe in present_effects(spec, current):  # effects added in earlier rounds keep their fit
-        if pe not in present_at_start and effect(pe).kind == "plant":
-            for p in effect(pe).on(spec.name).parameters:
-                reset.pop(p.field, None)
-    if not reset:
+    try:
+        cold_params = _cold_start_params(spec, current, start)
+    except (ParameterError, gb.GreyboxError):
+        if warm is None:
+            raise
+        return warm
+    if cold_params is None:
         if warm is None:
             raise gb.GreyboxError(f"{name}: the warm-start fit failed")
         return warm
     try:
-        cold_params = _replace_tied(spec, current.params, reset, present_effects(spec, current))
         cold = fit_model(spec, with_effect(spec, current.copy(params=cold_params), name), records, sigma=sigma,
                          max_nfev=nfev)
     except (ParameterError, gb.GreyboxError):
