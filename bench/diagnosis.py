@@ -10,7 +10,8 @@ parameters inside the catalogue's draw range, records closed-loop data with real
 noise (identification.diagnosis.synthetic), runs the workflow from the base model and prints
 the confusion matrix (true effect x named effect) and the three rates:
 top-1 (hidden effect named first), none (effect-free data -> "none") and shrink (held-out
-NRMSE falls by >= 50 % when an effect is named).
+NRMSE falls by >= 50 % when an effect is named; over the channels the effect acts on, see
+identification.diagnosis.workflow.effect_channels).
 
 ``--backend ray`` runs every case as one Ray core task (agents/backend.py; a cluster by
 ``--ray-address`` or ``$RAY_ADDRESS``, else a local Ray); rows, matrix and rates are the same.
@@ -42,7 +43,7 @@ def run_case(plant: str, eff: str | None, seed: int, duration: float, max_effect
     res = diagnose(plant, [case.fit], [case.holdout], base=case.base.params, max_effects=max_effects, maps=False,
                    effects=None if candidates is None else list(candidates))
     named = res.effects[0]["name"] if res.effects else ("ambiguous" if res.verdict == "ambiguous" else "none")
-    shrink = (1 - res.effects[0]["nrmse_after"] / res.effects[0]["nrmse_before"]) if res.effects else float("nan")
+    shrink = res.effects[0]["shrink"] if res.effects else float("nan")
     return {"plant": plant, "true": eff or "none", "named": named, "shrink": shrink,
             "seconds": time.perf_counter() - t0, "detail": res.ambiguous, "drawn": case.drawn}
 

@@ -316,7 +316,6 @@ def test_lugre_presliding_sticks_below_breakaway_and_slides_above():
     k_gas = base.heat_capacity_ratio * y[rc.PA] * A * A * 2.0 / vol
     s0, fs = base.bristle_stiffness, base.static_friction
     f_final = 20.0  # N, between F_c and F_s
-    trace = []
     for f_load in np.linspace(0.2, f_final, 100):  # 2 s ramp: quasi-static
         ys = simulate(dataclasses.replace(base, load_force=f_load), y, np.full(20, 5.0))
         y = ys[-1]

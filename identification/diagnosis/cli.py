@@ -98,7 +98,8 @@ def summary_text(res) -> str:
     lines = [f"verdict: {res.verdict}" + (f" ({res.ambiguous})" if res.ambiguous else "")]
     for e in res.effects:
         ps = ", ".join(f"{k} = {v:.4g} +- {e['std_errors'].get(k, float('nan')):.2g}" for k, v in e["parameters"].items())
-        lines.append(f"  {e['name']}: {ps}; held-out NRMSE {e['nrmse_before']:.4f} -> {e['nrmse_after']:.4f}")
+        lines.append(f"  {e['name']}: {ps}; held-out NRMSE {e['nrmse_before']:.4f} -> {e['nrmse_after']:.4f} "
+                     f"(gap shrink {e['shrink']:.0%} on {', '.join(e['shrink_channels'])})")
     for n in res.notes:
         lines.append(f"  note: {n}")
     return "\n".join(lines)

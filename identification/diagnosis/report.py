@@ -117,11 +117,12 @@ def write_report(res: DiagnosisResult, spec: DiagnosisPlant, records: Sequence[R
     lines.append("Base-model fit: " + ", ".join(f"{k} = {v:.4g}" for k, v in res.base_fit.items()))
     lines.append("")
     if res.effects:
-        lines += ["## Effects found (in order)", "", "| effect | parameters | held-out NRMSE before | after |",
-                  "|---|---|---|---|"]
+        lines += ["## Effects found (in order)", "", "| effect | parameters | held-out NRMSE before | after | shrink (channels) |",
+                  "|---|---|---|---|---|"]
         for e in res.effects:
             ps = "; ".join(f"{k} = {v:.4g} +- {e['std_errors'].get(k, float('nan')):.2g}" for k, v in e["parameters"].items())
-            lines.append(f"| {e['title']} (`{e['name']}`) | {ps} | {e['nrmse_before']:.4f} | {e['nrmse_after']:.4f} |")
+            lines.append(f"| {e['title']} (`{e['name']}`) | {ps} | {e['nrmse_before']:.4f} | {e['nrmse_after']:.4f} "
+                         f"| {e['shrink']:.0%} ({', '.join(e['shrink_channels'])}) |")
         lines.append("")
     for i, r in enumerate(res.rounds):
         lines += [f"## Round {i + 1}: decision `{r.decision}`", "",
