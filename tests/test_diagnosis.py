@@ -17,7 +17,7 @@ from hydro_envs.data.measured import write_measured
 from identification.diagnosis import CATALOGUE, DiagnosisDataError, diagnose, diagnosis_plant, effects_for
 from identification.diagnosis.plants import PLANTS
 from identification.diagnosis.records import Record, check_records
-from identification.diagnosis.synthetic import base_for, hidden_effect_records
+from identification.diagnosis.synthetic import base_for, draw_effect, hidden_effect_records
 from identification.diagnosis.workflow import (
     ACCEPT_GAIN,
     BASE_FIT_FACTOR,
@@ -69,6 +69,23 @@ def test_null_base_has_no_effect_and_with_effect_adds_exactly_one(plant):
         keep = Model(base_for(spec, e.name))
         m = with_effect(spec, keep, e.name)
         assert set(present_effects(spec, m)) == set(present_effects(spec, keep)) | {e.name}, e.name
+
+
+@pytest.mark.parametrize("plant", PLANTS)
+def test_hidden_effect_draws_are_valid_and_inside_the_plausibility_bounds(plant):
+    """Every draw of every effect gives a valid parameter set with the effect present and its
+    parameters strictly inside the fit bounds (a sign flip once drew an oil temperature of
+    -23 C, outside the allowed range, and crashed a bench case)."""
+    spec = diagnosis_plant(plant)
+    for e in effects_for(plant, diagnosable_only=True):
+        base = Model(base_for(spec, e.name))
+        r = e.on(plant)
+        for seed in range(40):
+            drawn = draw_effect(spec, e.name, base, np.random.default_rng(seed))
+            m = with_effect(spec, base, e.name, drawn)  # raises on an invalid set
+            assert e.name in present_effects(spec, m)
+            for p in r.parameters:
+                assert p.bounds[0] < drawn[p.field] < p.bounds[1], (e.name, p.field, drawn[p.field])
 
 
 def test_unknown_names_raise_clearly():

@@ -129,6 +129,25 @@ def closed_loop_record(spec: DiagnosisPlant, truth: Model, duration: float, dt: 
     return Record(dt, rec_inputs, chans, name or f"{spec.name} closed loop")
 
 
+def draw_effect(spec: DiagnosisPlant, effect_name: str, base: Model, rng: np.random.Generator) -> dict[str, float]:
+    """Parameters of a hidden effect drawn from its catalogue ``draw`` range (log-uniform for
+    log parameters, factors of ``relative_to`` fields applied)."""
+    e = effect(effect_name)
+    r = e.on(spec.name)
+    drawn = {}
+    for p in r.parameters:
+        lo, hi = p.draw
+        f = float(np.exp(rng.uniform(math.log(lo), math.log(hi)))) if (p.log and lo > 0) else float(rng.uniform(lo, hi))
+        drawn[p.field] = f * float(getattr(base.params, p.relative_to)) if p.relative_to else f
+        # signed effects (a signed field whose null is 0: asymmetry, force offset): both
+        # signs; not the valve lap (the draws are overlaps) nor a field with another null
+        # (an oil temperature of -23 C instead of 23 C)
+        signed = not p.log and p.bounds[0] < 0 < p.bounds[1] and r.null.get(p.field) == 0.0
+        if signed and rng.uniform() < 0.5 and effect_name not in ("valve_lap",):
+            drawn[p.field] = -drawn[p.field]
+    return drawn
+
+
 def hidden_effect_records(plant: str, effect_name: str | None, seed: int, *, duration: float = 6.0,
                           holdout_duration: float | None = None, dt: float | None = None) -> HiddenEffectCase:
     """Fit and held-out records of ``plant`` with ``effect_name`` (or none) hidden in them."""
@@ -139,13 +158,7 @@ def hidden_effect_records(plant: str, effect_name: str | None, seed: int, *, dur
     drawn: dict[str, float] = {}
     truth = base
     if effect_name is not None:
-        e = effect(effect_name)
-        for p in e.on(plant).parameters:
-            lo, hi = p.draw
-            f = float(np.exp(rng.uniform(math.log(lo), math.log(hi)))) if (p.log and lo > 0) else float(rng.uniform(lo, hi))
-            drawn[p.field] = f * float(getattr(base.params, p.relative_to)) if p.relative_to else f
-            if not p.log and p.bounds[0] < 0 and rng.uniform() < 0.5 and effect_name not in ("valve_lap",):
-                drawn[p.field] = -drawn[p.field]  # signed effects: both signs
+        drawn = draw_effect(spec, effect_name, base, rng)
         truth = with_effect(spec, base, effect_name, drawn)
     fit = closed_loop_record(spec, truth, duration, dt, rng, f"{plant}+{effect_name or 'none'} seed {seed}")
     hold = closed_loop_record(spec, truth, holdout_duration or duration / 2, dt, rng, "held-out")
