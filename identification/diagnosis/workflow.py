@@ -808,19 +808,23 @@ class Candidate:
 
 
 def _weighted_costs(spec: DiagnosisPlant, models: Sequence[Model], records: Sequence[Record],
-                    sigma: dict[str, float]) -> np.ndarray:
+                    sigma: dict[str, float]) -> tuple[np.ndarray, np.ndarray]:
     """Weighted squared simulation residual over the scored samples of ``records`` per model
-    (one batched simulation)."""
-    costs = []
+    (one batched simulation per distinct delay; non-finite -> inf) and the number of scored
+    residuals it sums."""
+    costs, counts = [], []
     for exps, outs in _simulate(spec, models, records):
-        c = 0.0
+        c, n = 0.0, 0
         for ex, o in zip(exps, outs):
             sel = _scored(ex)
             for k in sigma:
                 if k in o:
-                    c += float(np.sum(((ex.outputs[k] - o[k]) / sigma[k])[sel] ** 2))
+                    r = ((ex.outputs[k] - o[k]) / sigma[k])[sel]
+                    c += float(np.sum(r**2))
+                    n += r.size
         costs.append(c if math.isfinite(c) else math.inf)
-    return np.array(costs)
+        counts.append(n)
+    return np.array(costs), np.array(counts)
 
 
 # points per parameter of the start grid of a cold refit (1, 2, >= 3 parameters)
@@ -856,7 +860,7 @@ def _grid_start(spec: DiagnosisPlant, model: Model, name: str, records: Sequence
         except ParameterError:  # e.g. a static level below the Coulomb level
             continue
         values.append(vals)
-    costs = _weighted_costs(spec, models, records, sigma)
+    costs, _ = _weighted_costs(spec, models, records, sigma)
     return values[int(np.argmin(costs))]
 
 
@@ -866,17 +870,7 @@ def _delay_grid_search(spec: DiagnosisPlant, model: Model, records: Sequence[Rec
     simulation per value, parabolic refinement) and its standard error from the curvature."""
     dt = records[0].dt
     grid = np.arange(0.0, min(p.bounds[1], 0.012) + 1e-12, max(dt / 2, 2.5e-4))
-    costs = []
-    for d in grid:
-        ((exps, outs),) = _simulate(spec, [model.copy(delay=float(d))], records)
-        c = 0.0
-        for ex, o in zip(exps, outs):
-            sel = _scored(ex)
-            for k in sigma:
-                if k in o:
-                    c += float(np.sum(((ex.outputs[k] - o[k]) / sigma[k])[sel] ** 2))
-        costs.append(c)
-    costs = np.array(costs)
+    costs, counts = _weighted_costs(spec, [model.copy(delay=float(d)) for d in grid], records, sigma)
     i = int(np.argmin(costs))
     d = float(grid[i])
     se = math.nan
@@ -886,8 +880,7 @@ def _delay_grid_search(spec: DiagnosisPlant, model: Model, records: Sequence[Rec
         curv = (cp - 2 * c0 + cm) / h**2
         if curv > 0:
             d = d + 0.5 * h * (cm - cp) / (cp - 2 * c0 + cm)
-            n_res = sum(int(np.count_nonzero(_scored(ex))) for ex, o in zip(exps, outs) for k in sigma if k in o)
-            s2 = c0 / max(n_res - 1, 1)
+            s2 = c0 / max(int(counts[i]) - 1, 1)
             se = math.sqrt(2 * s2 / curv)
     return max(d, p.bounds[0]), se
 
