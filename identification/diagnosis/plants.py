@@ -108,6 +108,17 @@ def reference_signal(t: np.ndarray, amplitude: float, speed: float, rng: np.rand
     return slow + ms
 
 
+def _multisine(f_lo: float, f_hi: float, n: int):
+    """Reference generator: a random-phase multisine of ``n`` log-spaced frequencies from
+    ``f_lo`` to ``f_hi`` Hz, peak-normalised to 1."""
+    def reference(t, rng):
+        f = np.geomspace(f_lo, f_hi, n)
+        ph = rng.uniform(0, 2 * np.pi, f.size)
+        sig = np.sin(2 * np.pi * f[None, :] * (t - t[0])[:, None] + ph[None, :]).sum(axis=1)
+        return sig / np.max(np.abs(sig))
+    return reference
+
+
 # ------------------------------------------------------------------------------- slider
 def _slider() -> DiagnosisPlant:
     from hydro_envs.plants import slider as sl
@@ -258,13 +269,9 @@ def _ls_compensator() -> DiagnosisPlant:
         # seat and off the travel limit)
         return 7e5 + 1.5e5 * ref[0]
 
-    def reference(t, rng):
-        # random-phase multisine 5-400 Hz (covers omega_1 = 67 Hz, omega_m = 108 Hz,
-        # omega_h = 453 Hz of 000 Table 1), peak-normalised to 1
-        f = np.geomspace(5.0, 400.0, 24)
-        ph = rng.uniform(0, 2 * np.pi, f.size)
-        sig = np.sin(2 * np.pi * f[None, :] * (t - t[0])[:, None] + ph[None, :]).sum(axis=1)
-        return sig / np.max(np.abs(sig))
+    # random-phase multisine 5-400 Hz (covers omega_1 = 67 Hz, omega_m = 108 Hz,
+    # omega_h = 453 Hz of 000 Table 1)
+    reference = _multisine(5.0, 400.0, 24)
 
     return DiagnosisPlant(
         name="ls_compensator", params_factory=lc.LSCompensatorParams, kernel_id=LS_COMPENSATOR,
@@ -279,6 +286,19 @@ def _ls_compensator() -> DiagnosisPlant:
     )
 
 
+# ------------------------------------------------------------------------------- force actuator rigs: shared
+def _fa_sensed_force(S, P):
+    """Sensed force of 001 eq (3), F_s = k_s x_s (output function of both force-actuator rigs)."""
+    from hydro_envs.plants import force_actuator as fa
+
+    return P[:, fa.I_KS, None] * S[:, :, fa.XS]
+
+
+def _fa_open_loop(meas, ref, p):
+    """Open-loop valve current: +-50 % of the rated current times the reference."""
+    return 0.5 * p.rated_current * ref[0]
+
+
 # ------------------------------------------------------------------------------- force actuator (001)
 def _force_actuator() -> DiagnosisPlant:
     from hydro_envs.plants import force_actuator as fa
@@ -290,30 +310,20 @@ def _force_actuator() -> DiagnosisPlant:
         # force_actuator_load below
         return fa.ForceActuatorParams()
 
-    def sensed_force(S, P):  # F_s = k_s x_s, eq (3)
-        return P[:, fa.I_KS, None] * S[:, :, fa.XS]
-
     def init(p, m):
         y = fa.rest_state(p)
         y[fa.XS] = m.get("f", 0.0) / p.sensor_stiffness
         return y
 
-    def controller(meas, ref, p):
-        return 0.5 * p.rated_current * ref[0]  # open loop: +-50 % of rated current
-
-    def reference(t, rng):
-        # random-phase multisine 2-150 Hz, peak-normalised to 1 (below eq (8)'s resonances)
-        f = np.geomspace(2.0, 150.0, 16)
-        ph = rng.uniform(0, 2 * np.pi, f.size)
-        sig = np.sin(2 * np.pi * f[None, :] * (t - t[0])[:, None] + ph[None, :]).sum(axis=1)
-        return sig / np.max(np.abs(sig))
+    # random-phase multisine 2-150 Hz (below eq (8)'s resonances)
+    reference = _multisine(2.0, 150.0, 16)
 
     return DiagnosisPlant(
         name="force_actuator", params_factory=params, kernel_id=FORCE_ACTUATOR, n_states=fa.N_STATES,
-        inputs=("i",), outputs={"f": sensed_force}, derivative_outputs={}, required=("i", "f"),
+        inputs=("i",), outputs={"f": _fa_sensed_force}, derivative_outputs={}, required=("i", "f"),
         base_fit=("sensor_damping", "valve_offset"),
         noise={"f": 2.0, "i": 0.0},  # 0.15 % of the 1340 N range
-        initial_state=init, controller=controller, position_channel="f",
+        initial_state=init, controller=_fa_open_loop, position_channel="f",
         reference_centre=lambda p: 0.0, reference_amplitude=1.0, reference_speed=1.0,
         segment_seconds=0.2, warmup_seconds=0.04, position_state=fa.XS, velocity_state=fa.VS,
         score_bandwidth=300.0, reference=reference, sample_time=2e-4,
@@ -337,9 +347,6 @@ def _force_actuator_load() -> DiagnosisPlant:
         return fa.ForceActuatorParams(piston_locked=0.0, load_mass=5.0, load_stiffness=5e4, friction_model=1.0,
                                       stiction_retract=26.0, stiction_extend=26.0)
 
-    def sensed_force(S, P):  # F_s = k_s x_s, eq (3)
-        return P[:, fa.I_KS, None] * S[:, :, fa.XS]
-
     def init(p, m):
         # sensor deflection from the measured force; the piston at its quasi-static position on
         # the load spring (sensed force ~ spring force below the 16 Hz load mode), velocity
@@ -353,25 +360,18 @@ def _force_actuator_load() -> DiagnosisPlant:
             y[fa.VF] = y[fa.VP]
         return y
 
-    def controller(meas, ref, p):
-        return 0.5 * p.rated_current * ref[0]  # open loop: +-50 % of rated current
-
-    def reference(t, rng):
-        # random-phase multisine 1-60 Hz, peak-normalised to 1: drives the load through its
-        # 16 Hz mode at piston speeds up to and past eq (5)'s knee velocities
-        f = np.geomspace(1.0, 60.0, 14)
-        ph = rng.uniform(0, 2 * np.pi, f.size)
-        sig = np.sin(2 * np.pi * f[None, :] * (t - t[0])[:, None] + ph[None, :]).sum(axis=1)
-        return sig / np.max(np.abs(sig))
+    # random-phase multisine 1-60 Hz: drives the load through its 16 Hz mode at piston
+    # speeds up to and past eq (5)'s knee velocities
+    reference = _multisine(1.0, 60.0, 14)
 
     return DiagnosisPlant(
         name="force_actuator_load", params_factory=params, kernel_id=FORCE_ACTUATOR, n_states=fa.N_STATES,
-        inputs=("i",), outputs={"f": sensed_force}, derivative_outputs={}, required=("i", "f"),
+        inputs=("i",), outputs={"f": _fa_sensed_force}, derivative_outputs={}, required=("i", "f"),
         # damping_linear: eq (5)'s linear term c v -- the viscous damping every moving-piston
         # model has (like the cylinders' viscous friction), so it is calibrated in the base
         base_fit=("valve_offset", "damping_linear", "load_stiffness"),
         noise={"f": 2.0, "i": 0.0},  # 0.15 % of the 1340 N range
-        initial_state=init, controller=controller, position_channel="f",
+        initial_state=init, controller=_fa_open_loop, position_channel="f",
         reference_centre=lambda p: 0.0, reference_amplitude=1.0, reference_speed=1.0,
         # warm-up: the load's slow (overdamped) mode k_L / (0.4 c) = 31 ms, x 3, plus the valve
         segment_seconds=0.3, warmup_seconds=0.12, position_state=fa.XS, velocity_state=fa.VS,
