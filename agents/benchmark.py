@@ -136,38 +136,38 @@ def _cyl_stroke(b):
 
 
 def _table_output(b):
-    from hydro_envs.plants.shaking_table import table_acceleration
+    from hydro_envs.plants.shaking_table.model import table_acceleration
 
     a = np.array([table_acceleration(b.Y[i], b.P[i]) for i in range(b.n)])
     return a, _ref_now(b)
 
 
 def _table_pressures(b):
-    from hydro_envs.plants import shaking_table as st
+    from hydro_envs.plants.shaking_table import model as st
 
     return b.Y[:, [st.PA, st.PB]], b.P[:, st.I_PFLOOR], PRESSURE_MAX_FACTOR * b.P[:, st.I_PS]
 
 
 def _table_stroke(b):
-    from hydro_envs.plants import shaking_table as st
+    from hydro_envs.plants.shaking_table import model as st
 
     return np.abs(b.Y[:, st.X]) > 0.5 * b.P[:, st.I_L]
 
 
 def _force_output(b):
-    from hydro_envs.plants import force_actuator as fa
+    from hydro_envs.plants.force_actuator import model as fa
 
     return b.P[:, fa.I_KS] * b.Y[:, fa.XS], _ref_now(b)
 
 
 def _ls_output(b):
-    from hydro_envs.plants import ls_circuit as ls
+    from hydro_envs.plants.ls_circuit import model as ls
 
     return b.Y[:, ls.VA].copy(), _ref_now(b)
 
 
 def _ls_pressures(b):
-    from hydro_envs.plants import ls_circuit as ls
+    from hydro_envs.plants.ls_circuit import model as ls
 
     names = b.params_cls.names()
     floor = b.P[:, names.index("pressure_floor")]
@@ -176,7 +176,7 @@ def _ls_pressures(b):
 
 
 def _ls_stroke(b):
-    from hydro_envs.plants import ls_circuit as ls
+    from hydro_envs.plants.ls_circuit import model as ls
 
     names = b.params_cls.names()
     x = b.Y[:, ls.XA]

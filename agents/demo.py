@@ -17,7 +17,7 @@ One script that walks through what the suite is for, on ``ServoCylinderPosition-
    identified. The identified friction is checked against the training randomisation ranges
    (``configs/randomization/servo_cylinder.yaml``): the learned agent must have seen the rig.
 3. **Train** a PPO (default; ``--algo sac`` also works) agent with domain randomisation
-   (:func:`agents.train.train`, ``configs/agents/<algo>.yml``, the batched-kernel SB3 adapter,
+   (:func:`agents.train.train`, ``agents/configs/<algo>.yml``, the batched-kernel SB3 adapter,
    rich progress bar). ``--pretrained`` skips training and uses the small baseline shipped in
    ``agents/pretrained/`` (see :mod:`agents.pretrain`).
 4. **Benchmark** PID, PID + identified friction feedforward and the learned agent on the same
@@ -117,7 +117,7 @@ def friction_table(fit: Any, truth: Any) -> list[tuple[str, str, float, float, f
 
 def inside_training_ranges(fit: Any) -> list[tuple[str, float, float, float, bool]]:
     """``(field, identified, low, high, inside)`` for the friction fields the env randomises."""
-    from hydro_envs.plants.servo_cylinder import ServoCylinderParams
+    from hydro_envs.plants.servo_cylinder.params import ServoCylinderParams
     from hydro_envs.randomization import load_randomization
 
     spec = load_randomization("servo_cylinder", ServoCylinderParams)
@@ -166,7 +166,7 @@ def calibrated_controllers(fit: Any) -> tuple[Any, Any, dict[str, float]]:
     """``(pid, pid_ff, tuning)``: the PID from the nominal linearisation and the same PID with
     the feedforward of the identified friction law."""
     from agents.controllers.servo import PIDController, PIDFrictionFeedforwardController, pid_tuning
-    from hydro_envs.plants.servo_cylinder import ServoCylinderParams
+    from hydro_envs.plants.servo_cylinder.params import ServoCylinderParams
 
     p = ServoCylinderParams()
     return (PIDController.from_params(p), PIDFrictionFeedforwardController.from_params(p, model=fit),
@@ -335,8 +335,7 @@ def run(out: str | Path = "runs/demo", *, algo: str = "ppo", timesteps: int | No
             "files": files}
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    p = argparse.ArgumentParser(prog="python -m agents.demo", description=__doc__.split("\n\n")[0])
+def _add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--out", default="runs/demo", help="output folder (default runs/demo)")
     p.add_argument("--algo", choices=tuple(DEFAULT_TIMESTEPS), default="ppo")
     p.add_argument("--timesteps", type=int, default=None,
@@ -347,7 +346,16 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--pretrained", action="store_true", help="skip training: use agents/pretrained/")
     p.add_argument("--quick", action="store_true", help="a short smoke run (few training steps)")
     p.add_argument("--no-progress-bar", action="store_true")
-    a = p.parse_args(argv)
+    p.add_argument("--rollouts", action="store_true",
+                   help="only a quick look: randomised episodes under a P controller (no training)")
+    p.add_argument("--episodes", type=int, default=5, metavar="N", help="(--rollouts) episodes")
+
+
+def _run_args(a: argparse.Namespace) -> int:
+    if a.rollouts:
+        from agents.rollouts import run_demo
+
+        return run_demo(episodes=a.episodes, seed=a.seed)
     try:
         run(a.out, algo=a.algo, timesteps=a.timesteps, n=a.n, seed=a.seed, pretrained=a.pretrained,
             quick=a.quick, params=a.params, progress_bar=not a.no_progress_bar)
@@ -355,6 +363,27 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"hydro demo: error: {exc}")
         return 2
     return 0
+
+
+def add_cli(subparsers: Any) -> argparse.ArgumentParser:
+    """Register ``hydro demo`` on an argparse subparsers object."""
+    p = subparsers.add_parser(
+        "demo",
+        help="the main job: identify friction, calibrate, train PPO, benchmark against PID",
+        description="The main job: identify the servo cylinder's friction from a virtual "
+        "constant-velocity test, calibrate PID and PID + friction feedforward, train PPO (or SAC) "
+        "with domain randomisation, benchmark all three on frozen parameter draws and write tables "
+        "and figures. --rollouts runs a quick look instead: randomised episodes under a P controller.",
+    )
+    _add_arguments(p)
+    p.set_defaults(func=_run_args)
+    return p
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    p = argparse.ArgumentParser(prog="python -m agents.demo", description=__doc__.split("\n\n")[0])
+    _add_arguments(p)
+    return _run_args(p.parse_args(argv))
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -11,7 +11,7 @@ and from Python ``train(env_id, algo, ...) -> Path`` (the run folder).
 
 Hyperparameters
 ---------------
-rl-baselines3-zoo style: one file per algorithm, ``configs/agents/<algo>.yml``, whose top-level
+rl-baselines3-zoo style: one file per algorithm, ``agents/configs/<algo>.yml``, whose top-level
 keys are env ids; ``--config FILE`` replaces it by another file of the same format (for
 example a run folder's ``config.yml``). Keys of an env entry:
 
@@ -351,14 +351,14 @@ def _check_normalize(where: str, value: Any) -> dict[str, Any]:
 
 # --------------------------------------------------------------------------- config files
 def config_path(algo: str) -> Path:
-    """The default hyperparameter file of ``algo``: ``configs/agents/<algo>.yml``."""
+    """The default hyperparameter file of ``algo``: ``agents/configs/<algo>.yml``."""
     if algo not in ALGOS:
         raise ConfigError(f"algo = {algo!r}; allowed {list(ALGOS)}")
-    return ROOT / "configs" / "agents" / f"{algo}.yml"
+    return Path(__file__).resolve().parent / "configs" / f"{algo}.yml"
 
 
 def load_agent_config(source: str | Path | Mapping[str, Any] | None, algo: str, env_id: str) -> dict[str, Any]:
-    """The raw entry of ``env_id`` from a zoo-format file (``None``: ``configs/agents/<algo>.yml``)
+    """The raw entry of ``env_id`` from a zoo-format file (``None``: ``agents/configs/<algo>.yml``)
     or from an already loaded mapping of the same format."""
     if source is None:
         source = config_path(algo)
@@ -717,7 +717,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--env", required=True, help="env id, e.g. hydro_envs/ServoCylinderPosition-v0")
     p.add_argument("--algo", required=True, choices=ALGOS)
-    p.add_argument("--config", help="zoo-format YAML keyed by env id (default configs/agents/<algo>.yml)")
+    p.add_argument("--config", help="zoo-format YAML keyed by env id (default agents/configs/<algo>.yml)")
     p.add_argument("--timesteps", type=int, help="override n_timesteps")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--no-randomization", action="store_true", help="train and evaluate on the nominal plant")

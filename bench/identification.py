@@ -119,8 +119,7 @@ def bench_greybox(ctx: dict, repeats: int) -> list[tuple[str, float, str]]:
     (x and a, noisy, modified-IFAS truth; E_0, F_c, F_v from a perturbed start)."""
     import dataclasses
 
-    from hydro_envs.plants import shaking_table as st
-    from hydro_envs.sim.kernels import SHAKING_TABLE
+    from hydro_envs.plants.shaking_table import model as st
     from identification import greybox as gb
 
     truth = st.ShakingTableParams.preset("modified_ifas")
@@ -129,12 +128,12 @@ def bench_greybox(ctx: dict, repeats: int) -> list[tuple[str, float, str]]:
     u = 3.0 * np.sin(4 * np.pi * t) + 1.0 * np.sin(2 * np.pi * 7.3 * t)
     ch = [c for c in gb.plant_setup("shaking_table")["channels"].values() if c.name in ("x", "a")]
     e = gb.Experiment(dt, u, st.rest_state(truth), {"x": u, "a": u})
-    clean = gb.simulate_outputs(truth, SHAKING_TABLE, [e], ch)[0][0]
+    clean = gb.simulate_outputs(truth, [e], ch)[0][0]
     rng = np.random.default_rng(0)
     meas = {"x": clean["x"] + 2e-5 * rng.standard_normal(t.size), "a": clean["a"] + 0.05 * rng.standard_normal(t.size)}
     base = dataclasses.replace(truth, e0=truth.e0 * 1.3, coulomb_friction=460.0, viscous_friction=530.0)
     fit = ["e0", "coulomb_friction", "viscous_friction"]
-    sec, res = best_time(lambda: gb.fit_greybox(base, fit, SHAKING_TABLE,
+    sec, res = best_time(lambda: gb.fit_greybox(base, fit,
                                                 [gb.Experiment(dt, u, e.y0, meas)], ch), repeats)
     err = ", ".join(f"{n} {100 * (res.values[n] / getattr(truth, n) - 1):+.1f} %" for n in fit)
     return [(f"shaking table, 10 s at 1 kHz, 3 parameters ({res.nfev} fev, {res.njev} jev)", sec,

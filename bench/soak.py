@@ -39,7 +39,7 @@ def main(argv: list[str] | None = None) -> int:
     args = p.parse_args(argv)
 
     import hydro_envs  # noqa: F401  (registers the envs)
-    from hydro_envs.sim.soak import SOAK_ENVS, format_table, soak_env
+    from hydro_envs.soak import SOAK_ENVS, format_table, soak_env
 
     if args.envs == "all":
         envs = list(SOAK_ENVS)

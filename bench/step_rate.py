@@ -72,14 +72,15 @@ def vector_env_rate(env_id: str, n: int, steps: int) -> float:
 
 
 def kernel_time_per_substep(n: int, steps: int) -> tuple[float, float]:
-    from hydro_envs.plants import servo_cylinder as sc
-    from hydro_envs.sim.kernels import SERVO_CYLINDER, step_batch_parallel, step_batch_serial
+    from hydro_envs import registry
+    from hydro_envs.plants.servo_cylinder import model as sc
 
+    kernels = registry.get("servo_cylinder").kernels
     p = sc.ServoCylinderParams()
     P = np.tile(p.to_array(), (n, 1))
     rng = np.random.default_rng(0)
     result = []
-    for kernel in (step_batch_serial, step_batch_parallel):
+    for kernel in (kernels.step_serial, kernels.step_parallel):
         Y = np.zeros((n, sc.N_STATES))
         Y[:, sc.X] = rng.uniform(0.2, 0.8, n) * p.stroke
         Y[:, sc.P1] = Y[:, sc.P2] = 0.5 * (p.supply_pressure + p.tank_pressure)
@@ -87,20 +88,22 @@ def kernel_time_per_substep(n: int, steps: int) -> tuple[float, float]:
         W = np.zeros((n, 5, sc.N_STATES))
         c = np.zeros(n, dtype=np.int64)
         nsub = np.full(n, 3, dtype=np.int64)
-        kernel(SERVO_CYLINDER, Y, U, P, 1e-3, nsub, W, c)
+        kernel(Y, U, P, 1e-3, nsub, W, c)
         t0 = time.perf_counter()
         for _ in range(steps):
-            kernel(SERVO_CYLINDER, Y, U, P, 1e-3, nsub, W, c)
+            kernel(Y, U, P, 1e-3, nsub, W, c)
         result.append((time.perf_counter() - t0) / (steps * n * 3))
     return result[0], result[1]
 
 
 def radau_nrmse(seconds: float = 2.0, seed: int = 3) -> dict[str, float]:
-    from hydro_envs.plants import servo_cylinder as sc
-    from hydro_envs.sim.kernels import SERVO_CYLINDER, step_batch_serial
+    from hydro_envs import registry
+    from hydro_envs.plants.servo_cylinder import model as sc
     from hydro_envs.sim.reference import reference_rollout
-    from hydro_envs.sim.stiffness import rk4_substeps
+    from hydro_envs.sim.simulate import simulate
+    from hydro_envs.sim.stiffness import substeps_from_stiffness
 
+    spec = registry.get("servo_cylinder")
     p = sc.ServoCylinderParams()
     dt = 1e-3
     n = int(round(seconds / dt))
@@ -109,17 +112,11 @@ def radau_nrmse(seconds: float = 2.0, seed: int = 3) -> dict[str, float]:
     y0 = np.zeros(sc.N_STATES)
     y0[sc.X] = 0.5 * p.stroke
     y0[sc.P1] = y0[sc.P2] = 0.5 * (p.supply_pressure + p.tank_pressure)
-    n_sub = rk4_substeps(sc.stiffness_modes(p), dt)[0]
-    Y, P = y0[None].copy(), p.to_array()[None]
-    W, c, ns = np.zeros((1, 5, 6)), np.zeros(1, dtype=np.int64), np.array([n_sub])
-    fixed = [y0.copy()]
-    for u in cmds:
-        step_batch_serial(SERVO_CYLINDER, Y, np.array([[u]]), P, dt, ns, W, c)
-        fixed.append(Y[0].copy())
-    fixed = np.array(fixed)
+    n_sub = substeps_from_stiffness(sc.stiffness_modes(p), dt)[0]
+    fixed = simulate(spec, p, cmds[:, None], y0, dt)
     atol = np.array([1e-13, 1e-10, 1e-3, 1e-3, 1e-15, 1e-11])
     t0 = time.perf_counter()
-    ref = reference_rollout(SERVO_CYLINDER, y0, cmds[:, None], P[0], dt, rtol=1e-10, atol=atol)
+    ref = reference_rollout(spec, y0, cmds[:, None], p.to_array(), dt, rtol=1e-10, atol=atol)
     t_ref = time.perf_counter() - t0
 
     def nrmse(a, b):

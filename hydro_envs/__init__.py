@@ -23,7 +23,8 @@ import os
 # either; ``setdefault`` keeps a user's own OMP_WAIT_POLICY.
 os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 
-from gymnasium.envs.registration import register, registry  # noqa: E402
+from gymnasium.envs.registration import register  # noqa: E402
+from gymnasium.envs.registration import registry as gym_registry  # noqa: E402
 
 from hydro_envs._numba_cache import purge_stale_numba_cache  # noqa: E402
 
@@ -31,36 +32,20 @@ purge_stale_numba_cache()  # before any kernel is compiled or loaded from the ca
 
 __version__ = "0.1.0"
 
-_ENVS = {
-    "hydro_envs/LoadSensing-v0": dict(
-        entry_point="hydro_envs.envs.load_sensing:LoadSensingEnv",
-        vector_entry_point="hydro_envs.envs.load_sensing:LoadSensingVectorEnv",
-        max_episode_steps=2000,
-    ),
-    "hydro_envs/ServoCylinderPosition-v0": dict(
-        entry_point="hydro_envs.envs.servo_cylinder:ServoCylinderPositionEnv",
-        vector_entry_point="hydro_envs.envs.servo_cylinder:ServoCylinderPositionVectorEnv",
-        max_episode_steps=2000,
-    ),
-    "hydro_envs/ShakingTable-v0": dict(
-        entry_point="hydro_envs.envs.shaking_table:ShakingTableEnv",
-        vector_entry_point="hydro_envs.envs.shaking_table:ShakingTableVectorEnv",
-        max_episode_steps=6000,
-    ),
-    "hydro_envs/RodlessCylinder-v0": dict(
-        entry_point="hydro_envs.envs.rodless_cylinder:RodlessCylinderEnv",
-        vector_entry_point="hydro_envs.envs.rodless_cylinder:RodlessCylinderVectorEnv",
-        max_episode_steps=2000,
-    ),
-    "hydro_envs/ForceActuator-v0": dict(
-        entry_point="hydro_envs.envs.force_actuator:ForceActuatorEnv",
-        vector_entry_point="hydro_envs.envs.force_actuator:ForceActuatorVectorEnv",
-        max_episode_steps=5000,
-    ),
-}
+def _register_envs() -> None:
+    """Register every env id the plant registry lists (idempotent)."""
+    from hydro_envs.registry import env_entries
 
-for _id, _kw in _ENVS.items():
-    if _id not in registry:
-        register(id=_id, **_kw)
+    for _spec, entry in env_entries():
+        if entry.id not in gym_registry:
+            register(
+                id=entry.id,
+                entry_point=entry.entry_point,
+                vector_entry_point=entry.vector_entry_point,
+                max_episode_steps=entry.max_episode_steps,
+            )
+
+
+_register_envs()
 
 __all__ = ["__version__"]

@@ -2,12 +2,14 @@
 
 Subcommands::
 
-    hydro channels [PLANT]                    channels (name, unit, meaning) of a plant
+    hydro channels [PLANT] [--json]           channels (name, unit, meaning) of a plant
     hydro simulate ENV_ID --steps N --out F   run an env, record its sensor channels
     hydro validate [--json]                   reproduce published figures, pass/fail
 
-Heavy imports (numpy, gymnasium, numba, the envs) happen inside the subcommands so that
-``hydro --help`` stays fast.
+plus the subcommands other installed packages register under the ``hydro_envs.commands``
+entry points (``identify`` and ``diagnose`` from :mod:`identification`, ``benchmark`` and
+``demo`` from :mod:`agents`). Heavy imports (numpy, gymnasium, numba, the envs) happen inside
+the subcommands so that ``hydro --help`` stays fast.
 """
 
 from __future__ import annotations
@@ -31,7 +33,8 @@ identification tools that calibrate them.
 
 _EPILOG = """\
 examples:
-  hydro channels servo_cylinder
+  hydro channels                  (the plants)
+  hydro channels PLANT --json
   hydro simulate hydro_envs/ServoCylinderPosition-v0 --steps 1000 --policy random \\
         --seed 0 --out run.csv
   hydro validate --json
@@ -61,9 +64,10 @@ def build_parser() -> argparse.ArgumentParser:
         "channels",
         help="list a plant's measured channels (name, unit, meaning)",
         description="Print the channels of PLANT as stored in measured-data files "
-        "(time 't' first). Without PLANT, list the known plants.",
+        "(time 't' first), its inputs, states and envs. Without PLANT, list the plants.",
     )
-    p.add_argument("plant", nargs="?", metavar="PLANT", help="plant name, e.g. servo_cylinder")
+    p.add_argument("plant", nargs="?", metavar="PLANT", help="plant name (`hydro channels` lists them)")
+    p.add_argument("--json", action="store_true", help="print the plant (or every plant) as one JSON object")
     p.set_defaults(func=_cmd_channels)
 
     p = sub.add_parser(
@@ -96,70 +100,26 @@ def build_parser() -> argparse.ArgumentParser:
                    help='print one JSON object {"rows": [...], "passed": bool}')
     p.set_defaults(func=_cmd_validate)
 
-    p = sub.add_parser(
-        "demo",
-        help="the main job: identify friction, calibrate, train PPO, benchmark against PID",
-        description="The main job (agents/demo.py): identify the servo cylinder's friction from a "
-        "virtual constant-velocity test, calibrate PID and PID + friction feedforward, train a "
-        "short PPO (or SAC) with domain randomisation, benchmark all three on frozen parameter "
-        "draws and write tables and figures. Needs the [rl,torch,plot] extras (make install). "
-        "--rollouts runs the old quick look instead: randomised episodes under a P controller.",
-    )
-    p.add_argument("--rollouts", action="store_true",
-                   help="only the quick P-controller rollouts (core install)")
-    p.add_argument("--episodes", type=_positive_int, default=5, metavar="N", help="(--rollouts) episodes")
-    p.add_argument("--seed", type=int, default=0, metavar="S")
-    p.add_argument("--out", default="runs/demo", help="output folder of the main job")
-    p.add_argument("--algo", choices=("ppo", "sac"), default="ppo")
-    p.add_argument("--timesteps", type=_positive_int, default=None, metavar="N")
-    p.add_argument("--n", type=_positive_int, default=20, metavar="N", help="frozen draws per parameter set")
-    p.add_argument("--pretrained", action="store_true", help="skip training: use agents/pretrained/")
-    p.add_argument("--quick", action="store_true", help="a short smoke run")
-    p.set_defaults(func=_cmd_demo)
-
-    # `hydro identify METHOD ...`: the registry lives in identification/cli.py, which imports
-    # only the standard library at import time (methods import numpy/scipy when they run).
-    try:
-        from identification.cli import add_identify_parser
-    except ModuleNotFoundError as e:  # identification package not installed
-        if e.name not in ("identification", "identification.cli"):
-            raise
-    else:
-        add_identify_parser(sub)
-        from identification.diagnosis.cli import add_diagnose_parser
-
-        add_diagnose_parser(sub)
-    _add_benchmark_parser(sub)
+    _add_plugin_commands(sub)
     return parser
 
 
-def _add_benchmark_parser(sub: Any) -> None:
-    """`hydro benchmark ...` (agents/benchmark.py, imported here only when present)."""
-    try:
-        from agents.benchmark import add_cli
-    except ModuleNotFoundError as e:  # agents package not installed
-        if e.name not in ("agents", "agents.benchmark"):
-            raise
-    else:
-        add_cli(sub)
+#: entry-point group of the subcommands other packages add (identify, diagnose, benchmark, demo):
+#: each entry point is a function ``add(subparsers)`` that adds its parser and sets ``func``
+COMMAND_GROUP = "hydro_envs.commands"
 
 
-def _cmd_demo(args: argparse.Namespace) -> int:
-    if args.rollouts:
-        from hydro_envs.demo import run_demo
+def _add_plugin_commands(sub: Any) -> None:
+    """Subcommands of the installed packages, found through their entry points."""
+    from importlib.metadata import entry_points
 
-        return run_demo(episodes=args.episodes, seed=args.seed)
-    try:
-        from agents.demo import main as demo_main
-    except ModuleNotFoundError as e:
-        print(f"hydro demo: error: the main job needs the agents package and its extras ({e}); "
-              "run `make install` or `pip install -e .[all]`, or use `hydro demo --rollouts`", file=sys.stderr)
-        return 2
-    argv = ["--out", args.out, "--algo", args.algo, "--n", str(args.n), "--seed", str(args.seed)]
-    if args.timesteps is not None:
-        argv += ["--timesteps", str(args.timesteps)]
-    argv += ["--pretrained"] * args.pretrained + ["--quick"] * args.quick
-    return demo_main(argv)
+    for ep in sorted(entry_points(group=COMMAND_GROUP), key=lambda e: e.name):
+        try:
+            add = ep.load()
+        except ModuleNotFoundError as e:  # its package's optional dependencies are missing
+            sub.add_parser(ep.name, help=f"(unavailable: {e})")
+            continue
+        add(sub)
 
 
 def _positive_int(text: str) -> int:
@@ -190,38 +150,34 @@ def _table(rows: Sequence[Sequence[str]], header: Sequence[str]) -> str:
 
 
 def _cmd_channels(args: argparse.Namespace) -> int:
-    from hydro_envs.data.channels import TIME_CHANNEL, UnknownPlantError, channels_for, known_plants
+    import json
+
+    from hydro_envs import registry
+    from hydro_envs.spec import TIME_CHANNEL
 
     if args.plant is None:
-        _load_plant_modules()
-        print("known plants: " + (", ".join(known_plants()) or "(none)"))
+        if args.json:
+            print(json.dumps({"plants": [s.as_dict() for s in registry.specs()]}))
+        else:
+            rows = [[s.name, ", ".join(c.name for c in s.channels), s.title] for s in registry.specs()]
+            print(_table(rows, ["plant", "channels", "what it is"]))
         return EXIT_OK
     try:
-        chans = channels_for(args.plant)
-    except UnknownPlantError:
-        _load_plant_modules()  # later plants register from their own modules
-        try:
-            chans = channels_for(args.plant)
-        except UnknownPlantError as e:
-            _err(str(e))
-            return EXIT_USAGE
-    rows = [[c.name, f"[{c.unit}]", c.meaning] for c in (TIME_CHANNEL, *chans)]
-    print(f"plant {args.plant}:")
+        spec = registry.get(args.plant)
+    except registry.UnknownPlantError as e:
+        _err(str(e))
+        return EXIT_USAGE
+    if args.json:
+        print(json.dumps(spec.as_dict()))
+        return EXIT_OK
+    rows = [[c.name, f"[{c.unit}]", c.meaning] for c in (TIME_CHANNEL, *spec.channels)]
+    print(f"plant {spec.name}: {spec.title} ({spec.source})")
     print(_table(rows, ["channel", "unit", "meaning"]))
+    if spec.inputs:
+        print(f"inputs: {', '.join(spec.inputs)}")
+    if spec.envs:
+        print(f"envs: {', '.join(spec.env_ids)}")
     return EXIT_OK
-
-
-def _load_plant_modules() -> None:
-    """Import the plant package (and the identification experiments, which register the
-    measured-only ``seal_friction`` channel set) so that every plant's channels are known."""
-    import importlib
-
-    for module in ("hydro_envs.plants", "identification.experiments"):
-        try:
-            importlib.import_module(module)
-        except ModuleNotFoundError as e:
-            if e.name != module:
-                raise
 
 
 # --- simulate --------------------------------------------------------------------------

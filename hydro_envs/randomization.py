@@ -1,7 +1,8 @@
 """Declarative domain randomisation: which parameters are drawn, from what, and why.
 
-A randomisation file (``configs/randomization/<plant>.yaml``) lists one entry per drawn
-parameter; every other parameter keeps its nominal value::
+A randomisation file (each plant ships its default as ``randomization.yaml`` in its folder,
+``hydro_envs/plants/<plant>/``) lists one entry per drawn parameter; every other parameter
+keeps its nominal value::
 
     plant: servo_cylinder
     parameters:
@@ -40,7 +41,7 @@ __all__ = [
     "RandomizationError",
     "ParameterDistribution",
     "RandomizationSpec",
-    "config_dir",
+    "randomization_path",
     "load_randomization",
 ]
 
@@ -63,12 +64,19 @@ def _as_number(value: Any) -> Any:
     return value
 
 
-def config_dir() -> Path:
-    """The project's ``configs/`` folder (``HYDRO_ENVS_CONFIG_DIR`` overrides)."""
+def randomization_path(plant: str) -> Any:
+    """The default randomisation spec of ``plant``: the ``randomization.yaml`` shipped in its
+    folder (package data), or ``$HYDRO_ENVS_CONFIG_DIR/randomization/<plant>.yaml`` when that
+    variable is set."""
     env = os.environ.get("HYDRO_ENVS_CONFIG_DIR")
     if env:
-        return Path(env)
-    return Path(__file__).resolve().parents[1] / "configs"
+        return Path(env) / "randomization" / f"{plant}.yaml"
+    from hydro_envs import registry
+
+    path = registry.get(plant).randomization_file()
+    if path is None:
+        raise RandomizationError(f"plant {plant!r} ships no randomisation spec")
+    return path
 
 
 @dataclasses.dataclass(frozen=True)
@@ -199,12 +207,18 @@ class RandomizationSpec:
         return spec
 
     @classmethod
-    def from_yaml(cls, path: str | os.PathLike, params_cls: type) -> "RandomizationSpec":
-        path = Path(path)
+    def from_yaml(cls, path: Any, params_cls: type) -> "RandomizationSpec":
+        """Load a YAML file (a path or an importlib.resources Traversable)."""
+        if isinstance(path, (str, os.PathLike)):
+            path = Path(path)
         try:
             text = path.read_text(encoding="utf-8")
         except OSError as exc:
             raise RandomizationError(f"cannot read randomisation spec {path}: {exc}") from exc
+        except UnicodeDecodeError as exc:
+            raise RandomizationError(
+                f"randomisation spec {path} is not UTF-8 text (a binary file?): {exc.reason} at byte {exc.start}"
+            ) from exc
         try:
             data = yaml.safe_load(text)
         except yaml.YAMLError as exc:
@@ -269,7 +283,12 @@ class RandomizationSpec:
         return rows
 
 
-def load_randomization(plant: str, params_cls: type, path: str | os.PathLike | None = None) -> RandomizationSpec:
-    """Load ``configs/randomization/<plant>.yaml`` (or ``path``)."""
-    path = Path(path) if path is not None else config_dir() / "randomization" / f"{plant}.yaml"
-    return RandomizationSpec.from_yaml(path, params_cls)
+def load_randomization(plant: str, params_cls: type | None = None, path: Any = None) -> RandomizationSpec:
+    """Load the plant's default randomisation spec (:func:`randomization_path`) or ``path``.
+
+    ``params_cls`` defaults to the plant's parameter class from the registry."""
+    if params_cls is None:
+        from hydro_envs import registry
+
+        params_cls = registry.get(plant).params_cls
+    return RandomizationSpec.from_yaml(path if path is not None else randomization_path(plant), params_cls)

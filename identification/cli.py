@@ -232,7 +232,7 @@ def _friction_run(args: argparse.Namespace) -> dict[str, Any]:
     from hydro_envs.data.measured import load_measured
 
     if args.plant == "servo_cylinder":
-        from hydro_envs.plants.servo_cylinder import ServoCylinderParams
+        from hydro_envs.plants.servo_cylinder.params import ServoCylinderParams
 
         data = load_measured(args.data, plant="servo_cylinder", required=("u", "x", "p1", "p2"))
         area = args.area
@@ -278,7 +278,7 @@ def _friction_run(args: argparse.Namespace) -> dict[str, Any]:
 
         if args.plant != "servo_cylinder" or args.asymmetric:
             raise ValueError("--emit-ranges needs --plant servo_cylinder and a symmetric fit")
-        from hydro_envs.plants.servo_cylinder import ServoCylinderParams
+        from hydro_envs.plants.servo_cylinder.params import ServoCylinderParams
 
         spec = ranges.ranges_from_fit(
             fit.parameters, fit.std_errors, ServoCylinderParams, k=args.ranges_k,
@@ -450,7 +450,7 @@ def _greybox_run(args: argparse.Namespace) -> dict[str, Any]:
     if not outs:
         raise ValueError(f"the file has none of the output channels {list(default_out)}")
     exp = gb.experiment_from_measured(data, args.plant, base, outs)
-    res = gb.fit_greybox(base, names, setup["kernel_id"], [exp], [chans[c] for c in outs])
+    res = gb.fit_greybox(base, names, [exp], [chans[c] for c in outs])
     d = res.to_json_dict()
     d.update({"plant": args.plant, "data": str(args.data), "model": type(base).__name__
               + (f" (preset {args.preset})" if args.preset else "")})

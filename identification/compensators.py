@@ -40,7 +40,7 @@ from typing import Any
 
 import numpy as np
 
-from hydro_envs.plants.servo_cylinder import ServoCylinderParams
+from hydro_envs.plants.servo_cylinder.params import ServoCylinderParams
 
 __all__ = [
     "load_pressure",

@@ -63,17 +63,18 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import numba as nb
 import numpy as np
 from scipy import signal
 
-from hydro_envs.data.channels import Channel, register_plant_channels
+from hydro_envs import registry
 from hydro_envs.data.measured import MeasuredData, MeasuredDataError, load_measured, write_measured
-from hydro_envs.plants import servo_cylinder as sc
-from hydro_envs.plants.servo_cylinder import ServoCylinderParams
-from hydro_envs.sim.kernels import SERVO_CYLINDER, step_batch_serial
-from hydro_envs.sim.stiffness import rk4_substeps
+from hydro_envs.plants.servo_cylinder import model as sc
+from hydro_envs.plants.servo_cylinder.params import ServoCylinderParams
+from hydro_envs.sim.simulate import simulate
+from hydro_envs.sim.stiffness import substeps_from_stiffness
 from identification.friction import FrictionPoints, InsufficientDataError, chamber_force
+
+SERVO_SPEC = registry.get("servo_cylinder")
 
 __all__ = [
     "SensorModel",
@@ -171,26 +172,6 @@ class SensorModel:
 # ======================================================================================
 
 
-@nb.njit(cache=True, error_model="numpy")
-def _run_held(plant_id, y0, U, p, dt, n_sub, out):
-    """Step a batch of one through the held inputs ``U[k]``; ``out[k]`` = state at ``t_k``."""
-    Y = np.empty((1, y0.shape[0]))
-    Y[0, :] = y0
-    P = np.empty((1, p.shape[0]))
-    P[0, :] = p
-    Uk = np.empty((1, U.shape[1]))
-    NSUB = np.empty(1, dtype=np.int64)
-    NSUB[0] = n_sub
-    W = np.zeros((1, 5, y0.shape[0]))
-    clamps = np.zeros(1, dtype=np.int64)
-    out[0, :] = y0
-    for k in range(U.shape[0]):
-        Uk[0, :] = U[k, :]
-        step_batch_serial(plant_id, Y, Uk, P, dt, NSUB, W, clamps)
-        out[k + 1, :] = Y[0, :]
-    return clamps[0]
-
-
 def simulate_servo_cylinder(
     params: ServoCylinderParams | None,
     u: Any,
@@ -201,8 +182,8 @@ def simulate_servo_cylinder(
 ) -> np.ndarray:
     """States ``(n + 1, 6)`` (x, v, p1, p2, xv, vv; SI) under the held commands ``u[k]`` [V].
 
-    Runs :func:`hydro_envs.sim.kernels.step_batch_serial` on a batch of one, the same RK4
-    kernel and sub-steps (from :func:`stiffness_modes`) as the environments. ``y0`` defaults to
+    Runs :func:`hydro_envs.sim.simulate`, the same RK4 kernel and sub-steps (from the
+    stiffness bound) as the environments. ``y0`` defaults to
     rest at ``x0`` (default mid-stroke) with both chambers at the valve's null pressure
     ``(p_s + p_R) / 2``.
     """
@@ -218,10 +199,7 @@ def simulate_servo_cylinder(
         y = np.array(y0, dtype=float)
         if y.shape != (sc.N_STATES,):
             raise ValueError(f"y0 must have shape ({sc.N_STATES},), got {y.shape}")
-    n_sub = rk4_substeps(sc.stiffness_modes(p), dt)[0]
-    out = np.empty((u.shape[0] + 1, sc.N_STATES))
-    _run_held(SERVO_CYLINDER, y, u, p.to_array(), float(dt), int(n_sub), out)
-    return out
+    return simulate(SERVO_SPEC, p, u, y, float(dt))
 
 
 # ======================================================================================
@@ -381,11 +359,9 @@ def run_friction_experiment(
     y0 = np.zeros(sc.N_STATES)
     y0[sc.X] = sched.x_start
     y0[sc.P1] = y0[sc.P2] = 0.5 * (p.supply_pressure + p.tank_pressure)
-    p_arr = p.to_array()
-    n_sub = rk4_substeps(sc.stiffness_modes(p), dt)[0]
-    states = np.empty((u.size + 1, sc.N_STATES))
-    clamps = _run_held(SERVO_CYLINDER, y0, np.ascontiguousarray(u.reshape(-1, 1)), p_arr,
-                       float(dt), int(n_sub), states)
+    counts = np.zeros(1, dtype=np.int64)
+    states = simulate(SERVO_SPEC, p, u.reshape(-1, 1), y0, float(dt), clamps=counts)
+    clamps = int(counts[0])
     rng = np.random.default_rng(seed)
     x_m, (p1_m, p2_m) = sensors.apply(dt, states[:, sc.X], [states[:, sc.P1], states[:, sc.P2]], rng)
     t = np.arange(states.shape[0]) * dt
@@ -825,15 +801,6 @@ SEAL_FRICTION_PLANT = "seal_friction"
 #: X-ring test cylinder bore [m] (data README: "Bore 25.7 mm for these X-ring files")
 SEAL_BORE = 0.0257
 
-register_plant_channels(
-    SEAL_FRICTION_PLANT,
-    (
-        Channel("x", "m", "rod displacement (driven back and forth at about constant speed)"),
-        Channel("p_gauge", "Pa", "chamber pressure above atmosphere (gauge), held constant"),
-        Channel("F_load", "N", "load-cell force on the rod"),
-    ),
-)
-
 _RAW_COLUMNS = ("time [ms]", "laser signal [V]", "pressure signal [V]", "force signal [V]",
                 "displacement [mm]", "pressure [bar gauge]", "load-cell force [N]")
 _RAW_NUMBER = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?")
@@ -984,7 +951,7 @@ def seal_friction_points(
 def fit_compensator_viscous(result: Any, params: Any = None, *, sampling: bool = True,
                             bounds: tuple[float, float] = (0.05, 100.0)) -> float:
     """Viscous coefficient ``c`` [N s/m] at the test temperature from a virtual-rig Bode
-    measurement of 000, method 1 (``p2/p1``, :class:`hydro_envs.rigs.ls_compensator.Method1Result`)
+    measurement of 000, method 1 (``p2/p1``, :class:`hydro_envs.plants.ls_compensator.experiments.Method1Result`)
     or method 2 (eq (18) ``p_I/p_P``, ``Method2Result``, every row with its own mean pressure
     and orifice).
 
@@ -1005,7 +972,7 @@ def fit_compensator_viscous(result: Any, params: Any = None, *, sampling: bool =
 
     from scipy.optimize import minimize_scalar
 
-    from hydro_envs.plants import ls_compensator as lc
+    from hydro_envs.plants.ls_compensator import model as lc
 
     freq = np.asarray(result.frequency, dtype=float)
     ratio = np.asarray(result.ratio, dtype=complex)
@@ -1086,15 +1053,15 @@ def rodless_closed_loop_m_sequence(
     i.e. about 20 Hz at 10 ms). ``y[k]`` is sampled before ``u[k]`` is applied, so the loop
     has the one-sample delay direct identification needs (arx module docstring).
     """
-    from hydro_envs.plants import rodless_cylinder as rc
-    from hydro_envs.sim.kernels import RODLESS_CYLINDER
+    from hydro_envs.plants.rodless_cylinder import model as rc
 
+    kernels = registry.get("rodless_cylinder").kernels
     p = params if params is not None else rc.RodlessCylinderParams()
     if not (dt > 0 and math.isfinite(dt)):
         raise ValueError(f"dt must be > 0 s, got {dt}")
     m = m_sequence(n_bits, amplitude=amplitude, samples_per_bit=samples_per_bit, periods=periods)
     n = m.size
-    n_sub = rk4_substeps(rc.stiffness_modes(p), dt)[0]
+    n_sub = substeps_from_stiffness(rc.stiffness_modes(p), dt)[0]
     Y = rc.rest_state(p, 0.5 * p.stroke)[None, :].copy()
     P = p.to_array()[None, :]
     W = np.zeros((1, 5, rc.N_STATES))
@@ -1110,7 +1077,7 @@ def rodless_closed_loop_m_sequence(
         y_true[k] = Y[0, rc.Y]
         u[k] = min(max(p.command_centre + kp * (ref - (y_true[k] + noise[k])) + m[k], 0.0), p.command_max)
         U[0, 0] = u[k]
-        step_batch_serial(RODLESS_CYLINDER, Y, U, P, dt, nsub, W, clamps)
+        kernels.step_serial(Y, U, P, dt, nsub, W, clamps)
     return {"t": np.arange(n) * dt, "u": u, "y": y_true + noise, "y_true": y_true, "m": m,
             "clamps": np.array(int(clamps[0]))}
 
@@ -1131,25 +1098,15 @@ def force_actuator_prbs_locked(
     ``t, i`` [A], ``f`` [N], ``f_true``."""
     import dataclasses
 
-    from hydro_envs.plants import force_actuator as fa
-    from hydro_envs.sim.kernels import FORCE_ACTUATOR
+    from hydro_envs.plants.force_actuator import model as fa
 
     p = params if params is not None else fa.ForceActuatorParams()
     p = dataclasses.replace(p, piston_locked=1.0)
     dt = fa.SEED_T
     t, i = prbs(duration, dt, clock_period=clock_samples * dt, amplitude=amplitude * p.rated_current, seed=seed)
-    n_sub = rk4_substeps(fa.stiffness_modes(p), dt)[0]
-    Y = fa.rest_state(p)[None, :].copy()
-    P = p.to_array()[None, :]
-    W = np.zeros((1, 5, fa.N_STATES))
     clamps = np.zeros(1, dtype=np.int64)
-    nsub = np.array([n_sub], dtype=np.int64)
-    U = np.zeros((1, 1))
-    f = np.empty(i.size)
-    for k in range(i.size):
-        U[0, 0] = i[k]
-        step_batch_serial(FORCE_ACTUATOR, Y, U, P, dt, nsub, W, clamps)
-        f[k] = p.sensor_stiffness * Y[0, fa.XS]
+    states = simulate(registry.get("force_actuator"), p, i.reshape(-1, 1), fa.rest_state(p), dt, clamps=clamps)
+    f = p.sensor_stiffness * states[1:, fa.XS]
     rng = np.random.default_rng(None if seed is None else seed + 1)
     noise = force_noise_std * rng.standard_normal(f.size) if force_noise_std > 0 else 0.0
     return {"t": t, "i": i, "f": f + noise, "f_true": f, "clamps": np.array(int(clamps[0]))}

@@ -9,8 +9,8 @@ sec. 4.4 (measurement of the hydraulic damping effect, eq (5)); plant
    following a triangular input." ``piston_locked = 1`` is enforced; the current goes
    ``0 -> i_min`` (initialising the hysteresis on the major loop), ``i_min -> i_max`` (up
    branch), ``i_max -> i_min`` (down branch), each full leg in ``ramp_time`` seconds, held
-   at every 0.2 ms sample (5 kHz, ``SEED_T``) and simulated on the batched kernel
-   (``step_batch_serial``, plant id ``FORCE_ACTUATOR``). The sensed force ``k_s x_s`` is
+   at every 0.2 ms sample (5 kHz, ``SEED_T``) and simulated with
+   :func:`hydro_envs.sim.simulate`. The sensed force ``k_s x_s`` is
    recorded (+ optional white noise). :func:`quasi_static_force` is the analytic reference:
    the plant's Prandtl-Ishlinskii plays driven by the current sequence (exact for a
    quasi-static input), the DC gain of the valve G(s), and the orifice-law solve
@@ -36,15 +36,9 @@ sec. 4.4 (measurement of the hydraulic damping effect, eq (5)); plant
    it approaches the far stop; the steady velocity is averaged over the last part of the
    free run. Points: ``force = F_blocked + m g`` against ``velocity``.
 
-   **Load model (documented deviation).** The plant has *no external load-force input*:
-   ``load_mass`` is inertia only and ``load_stiffness`` a spring about mid-stroke; there is
-   no gravity. The experiment therefore sets ``load_mass = m`` (inertia of the hanging
-   weight) and adds the constant force ``m g`` (positive = extending, the weight hangs
-   below the rod) to the piston equation in a thin wrapper around the plant's own
-   ``force_actuator_rhs`` / ``force_actuator_guard`` (:func:`_run_loaded`, the same RK4
-   sub-stepping as ``hydro_envs.sim.kernels.rk4_substeps``). Everything else is the
-   plant's physics. A ``load_force`` parameter on the plant would let the batched kernels
-   do this directly.
+   **Load model.** The experiment sets ``load_mass = m`` (inertia of the hanging weight) and
+   the plant's ``load_force = m g`` (positive = extending, the weight hangs below the rod);
+   everything else is the plant's physics.
 
    At steady state (``v_p`` constant, ``x_s' = 0``, the 40 Hz filter settled, the Dahl
    state at its sliding level) the piston equation reads
@@ -63,13 +57,14 @@ import math
 import os
 from typing import Any
 
-import numba as nb
 import numpy as np
 
+from hydro_envs import registry
 from hydro_envs.data.measured import write_measured
-from hydro_envs.plants import force_actuator as fa
-from hydro_envs.sim.kernels import FORCE_ACTUATOR, step_batch_serial
-from hydro_envs.sim.stiffness import rk4_substeps
+from hydro_envs.plants.force_actuator import model as fa
+from hydro_envs.sim.simulate import simulate
+
+_SPEC = registry.get("force_actuator")
 
 __all__ = [
     "G",
@@ -164,15 +159,10 @@ def blocked_force_test(
         raise ValueError(f"currents must satisfy i_min < 0 < i_max, got ({i_min}, {i_max})")
     dt = fa.SEED_T
     i, branch = triangular_current(i_min, i_max, ramp_time, dt)
-    n_sub = rk4_substeps(fa.stiffness_modes(p), dt)[0]
-    Y = fa.rest_state(p)[None, :].copy()
-    P = p.to_array()[None, :]
-    W = np.zeros((1, 5, fa.N_STATES))
     clamps = np.zeros(1, dtype=np.int64)
-    nsub = np.array([n_sub], dtype=np.int64)
-    f = np.empty(i.size)
-    xi = np.empty(i.size)
-    _run_blocked(Y, i, P, dt, nsub, W, clamps, f, xi)
+    states = simulate(_SPEC, p, i.reshape(-1, 1), fa.rest_state(p), dt, clamps=clamps)[1:]
+    f = p.sensor_stiffness * states[:, fa.XS]
+    xi = _valve_positions(states, p)
     t = dt * np.arange(1, i.size + 1)
     rng = np.random.default_rng(seed)
     f_meas = f + (noise_std * rng.standard_normal(f.size) if noise_std > 0 else 0.0)
@@ -189,27 +179,12 @@ def blocked_force_test(
             "f_static": f_static, "clamps": int(clamps[0]), "path": out_path}
 
 
-def _run_blocked(Y, i, P, dt, nsub, W, clamps, f, xi):
-    """Batched kernel (``step_batch_serial``, ``FORCE_ACTUATOR``) over the held currents.
-
-    ``xi`` from the recorded valve states: after each step the guard has set every play to
-    its output for the current coil state, so ``x~ = w0 ic + w sum h_k`` exactly."""
-    U = np.zeros((1, 1))
-    n = i.shape[0]
-    ic = np.empty(n)
-    hs = np.empty(n)
-    gw = np.empty(n)
-    for k in range(n):
-        U[0, 0] = i[k]
-        step_batch_serial(FORCE_ACTUATOR, Y, U, P, dt, nsub, W, clamps)
-        f[k] = Y[0, fa.XS]
-        ic[k] = Y[0, fa.IC]
-        hs[k] = Y[0, fa.H0:fa.H0 + fa.N_PLAY].sum()
-        gw[k] = Y[0, fa.GW]
-    f *= P[0, fa.I_KS]
-    hr = P[0, fa.I_HR]
-    xt = hr * ic + (1.0 - hr) / fa.N_PLAY * hs
-    xi[:] = fa.VALVE_K / fa.VALVE_A * (xt + (fa.VALVE_C - fa.VALVE_B) * gw) + P[0, fa.I_XOFF]
+def _valve_positions(states: np.ndarray, p: fa.ForceActuatorParams) -> np.ndarray:
+    """``xi`` (valve position + offset) of recorded states: after each step the guard has set
+    every play to its output for the current coil state, so ``x~ = w0 ic + w sum h_k`` exactly."""
+    hs = states[:, fa.H0:fa.H0 + fa.N_PLAY].sum(axis=1)
+    xt = p.hysteresis_reversal_slope * states[:, fa.IC] + (1.0 - p.hysteresis_reversal_slope) / fa.N_PLAY * hs
+    return fa.VALVE_K / fa.VALVE_A * (xt + (fa.VALVE_C - fa.VALVE_B) * states[:, fa.GW]) + p.valve_offset
 
 
 def branch_current_offset(i: np.ndarray, f: np.ndarray, branch: np.ndarray,
@@ -239,50 +214,18 @@ def branch_current_offset(i: np.ndarray, f: np.ndarray, branch: np.ndarray,
 # ====================================================================================
 # hanging-mass damping test (001 sec. 4.4, eq (5))
 # ====================================================================================
-@nb.njit(cache=False, error_model="numpy")  # no cache files: this module adds no artifacts
-def _rhs_loaded(y, u, p, load, dy):
-    fa.force_actuator_rhs(y, u, p, dy)
-    if p[fa.I_LOCK] < 0.5:
-        dy[fa.VP] += load / (p[fa.I_MP] + p[fa.I_ML])
-
-
-@nb.njit(cache=False, error_model="numpy")  # no cache files: this module adds no artifacts
-def _run_loaded(y, current, p, load, dt, n_sub, n_steps, q_stop, out_v, out_f, out_xi):
-    """RK4 (as ``kernels.rk4_substeps``) with a constant external piston force ``load`` [N].
-
-    Records per sample the relative velocity, sensed force and ``xi``; stops early (returns
-    the number of samples done) when the extension ``x_p + x_s`` passes ``q_stop``."""
-    ny = y.shape[0]
-    u = np.empty(1)
-    u[0] = current
-    k1 = np.empty(ny)
-    k2 = np.empty(ny)
-    k3 = np.empty(ny)
-    k4 = np.empty(ny)
-    st = np.empty(ny)
-    h = dt / n_sub
-    clamps = 0
-    for k in range(n_steps):
-        for _ in range(n_sub):
-            _rhs_loaded(y, u, p, load, k1)
-            for j in range(ny):
-                st[j] = y[j] + 0.5 * h * k1[j]
-            _rhs_loaded(st, u, p, load, k2)
-            for j in range(ny):
-                st[j] = y[j] + 0.5 * h * k2[j]
-            _rhs_loaded(st, u, p, load, k3)
-            for j in range(ny):
-                st[j] = y[j] + h * k3[j]
-            _rhs_loaded(st, u, p, load, k4)
-            for j in range(ny):
-                y[j] += h / 6.0 * (k1[j] + 2.0 * k2[j] + 2.0 * k3[j] + k4[j])
-            clamps += fa.force_actuator_guard(y, p)
-        out_v[k] = y[fa.VP] + y[fa.VS]
-        out_f[k] = p[fa.I_KS] * y[fa.XS]
-        out_xi[k] = fa.valve_position(y, p)[1] + p[fa.I_XOFF]
-        if y[fa.XP] + y[fa.XS] > q_stop:
-            return k + 1, clamps
-    return n_steps, clamps
+def _run_loaded(y: np.ndarray, current: float, p: fa.ForceActuatorParams, dt: float, n_steps: int,
+                q_stop: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``n_steps`` samples at the held ``current`` from state ``y`` (the plant's ``load_force``
+    acts on a free piston); stops after the first sample whose extension ``x_p + x_s`` passes
+    ``q_stop``. Returns the relative velocity, sensed force and ``xi`` per sample and the
+    last state."""
+    states = simulate(_SPEC, p, np.full((n_steps, 1), current), y, dt)[1:]
+    past = np.flatnonzero(states[:, fa.XP] + states[:, fa.XS] > q_stop)
+    if past.size:
+        states = states[: past[0] + 1]
+    return (states[:, fa.VP] + states[:, fa.VS], p.sensor_stiffness * states[:, fa.XS],
+            _valve_positions(states, p), states[-1].copy())
 
 
 def steady_force_balance_residual(params: fa.ForceActuatorParams, xi: float, v: float, load: float) -> float:
@@ -341,18 +284,14 @@ def hanging_mass_test(
             if m < 0:
                 raise ValueError(f"masses must be >= 0, got {m}")
             load = m * G
-            p_free = dataclasses.replace(p0, piston_locked=0.0, load_mass=float(m))
+            p_free = dataclasses.replace(p0, piston_locked=0.0, load_mass=float(m), load_force=load)
             p_lock = dataclasses.replace(p_free, piston_locked=1.0)
-            n_sub = rk4_substeps(fa.stiffness_modes(p_free), dt)[0]
             y = fa.rest_state(p_free, x_piston=1e-3)
-            v = np.empty(n_settle + n_free)
-            f = np.empty_like(v)
-            xi = np.empty_like(v)
-            ns, _ = _run_loaded(y, float(cur), p_lock.to_array(), load, dt, n_sub, n_settle, np.inf,
-                                v[:n_settle], f[:n_settle], xi[:n_settle])
-            f_blk = float(np.mean(f[int(0.8 * n_settle):n_settle]))
-            nf, _ = _run_loaded(y, float(cur), p_free.to_array(), load, dt, n_sub, n_free,
-                                p_free.stroke - 3e-3, v[n_settle:], f[n_settle:], xi[n_settle:])
+            v1, f1, xi1, y = _run_loaded(y, float(cur), p_lock, dt, n_settle, np.inf)
+            f_blk = float(np.mean(f1[int(0.8 * n_settle):n_settle]))
+            v2, f2, xi2, y = _run_loaded(y, float(cur), p_free, dt, n_free, p_free.stroke - 3e-3)
+            v, f, xi = np.concatenate([v1, v2]), np.concatenate([f1, f2]), np.concatenate([xi1, xi2])
+            nf = v2.size
             n = n_settle + nf
             w0 = n_settle + max(int((1.0 - window_fraction) * nf), 0)
             w0 = min(w0, n - max(int(0.01 / dt), 2))
@@ -386,7 +325,7 @@ def hanging_mass_test(
              "load": np.concatenate(l_all)},
             plant=fa.PLANT, units={"v": "m/s", "load": "N"}, allow_extra=True,
             metadata={"experiment": "hanging_mass_test (001 sec. 4.4)", "g_m_s2": G,
-                      "load_model": "constant m*g on the piston (wrapper: plant has no load-force input)",
+                      "load_model": "constant m*g on the piston (the plant's load_force)",
                       "settle_time_s": settle_time, "noise_std_N": noise_std, "runs": "; ".join(runs)},
         )
     return out

@@ -8,13 +8,13 @@ finds the parameters that minimise the normalised output error
 .. math:: S(\theta) = \sum_e \sum_c \sum_k \left( (y_{e,c,k} - \hat y_{e,c,k}(\theta)) / \sigma_c \right)^2
 
 by ``scipy.optimize.least_squares`` (``trf``, bounded). The model outputs are a free-run
-simulation of the compiled plant (:mod:`hydro_envs.sim.kernels`, RK4 with zero-order-hold
+simulation of the compiled plant (:func:`hydro_envs.sim.simulate`, RK4 with zero-order-hold
 input, the same integrator the envs use).
 
 Speed: every Jacobian evaluation simulates *all* its candidate parameter sets -- the central
 finite-difference perturbations ``theta +- h e_i`` of every parameter, for every experiment --
-as copies of ONE batched, threaded kernel call (:func:`_rollout`, one ``prange`` over copies,
-each copy integrating its whole record). All copies of a call use the same number of RK4
+as copies of one batched, threaded :func:`~hydro_envs.sim.simulate` call per experiment (one
+``prange`` over copies, each copy integrating its whole record). All copies of a call use the same number of RK4
 sub-steps (from the plant's ``stiffness_modes`` at the most demanding candidate), so a
 perturbation never changes the integration grid and the finite differences stay smooth.
 
@@ -59,18 +59,17 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import sys
 import time
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
-import numba as nb
 import numpy as np
 from scipy import optimize, stats
 
+from hydro_envs import registry
 from hydro_envs.params import ParameterError, PhysicalParams
-from hydro_envs.sim.kernels import plant_rhs, rk4_substeps
-from hydro_envs.sim.stiffness import rk4_substeps as substeps_for_modes
+from hydro_envs.sim.simulate import simulate
+from hydro_envs.sim.stiffness import substeps_from_stiffness as substeps_for_modes
 from identification._json import jsonable as _jsonable
 
 __all__ = [
@@ -97,54 +96,6 @@ class GreyboxError(ValueError):
     """Bad problem definition for a grey-box fit (the message names the field and why)."""
 
 
-
-
-# ======================================================================================
-# compiled batched rollout
-# ======================================================================================
-
-
-@nb.njit(cache=True, parallel=True, error_model="numpy")
-def _rollout(plant_id, Y0, U, exp_idx, n_steps, dts, P, NSUB, out, clamps):
-    """Integrate every copy over its experiment's whole record (one thread per copy).
-
-    ``Y0 (c, ns)``, ``U (n_exp, T, ni)`` inputs, ``exp_idx (c,)`` experiment of each copy,
-    ``n_steps (n_exp,)``, ``dts (n_exp,)``, ``P (c, np)``, ``NSUB (c,)``; writes the states at
-    every sample into ``out (c, T + 1, ns)`` (rows past the copy's record are left alone).
-    """
-    nc = Y0.shape[0]
-    ns = Y0.shape[1]
-    for i in nb.prange(nc):
-        y = Y0[i].copy()
-        w = np.empty((5, ns))
-        e = exp_idx[i]
-        for j in range(ns):
-            out[i, 0, j] = y[j]
-        h = dts[e] / NSUB[i]
-        c = 0
-        for k in range(n_steps[e]):
-            c += rk4_substeps(plant_id, y, U[e, k], P[i], h, NSUB[i], w)
-            for j in range(ns):
-                out[i, k + 1, j] = y[j]
-        clamps[i] = c
-
-
-@nb.njit(cache=True, error_model="numpy")
-def _derivatives(plant_id, states, U, exp_idx, n_steps, P, dout):
-    """State derivatives ``dout (c, T + 1, ns)`` at every recorded sample (input ``u_k``)."""
-    nc = states.shape[0]
-    ns = states.shape[2]
-    for i in range(nc):
-        e = exp_idx[i]
-        dy = np.empty(ns)
-        y = np.empty(ns)
-        n = n_steps[e]
-        for k in range(n + 1):
-            for j in range(ns):
-                y[j] = states[i, k, j]
-            plant_rhs(plant_id, y, U[e, min(k, U.shape[1] - 1)], P[i], dy)
-            for j in range(ns):
-                dout[i, k, j] = dy[j]
 
 
 # ======================================================================================
@@ -215,19 +166,17 @@ class Experiment:
 
 
 def _plant_module(base: PhysicalParams):
-    return sys.modules[type(base).__module__]
+    return registry.get(type(base).plant).model
 
 
 #: plant name -> (module, params class name, kernel id name, {channel: OutputChannel})
 def _plants() -> dict[str, dict[str, Any]]:
-    from hydro_envs.plants import servo_cylinder as sc
-    from hydro_envs.plants import shaking_table as st
-    from hydro_envs.sim import kernels as k
+    from hydro_envs.plants.servo_cylinder import model as sc
+    from hydro_envs.plants.shaking_table import model as st
 
     return {
         "servo_cylinder": {
             "params": sc.ServoCylinderParams,
-            "kernel_id": k.SERVO_CYLINDER,
             "channels": {
                 "x": OutputChannel("x", state=sc.X, unit="m"),
                 "v": OutputChannel("v", state=sc.V, unit="m/s"),
@@ -238,7 +187,6 @@ def _plants() -> dict[str, dict[str, Any]]:
         },
         "shaking_table": {
             "params": st.ShakingTableParams,
-            "kernel_id": k.SHAKING_TABLE,
             "channels": {
                 "x": OutputChannel("x", state=st.X, unit="m"),
                 "v": OutputChannel("v", state=st.V, unit="m/s"),
@@ -253,7 +201,7 @@ PLANTS = ("servo_cylinder", "shaking_table")
 
 
 def plant_setup(plant: str) -> dict[str, Any]:
-    """``params`` class, ``kernel_id`` and output ``channels`` of a supported plant."""
+    """``params`` class and output ``channels`` of a supported plant."""
     table = _plants()
     if plant not in table:
         raise GreyboxError(f"grey-box plant {plant!r} not supported; supported: {sorted(table)}")
@@ -274,7 +222,7 @@ class _Problem:
     scale: np.ndarray  # linear parameters: theta = value / scale
     lo: np.ndarray
     hi: np.ndarray
-    kernel_id: int
+    spec: Any  # the plant's registry entry
     experiments: list[Experiment]
     channels: list[OutputChannel]
     sigma: dict[str, float]
@@ -343,19 +291,21 @@ class _Problem:
             else:
                 Y0[i] = e.y0
         n = self.nsub(P) if nsub is None else nsub
-        NSUB = np.full(c * n_exp, n, dtype=np.int64)
         T = int(self.n_steps.max())
-        out = np.zeros((c * n_exp, T + 1, self.n_states))
-        clamps = np.zeros(c * n_exp, dtype=np.int64)
-        _rollout(self.kernel_id, Y0, self.U, exp_idx, self.n_steps, self.dts, Pall, NSUB, out, clamps)
-        dout = None
-        if any(ch.derivative is not None for ch in self.channels):
-            dout = np.zeros_like(out)
-            _derivatives(self.kernel_id, out, self.U, exp_idx, self.n_steps, Pall, dout)
+        want_d = any(ch.derivative is not None for ch in self.channels)
         res = []
         for e_i in range(n_exp):
             sel = exp_idx == e_i
-            res.append((out[sel], None if dout is None else dout[sel], Pall[sel]))
+            k = int(self.n_steps[e_i])
+            Pe = np.ascontiguousarray(Pall[sel])
+            out = np.zeros((Pe.shape[0], T + 1, self.n_states))  # rows past the record stay 0
+            out[:, : k + 1] = simulate(self.spec, Pe, self.U[e_i, :k], Y0[sel], float(self.dts[e_i]), n_sub=n)
+            dout = None
+            if want_d:
+                dout = np.zeros_like(out)
+                Ue = np.ascontiguousarray(np.broadcast_to(self.U[e_i], (Pe.shape[0],) + self.U.shape[1:]))
+                self.spec.kernels.derivatives(np.ascontiguousarray(out[:, : k + 1]), Ue, Pe, dout[:, : k + 1])
+            res.append((out, dout, Pe))
         return res, n
 
     def offset_estimates(self, outs) -> dict[tuple[str, str], np.ndarray]:
@@ -444,10 +394,14 @@ class _RawParams:
         return self._row.copy()
 
 
-def _build_problem(base, fit, kernel_id, experiments, channels, sigma, log_scale, bounds,
+def _build_problem(base, fit, experiments, channels, sigma, log_scale, bounds,
                    n_substeps, tie=None, offsets=()) -> _Problem:
     if not isinstance(base, PhysicalParams):
         raise GreyboxError(f"base must be a PhysicalParams instance, got {type(base).__name__}")
+    try:
+        spec = registry.get(type(base).plant)
+    except registry.UnknownPlantError:
+        raise GreyboxError(f"base: {type(base).__name__} is not the parameter class of a registered plant") from None
     names_all = type(base).names()
     fit = tuple(fit)
     if not fit:
@@ -528,7 +482,7 @@ def _build_problem(base, fit, kernel_id, experiments, channels, sigma, log_scale
         if not callable(e.y0):
             e.y0 = np.asarray(e.y0, dtype=np.float64)
     return _Problem(
-        base=base, names=fit, idx=idx, log=log, scale=scale, lo=lo, hi=hi, kernel_id=int(kernel_id),
+        base=base, names=fit, idx=idx, log=log, scale=scale, lo=lo, hi=hi, spec=spec,
         experiments=experiments, channels=[ch_map[k] for k in ch_map if k in used], sigma=sig, U=U,
         n_steps=np.array([e.n_samples - 1 for e in experiments], dtype=np.int64),
         dts=np.array([e.dt for e in experiments], dtype=np.float64), n_states=n_states,
@@ -537,7 +491,7 @@ def _build_problem(base, fit, kernel_id, experiments, channels, sigma, log_scale
     )
 
 
-def simulate_outputs(base: PhysicalParams, kernel_id: int, experiments, channels,
+def simulate_outputs(base: PhysicalParams, experiments, channels,
                      values: Sequence[Mapping[str, float]] | None = None,
                      n_substeps: int | None = None, offsets: Sequence[str] = ()) -> list[list[dict[str, np.ndarray]]]:
     """Outputs of ``base`` (or of each override mapping in ``values``) on every experiment,
@@ -548,7 +502,7 @@ def simulate_outputs(base: PhysicalParams, kernel_id: int, experiments, channels
     the measured values (per experiment group, see :func:`fit_greybox`)."""
     values = list(values) if values is not None else [{}]
     names = sorted({k for v in values for k in v}) or [type(base).names()[0]]
-    prob = _build_problem(base, names, kernel_id, experiments, channels, {k: 1.0 for k in (c.name for c in channels)},
+    prob = _build_problem(base, names, experiments, channels, {k: 1.0 for k in (c.name for c in channels)},
                           False, {n: (-np.inf, np.inf) for n in names}, n_substeps, offsets=offsets)
     P = np.repeat(base.to_array()[None, :], len(values), axis=0)
     nf = len(type(base).names())
@@ -650,7 +604,6 @@ class GreyboxResult:
 def fit_greybox(
     base: PhysicalParams,
     fit: Sequence[str],
-    kernel_id: int,
     experiments: Experiment | Sequence[Experiment],
     channels: Sequence[OutputChannel],
     *,
@@ -693,7 +646,7 @@ def fit_greybox(
     if jacobian not in ("central", "forward"):
         raise GreyboxError(f"jacobian must be 'central' or 'forward', got {jacobian!r}")
     t0 = time.perf_counter()
-    prob = _build_problem(base, fit, kernel_id, experiments, channels, sigma,
+    prob = _build_problem(base, fit, experiments, channels, sigma,
                           True if log_scale is None else log_scale, bounds, n_substeps, tie, offsets)
     p = len(prob.names)
     theta0 = prob.to_theta(np.array([getattr(base, n) for n in prob.names]))
@@ -898,11 +851,11 @@ def experiment_from_measured(data, plant: str, params: PhysicalParams, outputs: 
 def _initial_state(plant: str, params, x0: float | None, meas: Mapping[str, np.ndarray]) -> np.ndarray:
     """Rest state of the plant at the first measured position (and pressures if measured)."""
     if plant == "shaking_table":
-        from hydro_envs.plants import shaking_table as st
+        from hydro_envs.plants.shaking_table import model as st
 
         return st.rest_state(params, 0.0 if x0 is None else x0)
     if plant == "servo_cylinder":
-        from hydro_envs.plants import servo_cylinder as sc
+        from hydro_envs.plants.servo_cylinder import model as sc
 
         y = np.zeros(sc.N_STATES)
         y[sc.X] = 0.5 * params.stroke if x0 is None else x0
@@ -975,8 +928,7 @@ def table3_comparison(name: str, seed: int = 0) -> dict[str, Any]:
     to x and a (channel weights = the known noise levels). MSE: eq (21) on the acceleration
     (the signal the modulus law is for), mean of squared residuals [(m/s^2)^2].
     """
-    from hydro_envs.plants import shaking_table as st
-    from hydro_envs.sim.kernels import SHAKING_TABLE
+    from hydro_envs.plants.shaking_table import model as st
 
     spec = TABLE3_INPUTS[name]
     truth = st.ShakingTableParams.preset("modified_ifas", spec["specimen"])
@@ -994,7 +946,7 @@ def table3_comparison(name: str, seed: int = 0) -> dict[str, Any]:
     nsub = max(nsub, substeps_for_modes(st.stiffness_modes(dataclasses.replace(
         truth, e0=truth.e0 * 3.0)), TABLE3_DT)[0])
     exp0 = Experiment(TABLE3_DT, u, st.rest_state(truth), {"x": u, "a": u}, name=name)
-    clean = simulate_outputs(truth, SHAKING_TABLE, [exp0], chans, n_substeps=nsub)[0][0]
+    clean = simulate_outputs(truth, [exp0], chans, n_substeps=nsub)[0][0]
     rng = np.random.default_rng(seed)
     meas = {k: clean[k] + TABLE3_NOISE[k] * rng.standard_normal(n) for k in ("x", "a")}
     out: dict[str, Any] = {"input": name, "specimen": spec["specimen"], "seconds": spec["seconds"],
@@ -1002,7 +954,7 @@ def table3_comparison(name: str, seed: int = 0) -> dict[str, Any]:
     for preset in ("modified_ifas", "ifas"):
         base = sets[preset]
         exp = Experiment(TABLE3_DT, u, lambda prm: st.rest_state(prm), meas, name=name)
-        res = fit_greybox(base, TABLE3_FIT, SHAKING_TABLE, [exp], chans, sigma=TABLE3_NOISE,
+        res = fit_greybox(base, TABLE3_FIT, [exp], chans, sigma=TABLE3_NOISE,
                           reweight=False, n_substeps=nsub, max_nfev=30, tol=1e-6)
         out[preset] = {"mse_a": res.mse["a"], "mse_x": res.mse["x"], "values": res.values,
                        "nfev": res.nfev, "seconds": res.seconds}

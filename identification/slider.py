@@ -137,7 +137,7 @@ class SliderIdentification:
         Fields not identified (stroke, stops, ``friction_sign_velocity``) come from ``base``
         (default: the nominal set). Raises ``ParameterError`` if a value is unphysical.
         """
-        from hydro_envs.plants.slider import SliderParams
+        from hydro_envs.plants.slider.params import SliderParams
 
         base = base if base is not None else SliderParams()
         vals = {k: v for k, v in self.params.items() if math.isfinite(v)}

@@ -9,7 +9,7 @@ import pytest
 import hydro_envs  # noqa: F401
 from agents import benchmark as bm
 from hydro_envs.cli import main as hydro_main
-from hydro_envs.plants.servo_cylinder import ServoCylinderParams
+from hydro_envs.plants.servo_cylinder.params import ServoCylinderParams
 from hydro_envs.randomization import load_randomization
 
 SERVO = "hydro_envs/ServoCylinderPosition-v0"
@@ -192,7 +192,7 @@ def test_shipped_configs_are_valid():
 
     from agents.controllers import controller_names
 
-    files = sorted((Path(__file__).resolve().parents[1] / "configs" / "benchmarks").glob("*.yaml"))
+    files = sorted((Path(__file__).resolve().parents[1] / "agents" / "configs" / "benchmarks").glob("*.yaml"))
     assert len(files) == 5
     envs = set()
     for f in files:

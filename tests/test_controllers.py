@@ -14,13 +14,14 @@ from agents.controllers import (
     pid_tuning,
 )
 from agents.controllers.friction_models import identified_friction
-from hydro_envs.demo import ProportionalPositionController
+from agents.controllers.servo import ProportionalPositionController
 from hydro_envs.envs.references import generate_reference
-from hydro_envs.envs.table_references import generate_table_reference, reference_limits
-from hydro_envs.plants import force_actuator as fa
-from hydro_envs.plants import shaking_table as st
-from hydro_envs.plants.rodless_cylinder import RodlessCylinderParams
-from hydro_envs.plants.servo_cylinder import ServoCylinderParams, no_load_velocity
+from hydro_envs.envs.shaking_table_references import generate_table_reference, reference_limits
+from hydro_envs.plants.force_actuator import model as fa
+from hydro_envs.plants.shaking_table import model as st
+from hydro_envs.plants.rodless_cylinder.params import RodlessCylinderParams
+from hydro_envs.plants.servo_cylinder.params import ServoCylinderParams
+from hydro_envs.plants.servo_cylinder.model import no_load_velocity
 
 P = ServoCylinderParams()
 L = P.stroke
@@ -300,17 +301,17 @@ def test_table_velocity_gain_of_the_tuning_rule_is_the_plant_s():
     """K_q of the table rule (orifice-law no-load speed) against an open-loop run: a held
     action of 0.2 moves the nominal table at 0.2 K_q within the friction/load-pressure loss."""
     from agents.controllers.table import table_tuning
-    from hydro_envs.sim.kernels import SHAKING_TABLE, step_batch_serial
-    from hydro_envs.sim.stiffness import rk4_substeps
+    from hydro_envs import registry
+    from hydro_envs.sim.stiffness import substeps_from_stiffness
 
     p = st.ShakingTableParams.preset("modified_ifas")
     t = table_tuning(p)
     y = st.rest_state(p, -0.1).reshape(1, -1)
     U = np.array([[0.2 * p.command_max]])
-    nsub = np.array([rk4_substeps(st.stiffness_modes(p), 1e-3)[0]])
+    nsub = np.array([substeps_from_stiffness(st.stiffness_modes(p), 1e-3)[0]])
     W = np.zeros((1, 5, st.N_STATES))
     for _ in range(400):
-        step_batch_serial(SHAKING_TABLE, y, U, p.to_array()[None], 1e-3, nsub, W, np.zeros(1, dtype=np.int64))
+        registry.get("shaking_table").kernels.step_serial(y, U, p.to_array()[None], 1e-3, nsub, W, np.zeros(1, dtype=np.int64))
     assert y[0, st.V] == pytest.approx(0.2 * t["k_q"], rel=0.05)
     assert t["kp"] * t["k_q"] == pytest.approx(1.5)
 
@@ -319,7 +320,7 @@ def test_force_pid_gain_is_below_the_limit_cycle_onset():
     """The PID gain sits a factor 2.2 below the measured limit-cycle gain: a proportional loop
     at that gain is free of the 200 Hz limit cycle that appears at K_u."""
     from agents.controllers.force import K_ULTIMATE, force_tuning
-    from hydro_envs.envs.force_actuator import limit_cycle_sweep
+    from hydro_envs.plants.force_actuator.closed_loop import limit_cycle_sweep
 
     t = force_tuning()
     pp, _ = limit_cycle_sweep(fa.ForceActuatorParams(), [t["kf"], K_ULTIMATE + 0.5])

@@ -15,10 +15,8 @@ from hydro_envs.data import (
     UnknownPlantError,
     channels_for,
     load_measured,
-    register_plant_channels,
     write_measured,
 )
-from hydro_envs.data.channels import PLANT_CHANNELS
 
 PLANT = "servo_cylinder"
 HEADER = "t [s],u [V],x [m],p1 [Pa],p2 [Pa]"
@@ -70,21 +68,21 @@ def test_unknown_plant_lists_known_plants():
     assert "servo_cylinder" in str(ei.value) and "no_such_plant" in str(ei.value)
 
 
-def test_registry_is_open_and_guards_conflicts():
-    name = "_test_table_plant"
-    chans = (Channel("u", "V", "cmd"), Channel("a", "m/s^2", "acceleration"))
-    try:
-        register_plant_channels(name, chans)
-        register_plant_channels(name, chans)  # identical: fine
-        assert channels_for(name) == chans
-        with pytest.raises(ValueError, match="already registered"):
-            register_plant_channels(name, chans[:1])
-        with pytest.raises(ValueError, match="reserved"):
-            register_plant_channels(name + "2", (Channel("t", "s", "x"),))
-        with pytest.raises(ValueError, match="duplicate"):
-            register_plant_channels(name + "3", (chans[0], chans[0]))
-    finally:
-        PLANT_CHANNELS.pop(name, None)
+def test_every_registered_plant_has_valid_channels_and_channel_rules_are_checked():
+    from hydro_envs import registry
+    from hydro_envs.spec import PlantSpec
+
+    for spec in registry.specs():
+        assert channels_for(spec.name) == spec.channels and spec.channels
+        assert set(spec.inputs) <= {c.name for c in spec.channels}
+    with pytest.raises(ValueError, match="reserved"):
+        PlantSpec("x", "x", "x", (Channel("t", "s", "time"),))
+    with pytest.raises(ValueError, match="duplicate"):
+        PlantSpec("x", "x", "x", (Channel("u", "V", "a"), Channel("u", "V", "b")))
+    with pytest.raises(ValueError, match="invalid"):
+        Channel("1x", "m", "bad name")
+    with pytest.raises(ValueError, match="brackets"):
+        Channel("x", "[m]", "bad unit")
 
 
 # --- round trips ------------------------------------------------------------------------
@@ -307,12 +305,7 @@ def test_reject_no_plant(tmp_path):
 
 
 def test_reject_plant_mismatch(tmp_path):
-    name = "_test_other_plant"
-    register_plant_channels(name, (Channel("u", "V", "cmd"),))
-    try:
-        _reject(tmp_path, _csv(), "'_test_other_plant'", "servo_cylinder", plant=name)
-    finally:
-        PLANT_CHANNELS.pop(name, None)
+    _reject(tmp_path, _csv(), "'slider'", "servo_cylinder", plant="slider")
 
 
 def test_reject_duplicate_column(tmp_path):

@@ -260,7 +260,7 @@ def test_greybox_profiles_out_sensor_offsets():
     case = hidden_effect_records("servo_cylinder", None, 31, duration=3.0)
     rec = _with_offset(case.fit, ("p1",), 4e4, 0.0)
     exps = segments([rec], spec)
-    res = gb.fit_greybox(case.base.params, ["viscous_friction"], spec.kernel_id, exps, _channels(spec),
+    res = gb.fit_greybox(case.base.params, ["viscous_friction"], exps, _channels(spec),
                          offsets=("p1", "p2"), max_nfev=10)
     assert res.offsets["p1@record 0"] == pytest.approx(4e4, abs=2e3)
     assert abs(res.offsets["p2@record 0"]) < 2e3

@@ -21,7 +21,8 @@ from gymnasium.vector import AutoresetMode
 import hydro_envs  # noqa: F401  (registers the env)
 from hydro_envs.envs.servo_cylinder import ServoCylinderPositionEnv
 from hydro_envs.params import ParameterError
-from hydro_envs.plants.servo_cylinder import ServoCylinderParams, no_load_velocity
+from hydro_envs.plants.servo_cylinder.params import ServoCylinderParams
+from hydro_envs.plants.servo_cylinder.model import no_load_velocity
 from hydro_envs.randomization import load_randomization
 
 ENV_ID = "hydro_envs/ServoCylinderPosition-v0"

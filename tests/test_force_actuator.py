@@ -20,11 +20,13 @@ from scipy.optimize import brentq
 import hydro_envs  # noqa: F401  (registers the env)
 from hydro_envs.laws.hysteresis import pi_output, play_operator
 from hydro_envs.params import ParameterError
-from hydro_envs.plants import force_actuator as fa
-from hydro_envs.plants.force_actuator import ForceActuatorParams
+from hydro_envs.plants.force_actuator import model as fa
+from hydro_envs.plants.force_actuator import closed_loop
+from hydro_envs.plants.force_actuator import validation as fa_validation
+from hydro_envs.plants.force_actuator.params import ForceActuatorParams
 from hydro_envs.randomization import load_randomization
-from hydro_envs.sim.kernels import FORCE_ACTUATOR, plant_guard, plant_rhs, step_batch_parallel, step_batch_serial
-from hydro_envs.sim.stiffness import rk4_substeps
+from hydro_envs import registry
+from hydro_envs.sim.stiffness import substeps_from_stiffness
 
 ENV_ID = "hydro_envs/ForceActuator-v0"
 NOMINAL = ForceActuatorParams()
@@ -34,7 +36,7 @@ T = fa.SEED_T
 
 def simulate(p: ForceActuatorParams, currents, n_sub=None, y0=None, dt=DT) -> np.ndarray:
     """Fixed-step kernel rollout under per-step valve currents [A]; returns (n+1, 23) states."""
-    n_sub = n_sub or rk4_substeps(fa.stiffness_modes(p), dt)[0]
+    n_sub = n_sub or substeps_from_stiffness(fa.stiffness_modes(p), dt)[0]
     Y = (fa.rest_state(p) if y0 is None else np.array(y0, float))[None, :].copy()
     P = p.to_array()[None, :]
     W = np.zeros((1, 5, fa.N_STATES))
@@ -44,7 +46,7 @@ def simulate(p: ForceActuatorParams, currents, n_sub=None, y0=None, dt=DT) -> np
     U = np.zeros((1, 1))
     for k, i in enumerate(currents):
         U[0, 0] = i
-        step_batch_serial(FORCE_ACTUATOR, Y, U, P, dt, np.array([n_sub]), W, c)
+        registry.get("force_actuator").kernels.step_serial(Y, U, P, dt, np.array([n_sub]), W, c)
         out[k + 1] = Y[0]
     return out
 
@@ -83,7 +85,7 @@ def test_invalid_parameters_raise(field, value):
 
 # ------------------------------------------------------------------------- sensor (2)-(4)
 def test_sensor_ring_down_matches_eq4_and_table1():
-    wn, zeta = fa.sensor_ring_down(NOMINAL)
+    wn, zeta = closed_loop.sensor_ring_down(NOMINAL)
     den = [1.0, 758.4, 6712857.0]  # eq (4)
     pole = np.roots(den)[0]
     assert wn == pytest.approx(abs(pole), rel=2e-3)
@@ -154,7 +156,7 @@ def _friction_rate(v, f, p=NOMINAL):
     y[fa.VS] = v
     y[fa.FF] = f
     dy = np.empty(fa.N_STATES)
-    plant_rhs(FORCE_ACTUATOR, y, np.zeros(1), p.to_array(), dy)
+    registry.get("force_actuator").kernels.rhs(y, np.zeros(1), p.to_array(), dy)
     return dy[fa.FF]
 
 
@@ -294,12 +296,12 @@ def _radau_rollout(p, currents, y0, dt=DT):
 
         def f(_t, s):
             dy = np.empty_like(s)
-            plant_rhs(FORCE_ACTUATOR, np.ascontiguousarray(s), u, pa, dy)
+            registry.get("force_actuator").kernels.rhs(np.ascontiguousarray(s), u, pa, dy)
             return dy
 
         sol = solve_ivp(f, (0, dt), y, method="Radau", rtol=1e-10, atol=1e-12)
         y = sol.y[:, -1].copy()
-        plant_guard(FORCE_ACTUATOR, y, pa)
+        registry.get("force_actuator").kernels.guard(y, pa)
         out.append(y.copy())
     return np.array(out)
 
@@ -328,8 +330,8 @@ def _jacobian(y, u, pa):
         yp[j] += scale[j]
         ym[j] -= scale[j]
         fp, fm = np.empty(fa.N_STATES), np.empty(fa.N_STATES)
-        plant_rhs(FORCE_ACTUATOR, yp, u, pa, fp)
-        plant_rhs(FORCE_ACTUATOR, ym, u, pa, fm)
+        registry.get("force_actuator").kernels.rhs(yp, u, pa, fp)
+        registry.get("force_actuator").kernels.rhs(ym, u, pa, fm)
         J[:, j] = (fp - fm) / (2 * scale[j])
     return J
 
@@ -360,7 +362,7 @@ def test_stiffness_bound_covers_the_numerical_jacobian(spec):
                     worst = max(worst, lam.max())
         assert worst <= bound * 1.02, (worst, bound)
         assert worst >= 0.3 * bound
-    n_sub, h, mode = rk4_substeps(fa.stiffness_modes(NOMINAL), DT)
+    n_sub, h, mode = substeps_from_stiffness(fa.stiffness_modes(NOMINAL), DT)
     assert (n_sub, mode) == (5, "friction")
 
 
@@ -368,15 +370,15 @@ def test_parallel_and_serial_kernels_are_bit_identical(spec):
     rng = np.random.default_rng(1)
     params = [spec.sample(rng) for _ in range(16)]
     P = np.stack([q.to_array() for q in params])
-    nsub = np.array([rk4_substeps(fa.stiffness_modes(q), DT)[0] for q in params], dtype=np.int64)
+    nsub = np.array([substeps_from_stiffness(fa.stiffness_modes(q), DT)[0] for q in params], dtype=np.int64)
     out = []
-    for kernel in (step_batch_serial, step_batch_parallel):
+    for kernel in (registry.get("force_actuator").kernels.step_serial, registry.get("force_actuator").kernels.step_parallel):
         Y = np.stack([fa.rest_state(q) for q in params])
         W = np.zeros((16, 5, fa.N_STATES))
         c = np.zeros(16, dtype=np.int64)
         r = np.random.default_rng(2)
         for _ in range(300):
-            kernel(FORCE_ACTUATOR, Y, r.uniform(-0.03, 0.03, (16, 1)), P, DT, nsub, W, c)
+            kernel(Y, r.uniform(-0.03, 0.03, (16, 1)), P, DT, nsub, W, c)
         out.append(Y)
     assert np.array_equal(out[0], out[1])
 
@@ -508,7 +510,7 @@ def test_observation_and_reward_semantics():
 
 
 def test_closed_loop_tracks_the_papers_square_waves():
-    from hydro_envs.envs.force_actuator import proportional_loop
+    from hydro_envs.plants.force_actuator.closed_loop import proportional_loop
 
     t = DT * np.arange(2500)
     ref = np.stack([a * np.where((10 * t) % 1 < 0.5, 1.0, -1.0) for a in (50, 200, 800)])
@@ -578,7 +580,7 @@ def test_render_rgb_array():
 
 # ------------------------------------------------------------------ validation rows
 def test_validation_rows_pass_or_are_documented_deviations():
-    rows = fa._force_actuator_rows()
+    rows = fa_validation.rows()
     names = [r.name for r in rows]
     assert any("eq (4)" in n for n in names) and any("Table 1" in n for n in names)
     for r in rows:

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from hydro_envs.data.measured import load_measured
-from hydro_envs.plants import force_actuator as fa
+from hydro_envs.plants.force_actuator import model as fa
 from identification import force_actuator_experiments as fe
 
 NOMINAL = fa.ForceActuatorParams()

@@ -10,9 +10,8 @@ import json
 import numpy as np
 import pytest
 
-from hydro_envs.plants import servo_cylinder as sc
-from hydro_envs.plants import shaking_table as st
-from hydro_envs.sim.kernels import SERVO_CYLINDER, SHAKING_TABLE
+from hydro_envs.plants.servo_cylinder import model as sc
+from hydro_envs.plants.shaking_table import model as st
 from identification import greybox as gb
 
 DT = 1e-3
@@ -29,7 +28,7 @@ def _servo_record():
     y0[sc.P1] = y0[sc.P2] = 0.5 * (truth.supply_pressure + truth.tank_pressure)
     ch = [c for c in gb.plant_setup("servo_cylinder")["channels"].values() if c.name in SERVO_NOISE]
     e = gb.Experiment(DT, u, y0, {k: u for k in SERVO_NOISE})
-    clean = gb.simulate_outputs(truth, SERVO_CYLINDER, [e], ch)[0][0]
+    clean = gb.simulate_outputs(truth, [e], ch)[0][0]
     return truth, t, u, y0, ch, clean
 
 
@@ -40,7 +39,7 @@ def _noisy(clean, noise, seed):
 
 def _servo_fit(seed, truth, u, y0, ch, clean):
     base = dataclasses.replace(truth, bulk_modulus=500e6, viscous_friction=350.0, coulomb_friction=30.0)
-    return gb.fit_greybox(base, SERVO_FIT, SERVO_CYLINDER,
+    return gb.fit_greybox(base, SERVO_FIT,
                           [gb.Experiment(DT, u, y0, _noisy(clean, SERVO_NOISE, seed))], ch)
 
 
@@ -77,7 +76,7 @@ def test_product_pair_is_flagged_unidentifiable():
     """C_v and w enter the orifice law only as the product C_v w (002 eqs (3)-(4))."""
     truth, t, u, y0, ch, clean = _servo_record()
     base = dataclasses.replace(truth, discharge_coefficient=0.5, area_gradient=25e-3)
-    res = gb.fit_greybox(base, ["discharge_coefficient", "area_gradient"], SERVO_CYLINDER,
+    res = gb.fit_greybox(base, ["discharge_coefficient", "area_gradient"],
                          [gb.Experiment(DT, u, y0, _noisy(clean, SERVO_NOISE, 0))], ch, reweight=False)
     assert not res.identifiable
     assert res.condition_number > 1e6
@@ -97,12 +96,12 @@ def test_shaking_table_recovers_known_parameters():
         t = DT * np.arange(int(sec / DT) + 1)
         u = make(t)
         exps.append(gb.Experiment(DT, u, st.rest_state(truth), {"x": u, "a": u}))
-    clean = gb.simulate_outputs(truth, SHAKING_TABLE, exps, ch)[0]
+    clean = gb.simulate_outputs(truth, exps, ch)[0]
     noise = {"x": 2e-5, "a": 0.01}
     meas = [gb.Experiment(DT, e.u, e.y0, _noisy(c, noise, 3)) for e, c in zip(exps, clean)]
     base = dataclasses.replace(truth, e0=truth.e0 * 1.3, coulomb_friction=460.0, viscous_friction=530.0)
     fit = ["e0", "coulomb_friction", "viscous_friction"]
-    res = gb.fit_greybox(base, fit, SHAKING_TABLE, meas, ch)
+    res = gb.fit_greybox(base, fit, meas, ch)
     for n in fit:
         assert res.values[n] == pytest.approx(getattr(truth, n), rel=0.05), n
         assert abs(res.values[n] - getattr(truth, n)) < 4.0 * res.std_errors[n], n
@@ -123,9 +122,9 @@ def test_bad_problem_raises():
     e = gb.Experiment(DT, np.zeros(10), np.zeros(6), {"x": np.zeros(10)})
     ch = list(gb.plant_setup("servo_cylinder")["channels"].values())
     with pytest.raises(gb.GreyboxError, match="unknown parameter"):
-        gb.fit_greybox(truth, ["nope"], SERVO_CYLINDER, [e], ch)
+        gb.fit_greybox(truth, ["nope"], [e], ch)
     with pytest.raises(gb.GreyboxError, match="sigma"):
-        gb.fit_greybox(truth, ["mass"], SERVO_CYLINDER, [e], ch)  # constant record
+        gb.fit_greybox(truth, ["mass"], [e], ch)  # constant record
     with pytest.raises(gb.GreyboxError, match="shape"):
         gb.Experiment(DT, np.zeros(10), np.zeros(6), {"x": np.zeros(9)})
 

@@ -18,7 +18,8 @@ from scipy.integrate import solve_ivp
 from hydro_envs.cli import main as hydro_main
 from hydro_envs.data.measured import load_measured
 from hydro_envs.laws.friction import dahl_friction_rate, lugre_bristle_rate
-from hydro_envs.plants.servo_cylinder import ServoCylinderParams, no_load_velocity
+from hydro_envs.plants.servo_cylinder.params import ServoCylinderParams
+from hydro_envs.plants.servo_cylinder.model import no_load_velocity
 from identification import experiments as ex
 from identification.compensators import (
     FrictionCompensator,

@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from hydro_envs.plants.servo_cylinder import ServoCylinderParams
+from hydro_envs.plants.servo_cylinder.params import ServoCylinderParams
 from identification import experiments as ex
 from identification.friction import (
     InsufficientDataError,

@@ -38,7 +38,7 @@ def test_closed_loop_m_sequence_arx3_has_the_integrator_of_004_eq32():
     others = np.delete(m.poles, np.argmin(np.abs(m.poles - 1.0)))
     assert np.all(np.abs(others) < 0.9)
     # integrator gain = the plant's mid-stroke velocity gain K_T k_v (004 eqs (22), (28))
-    from hydro_envs.plants import rodless_cylinder as rc
+    from hydro_envs.plants.rodless_cylinder import model as rc
 
     lin = rc.linearize_mid_stroke(rc.RodlessCylinderParams())
     b1 = np.sum(m.b) / np.real(np.prod(1.0 - others))  # mm per V per sample
@@ -65,8 +65,8 @@ def test_force_actuator_locked_prbs_arx10_as_001_eq6():
 
 
 def test_viscous_coefficient_from_both_rig_methods_within_5_percent():
-    from hydro_envs.plants import ls_compensator as lc
-    from hydro_envs.rigs import ls_compensator as rig
+    from hydro_envs.plants.ls_compensator import model as lc
+    from hydro_envs.plants.ls_compensator import experiments as rig
 
     p = lc.LSCompensatorParams()
     c_true = lc.derived(p)["viscous"]
@@ -89,7 +89,7 @@ def test_ranges_from_fit_load_and_env_draws_inside(tmp_path):
     import gymnasium as gym
 
     import hydro_envs  # noqa: F401  (registers the envs)
-    from hydro_envs.plants.servo_cylinder import ServoCylinderParams
+    from hydro_envs.plants.servo_cylinder.params import ServoCylinderParams
     from hydro_envs.randomization import RandomizationSpec
 
     spec = ranges.ranges_from_fit(EST, SE, ServoCylinderParams, k=2.0, data_file="run.csv",
@@ -111,7 +111,7 @@ def test_ranges_from_fit_load_and_env_draws_inside(tmp_path):
 
 
 def test_nominal_outside_the_confidence_region_widens_or_raises():
-    from hydro_envs.plants.servo_cylinder import ServoCylinderParams
+    from hydro_envs.plants.servo_cylinder.params import ServoCylinderParams
 
     est = dict(EST, F_s=58.0)  # 58 +- 0.94 excludes the nominal 60 N
     spec = ranges.ranges_from_fit(est, SE, ServoCylinderParams)
@@ -122,7 +122,7 @@ def test_nominal_outside_the_confidence_region_widens_or_raises():
 
 
 def test_cli_emit_ranges_from_a_virtual_friction_experiment(tmp_path):
-    from hydro_envs.plants.servo_cylinder import ServoCylinderParams
+    from hydro_envs.plants.servo_cylinder.params import ServoCylinderParams
     from hydro_envs.randomization import RandomizationSpec
     from identification.cli import main
 
@@ -152,11 +152,12 @@ def test_cli_emit_ranges_from_a_virtual_friction_experiment(tmp_path):
 @pytest.mark.parametrize("name", ["servo_cylinder_nominal", "servo_cylinder_virtual_friction",
                                   "rodless_cylinder_nominal"])
 def test_plant_presets_load_with_sources(name):
-    from hydro_envs.plants.rodless_cylinder import RodlessCylinderParams
-    from hydro_envs.plants.servo_cylinder import ServoCylinderParams
-    from hydro_envs.randomization import config_dir
+    from hydro_envs.plants.rodless_cylinder.params import RodlessCylinderParams
+    from hydro_envs.plants.servo_cylinder.params import ServoCylinderParams
+    from importlib import resources
 
-    path = config_dir() / "plants" / f"{name}.yaml"
+    plant, _, preset = name.partition("_cylinder_")
+    path = resources.files(f"hydro_envs.plants.{plant}_cylinder").joinpath("presets", f"{preset}.yaml")
     cls = RodlessCylinderParams if name.startswith("rodless") else ServoCylinderParams
     p = ranges.load_preset(path, cls)
     raw = yaml.safe_load(path.read_text())

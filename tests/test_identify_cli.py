@@ -10,15 +10,10 @@ import pytest
 from scipy import signal
 
 from hydro_envs.cli import main
-from hydro_envs.data import register_plant_channels
-from hydro_envs.data.channels import Channel
 from hydro_envs.data.measured import write_measured
 
-register_plant_channels(
-    "test_io",
-    (Channel("u", "1", "test input"), Channel("y", "1", "test output")),
-    replace=True,
-)
+# generic input/output records are stored as a registered plant's channels: the slider's
+# force (input) and position (output)
 
 
 def _run(capsys, argv):
@@ -35,9 +30,9 @@ def test_identify_arx_recovers_coefficients(tmp_path, capsys):
     # y[k] = 1.5 y[k-1] - 0.7 y[k-2] + 1.0 u[k-1] + 0.5 u[k-2] + e[k]
     y = signal.lfilter([0.0, 1.0, 0.5], [1.0, -1.5, 0.7], u) + signal.lfilter([1.0], [1.0, -1.5, 0.7], 0.01 * rng.standard_normal(n))
     f = tmp_path / "arx.csv"
-    write_measured(f, dt * np.arange(n), {"u": u, "y": y}, plant="test_io")
-    res = _run(capsys, ["identify", "arx", "--plant", "test_io", "--data", str(f), "--input", "u",
-                        "--output", "y", "--orders", "2", "2", "1", "--json"])
+    write_measured(f, dt * np.arange(n), {"f": u, "x": y}, plant="slider")
+    res = _run(capsys, ["identify", "arx", "--plant", "slider", "--data", str(f), "--input", "f",
+                        "--output", "x", "--orders", "2", "2", "1", "--json"])
     p = res["parameters"]
     assert p["a1"] == pytest.approx(-1.5, abs=0.01) and p["a2"] == pytest.approx(0.7, abs=0.01)
     assert p["b1"] == pytest.approx(1.0, abs=0.02) and p["b2"] == pytest.approx(0.5, abs=0.02)
@@ -54,9 +49,9 @@ def test_identify_frf_recovers_mass_spring_damper(tmp_path, capsys):
     u = rng.standard_normal(2**15)
     y = signal.dlsim((Ad, Bd, Cd, Dd, 1.0 / fs), u)[1].ravel()
     f = tmp_path / "msd.csv"
-    write_measured(f, np.arange(u.size) / fs, {"u": u, "y": y}, plant="test_io")
-    res = _run(capsys, ["identify", "frf", "--plant", "test_io", "--data", str(f), "--input", "u",
-                        "--output", "y", "--json"])
+    write_measured(f, np.arange(u.size) / fs, {"f": u, "x": y}, plant="slider")
+    res = _run(capsys, ["identify", "frf", "--plant", "slider", "--data", str(f), "--input", "f",
+                        "--output", "x", "--json"])
     p = res["parameters"]
     assert p["mass"] == pytest.approx(m, rel=0.03)
     assert p["damping"] == pytest.approx(c, rel=0.05)
@@ -64,7 +59,8 @@ def test_identify_frf_recovers_mass_spring_damper(tmp_path, capsys):
 
 
 def test_identify_slider_recovers_mass_and_friction(tmp_path, capsys):
-    from hydro_envs.plants.slider import SliderParams, simulate_slider
+    from hydro_envs.plants.slider.params import SliderParams
+    from hydro_envs.plants.slider.model import simulate_slider
 
     p = SliderParams()
     dt = 1e-3

@@ -603,3 +603,13 @@ def test_viscosity_temperature_dependence_vs_seed000_friction():
     assert np.all(nus > 0) and np.all(np.diff(nus) < 0)
     # dynamic viscosity: 46e-6 m^2/s * 870 kg/m^3 = 0.04002 Pa s
     assert dynamic_viscosity(46e-6, 870.0) == pytest.approx(0.04002)
+
+
+def test_tabulated_butterworth_design_equals_scipy_bit_for_bit():
+    from scipy import signal
+
+    from hydro_envs.laws.filters import _TABULATED, butterworth_lowpass_sos
+
+    for (order, fc, fs) in _TABULATED:
+        want = signal.butter(order, fc, btype="low", fs=fs, output="sos")
+        assert np.array_equal(butterworth_lowpass_sos(order, fc, fs), want)

@@ -18,12 +18,12 @@ from gymnasium.utils.env_checker import check_env
 
 import hydro_envs  # noqa: F401
 from hydro_envs.params import ParameterError
-from hydro_envs.plants import ls_circuit as cc
-from hydro_envs.plants.ls_circuit import LSCircuitParams
+from hydro_envs.plants.ls_circuit import model as cc
+from hydro_envs.plants.ls_circuit.params import LSCircuitParams
 from hydro_envs.randomization import load_randomization
-from hydro_envs.sim.kernels import LS_CIRCUIT, plant_rhs, step_batch_serial
+from hydro_envs import registry
 from hydro_envs.sim.reference import reference_rollout
-from hydro_envs.sim.stiffness import rk4_substeps
+from hydro_envs.sim.stiffness import substeps_from_stiffness
 
 ENV_ID = "hydro_envs/LoadSensing-v0"
 NOMINAL = LSCircuitParams()
@@ -72,12 +72,12 @@ def test_parameters_validated():
 
 
 def _run(p, u_seq, y0, dt=1e-3):
-    n_sub = rk4_substeps(cc.stiffness_modes(p), dt)[0]
+    n_sub = substeps_from_stiffness(cc.stiffness_modes(p), dt)[0]
     Y, P = y0[None].copy(), p.to_array()[None]
     W, c = np.zeros((1, 5, cc.N_STATES)), np.zeros(1, dtype=np.int64)
     out = [Y[0].copy()]
     for u in u_seq:
-        step_batch_serial(LS_CIRCUIT, Y, np.asarray(u, float)[None], P, dt, np.array([n_sub]), W, c)
+        registry.get("ls_circuit").kernels.step_serial(Y, np.asarray(u, float)[None], P, dt, np.array([n_sub]), W, c)
         out.append(Y[0].copy())
     return np.array(out), int(c[0])
 
@@ -122,7 +122,7 @@ def test_fixed_step_matches_radau():
     y0 = cc.standby_state(p, 0.05)
     fixed, _ = _run(p, u, y0)
     atol = np.array([1e-12, 1e-9, 1.0, 1.0, 1e-12, 1e-9, 1.0, 1e-12, 1e-9, 1e-14, 1.0, 1e-6])
-    ref = reference_rollout(LS_CIRCUIT, y0, u, p.to_array(), 1e-3, rtol=1e-9, atol=atol)
+    ref = reference_rollout(registry.get("ls_circuit"), y0, u, p.to_array(), 1e-3, rtol=1e-9, atol=atol)
     # NRMSE at the default 5 sub-steps; the +-20 N solenoid steps throw the FC spool onto its
     # seat (a stiff contact: RK4 drops to first order there), hence the looser spool bound
     for idx, tol in ((cc.VA, 2e-3), (cc.PS, 2e-3), (cc.PL, 2e-3), (cc.Y, 2e-3), (cc.X, 1e-2)):
@@ -154,8 +154,8 @@ def test_stiffness_bound_covers_the_numerical_jacobian(spec):
                         yp, ym = y.copy(), y.copy()
                         yp[j] += h
                         ym[j] -= h
-                        plant_rhs(LS_CIRCUIT, yp, u, pa, f0)
-                        plant_rhs(LS_CIRCUIT, ym, u, pa, f1)
+                        registry.get("ls_circuit").kernels.rhs(yp, u, pa, f0)
+                        registry.get("ls_circuit").kernels.rhs(ym, u, pa, f1)
                         J[:, j] = (f0 - f1) / (2 * h)
                     worst = max(worst, np.abs(np.linalg.eigvals(J)).max())
         assert worst <= 1.02 * bound, (worst, cc.stiffness_modes(p))

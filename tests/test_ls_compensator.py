@@ -16,13 +16,13 @@ import pytest
 from hydro_envs.data.measured import load_measured
 from hydro_envs.laws.viscosity import iso_vg_kinematic_viscosity
 from hydro_envs.params import ParameterError
-from hydro_envs.plants import ls_compensator as lc
-from hydro_envs.plants.ls_compensator import LSCompensatorParams
+from hydro_envs.plants.ls_compensator import model as lc
+from hydro_envs.plants.ls_compensator.params import LSCompensatorParams
 from hydro_envs.randomization import load_randomization
-from hydro_envs.rigs import ls_compensator as rig
-from hydro_envs.sim.kernels import LS_COMPENSATOR, plant_rhs, step_batch_parallel, step_batch_serial
+from hydro_envs.plants.ls_compensator import experiments as rig
+from hydro_envs import registry
 from hydro_envs.sim.reference import reference_rollout
-from hydro_envs.sim.stiffness import rk4_substeps
+from hydro_envs.sim.stiffness import substeps_from_stiffness
 
 NOMINAL = LSCompensatorParams()
 P_MEAN = 1e5 + lc.METHOD1_MEAN_GAUGE
@@ -133,7 +133,7 @@ def test_viscosity_law_drives_c_and_r():
 # ------------------------------------------------------------------------- numerics
 def _simulate(p, y0, p1, rate, dt, n_sub=None):
     """Kernel rollout under a ramp p1(t) = p1 + rate t; returns states at every step."""
-    n_sub = n_sub or rk4_substeps(lc.stiffness_modes(p), dt)[0]
+    n_sub = n_sub or substeps_from_stiffness(lc.stiffness_modes(p), dt)[0]
     Y = y0[None].copy()
     P = p.to_array()[None]
     W = np.zeros((1, 5, Y.shape[1]))
@@ -141,7 +141,7 @@ def _simulate(p, y0, p1, rate, dt, n_sub=None):
     out = [Y[0].copy()]
     for k in range(len(p1)):
         Y[0, lc.TAU] = 0.0
-        step_batch_serial(LS_COMPENSATOR, Y, np.array([[p1[k], rate[k]]]), P, dt, np.array([n_sub]), W, c)
+        registry.get("ls_compensator").kernels.step_serial(Y, np.array([[p1[k], rate[k]]]), P, dt, np.array([n_sub]), W, c)
         out.append(Y[0].copy())
     return np.array(out), int(c[0])
 
@@ -166,7 +166,7 @@ def test_fixed_step_matches_radau(config):
     atol = np.array([1e-12, 1e-9, 1e-2, 1e-2, 1e-12] + [1e-14, 1e-2] * 12)[: y.size]
     for k in range(n):
         y[lc.TAU] = 0.0
-        y = reference_rollout(LS_COMPENSATOR, y, np.array([[sig[k], rate[k]]]), p.to_array(), dt,
+        y = reference_rollout(registry.get("ls_compensator"), y, np.array([[sig[k], rate[k]]]), p.to_array(), dt,
                               rtol=1e-10, atol=atol)[-1]
         ref.append(y.copy())
     ref = np.array(ref)
@@ -189,8 +189,8 @@ def _numerical_jacobian(p, y, u):
         yp[j] += h
         ym[j] -= h
         fp, fm = np.empty(n), np.empty(n)
-        plant_rhs(LS_COMPENSATOR, yp, u, pa, fp)
-        plant_rhs(LS_COMPENSATOR, ym, u, pa, fm)
+        registry.get("ls_compensator").kernels.rhs(yp, u, pa, fp)
+        registry.get("ls_compensator").kernels.rhs(ym, u, pa, fm)
         J[:, j] = (fp - fm) / (2 * h)
     return J
 
@@ -231,9 +231,9 @@ def test_parallel_and_serial_kernels_are_bit_identical():
         y = lc.equilibrium_state(p, P_MEAN)
         Y0[i, : y.size] = y
     P = np.stack([p.to_array() for p in ps])
-    nsub = np.array([rk4_substeps(lc.stiffness_modes(p), 1e-4)[0] for p in ps], dtype=np.int64)
+    nsub = np.array([substeps_from_stiffness(lc.stiffness_modes(p), 1e-4)[0] for p in ps], dtype=np.int64)
     out = []
-    for kernel in (step_batch_serial, step_batch_parallel):
+    for kernel in (registry.get("ls_compensator").kernels.step_serial, registry.get("ls_compensator").kernels.step_parallel):
         Y = Y0.copy()
         W = np.zeros((16, 5, width))
         c = np.zeros(16, dtype=np.int64)
@@ -241,7 +241,7 @@ def test_parallel_and_serial_kernels_are_bit_identical():
         for _ in range(300):
             Y[:, lc.TAU] = 0.0
             U = np.column_stack([P_MEAN + r.uniform(-3e5, 3e5, 16), np.zeros(16)])
-            kernel(LS_COMPENSATOR, Y, U, P, 1e-4, nsub, W, c)
+            kernel(Y, U, P, 1e-4, nsub, W, c)
         out.append(Y)
     assert np.array_equal(out[0], out[1])
     assert np.all(np.isfinite(out[0]))
@@ -353,10 +353,11 @@ def test_method2_rig_steady_state_and_resonance(tmp_path):
 
 
 def test_published_validation_rows_pass():
-    from hydro_envs.validation import _VALIDATORS
+    from hydro_envs.plants.ls_compensator import validation
+    from hydro_envs.validation import row_providers
 
-    assert lc._ls_compensator_rows in _VALIDATORS  # registered with `hydro validate`
-    rows = lc._ls_compensator_rows()
+    assert "ls_compensator" in dict(row_providers())  # a provider of `hydro validate`
+    rows = validation.rows()
     assert len(rows) == 18
     for r in rows:
         assert r.passed, (r.name, r.published, r.reproduced, r.tolerance)

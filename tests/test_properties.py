@@ -29,36 +29,18 @@ import hydro_envs  # noqa: F401  (registers the envs)
 from hydro_envs.data.channels import channels_for
 from hydro_envs.data.measured import MeasuredData, MeasuredDataError, load_measured, write_measured
 from hydro_envs.params import ParameterError
-from hydro_envs.plants import force_actuator, ls_circuit, ls_compensator, rodless_cylinder, servo_cylinder
-from hydro_envs.plants import shaking_table
-from hydro_envs.randomization import RandomizationError, RandomizationSpec, config_dir
+from hydro_envs import registry
+from hydro_envs.randomization import RandomizationError, RandomizationSpec, randomization_path
 
-ENV_IDS = (
-    "hydro_envs/ServoCylinderPosition-v0",
-    "hydro_envs/ShakingTable-v0",
-    "hydro_envs/ForceActuator-v0",
-    "hydro_envs/LoadSensing-v0",
-    "hydro_envs/RodlessCylinder-v0",
-)
-PARAM_CLASSES = {
-    m.PLANT: cls
-    for m, cls in (
-        (servo_cylinder, servo_cylinder.ServoCylinderParams),
-        (shaking_table, shaking_table.ShakingTableParams),
-        (force_actuator, force_actuator.ForceActuatorParams),
-        (ls_circuit, ls_circuit.LSCircuitParams),
-        (ls_compensator, ls_compensator.LSCompensatorParams),
-        (rodless_cylinder, rodless_cylinder.RodlessCylinderParams),
-    )
-}
+ENV_IDS = tuple(entry.id for _spec, entry in registry.env_entries())
+PARAM_CLASSES = {s.name: s.params_cls for s in registry.specs(with_model=True) if s.randomization_file() is not None}
 PLANTS = sorted(PARAM_CLASSES)
 FAST = settings(max_examples=100, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 ENV_SETTINGS = settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 
 
 def _spec_data(plant: str) -> dict:
-    with open(config_dir() / "randomization" / f"{plant}.yaml", encoding="utf-8") as f:
-        return yaml.safe_load(f)
+    return yaml.safe_load(randomization_path(plant).read_text(encoding="utf-8"))
 
 
 SPEC_DATA = {p: _spec_data(p) for p in PLANTS}
@@ -96,7 +78,7 @@ def invalid_field_value(draw):
 
 @FAST
 @given(invalid_field_value())
-@example((servo_cylinder.ServoCylinderParams, "mass", True))  # bool was accepted as 1.0 kg
+@example((PARAM_CLASSES["servo_cylinder"], "mass", True))  # bool was accepted as 1.0 kg
 def test_invalid_parameter_value_names_the_field(case):
     cls, name, value = case
     with pytest.raises(ParameterError) as err:

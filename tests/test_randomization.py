@@ -18,18 +18,18 @@ import pytest
 import yaml
 
 import hydro_envs  # noqa: F401
-from hydro_envs.plants.servo_cylinder import ServoCylinderParams
+from hydro_envs.plants.servo_cylinder.params import ServoCylinderParams
 from hydro_envs.randomization import (
     ParameterDistribution,
     RandomizationError,
     RandomizationSpec,
-    config_dir,
+    randomization_path,
     load_randomization,
 )
 
 ENV_ID = "hydro_envs/ServoCylinderPosition-v0"
 NOMINAL = ServoCylinderParams()
-YAML_PATH = Path(__file__).resolve().parents[1] / "configs" / "randomization" / "servo_cylinder.yaml"
+YAML_PATH = Path(__file__).resolve().parents[1] / "hydro_envs" / "plants" / "servo_cylinder" / "randomization.yaml"
 
 
 @pytest.fixture(scope="module")
@@ -60,7 +60,7 @@ def _from(data) -> RandomizationSpec:
 # ----------------------------------------------------------------------------- shipped YAML
 def test_shipped_yaml_loads_and_is_sourced(spec):
     assert Path(spec.source_file) == YAML_PATH
-    assert config_dir() == YAML_PATH.parents[1]
+    assert Path(str(randomization_path("servo_cylinder"))) == YAML_PATH
     assert spec.params_cls is ServoCylinderParams
     raw = yaml.safe_load(YAML_PATH.read_text())
     assert list(spec.names) == list(raw["parameters"])  # order kept, nothing dropped

@@ -25,12 +25,15 @@ from hydro_envs.laws.orifice import circular_orifice_area, iso6358_mass_flow, pn
 from hydro_envs.laws.pneumatic_chamber import chamber_pressure_rate
 from hydro_envs.laws.stribeck_lugre import lugre_exponential_rate, stribeck_exponential_curve
 from hydro_envs.params import ParameterError
-from hydro_envs.plants import rodless_cylinder as rc
-from hydro_envs.plants.rodless_cylinder import RodlessCylinderParams
+from hydro_envs.plants.rodless_cylinder import experiments as rx
+from hydro_envs.plants.rodless_cylinder import model as rc
+from hydro_envs.plants.rodless_cylinder import validation as rv
+from hydro_envs import sim
+from hydro_envs.plants.rodless_cylinder.params import RodlessCylinderParams
 from hydro_envs.randomization import load_randomization
-from hydro_envs.sim.kernels import RODLESS_CYLINDER, plant_rhs, step_batch_parallel, step_batch_serial
+from hydro_envs import registry
 from hydro_envs.sim.reference import reference_rollout
-from hydro_envs.sim.stiffness import DEFAULT_SAFETY, RK4_REAL_STABILITY_LIMIT, rk4_substeps
+from hydro_envs.sim.stiffness import DEFAULT_SAFETY, RK4_REAL_STABILITY_LIMIT, substeps_from_stiffness
 
 ENV_ID = "hydro_envs/RodlessCylinder-v0"
 NOMINAL = RodlessCylinderParams()
@@ -51,7 +54,7 @@ def spec():
 
 def simulate(p, y0, commands, n_sub=None, dt=DT):
     """Fixed-step kernel rollout under per-step commands [V]; (n+1, 9) states."""
-    return rc._simulate(p, y0, np.asarray(commands, dtype=float), dt, n_sub)
+    return sim.simulate(registry.get("rodless_cylinder"), p, np.asarray(commands, dtype=float), y0, dt, n_sub=n_sub)
 
 
 def frictionless(p=NOMINAL, **kw):
@@ -201,7 +204,7 @@ def test_centre_is_an_equilibrium_with_data_sheet_order_leakage():
     p = frictionless()
     y = rc.rest_state(p, HALF)
     dy = np.empty(rc.N_STATES)
-    plant_rhs(RODLESS_CYLINDER, y, np.array([p.command_centre]), p.to_array(), dy)
+    registry.get("rodless_cylinder").kernels.rhs(y, np.array([p.command_centre]), p.to_array(), dy)
     assert abs(dy[rc.PA]) < 1e-6 * p.supply_pressure and abs(dy[rc.V]) == 0.0
     assert abs(dy[rc.MA]) < 1e-15
     p0 = rc.centre_pressure(p)
@@ -288,15 +291,15 @@ def test_stall_against_the_stop_reaches_supply_and_exhaust_pressure():
 # ============================================================================ friction (sec. 3, eq (1))
 @pytest.mark.parametrize("command", [5.15, 5.4, 6.5, 8.0, 2.0])
 def test_constant_speed_pressure_force_is_the_table2_curve(command):
-    v, f, s = rc.constant_command_run(NOMINAL, command)
+    v, f, s = rx.constant_command_run(NOMINAL, command)
     assert math.isfinite(v) and abs(v) > 3 * NOMINAL.stribeck_velocity
     assert f == pytest.approx(float(rc.steady_friction(NOMINAL, v)), rel=5e-3)
 
 
 def test_static_friction_mode_has_the_same_steady_curve():
     p = dataclasses.replace(NOMINAL, bristle_stiffness=0.0)
-    assert rk4_substeps(rc.stiffness_modes(p), DT)[0] > 25  # the cost that made LuGre the default
-    v, f, _ = rc.constant_command_run(p, 5.4)
+    assert substeps_from_stiffness(rc.stiffness_modes(p), DT)[0] > 25  # the cost that made LuGre the default
+    v, f, _ = rx.constant_command_run(p, 5.4)
     assert f == pytest.approx(float(rc.steady_friction(p, v)), rel=5e-3)
 
 
@@ -352,7 +355,7 @@ def test_friction_magnitude_against_measured_xring_seal():
 # ============================================================================ linearisation (eqs (19)-(27))
 def test_linearization_matches_the_small_signal_response():
     lin = rc.linearize_mid_stroke(NOMINAL)
-    fit = rc.small_signal_response(NOMINAL)
+    fit = rx.small_signal_response(NOMINAL)
     assert fit["omega_n"] == pytest.approx(lin.omega_n, rel=0.01)
     assert fit["k_t"] == pytest.approx(lin.k_t, rel=0.01)
     assert np.max(np.abs(fit["v"] - fit["v_fit"])) < 1e-3 * np.max(np.abs(fit["v"]))
@@ -407,9 +410,9 @@ def test_fixed_step_matches_radau_with_stop_contact():
     p = NOMINAL
     cmds = _step_commands(1.2, hold=200)
     y0 = rc.rest_state(p, HALF)
-    n_sub = rk4_substeps(rc.stiffness_modes(p), DT)[0]
+    n_sub = substeps_from_stiffness(rc.stiffness_modes(p), DT)[0]
     fixed = simulate(p, y0, cmds, n_sub)
-    ref = reference_rollout(RODLESS_CYLINDER, y0, cmds[:, None], p.to_array(), DT, rtol=1e-10, atol=ATOL)
+    ref = reference_rollout(registry.get("rodless_cylinder"), y0, cmds[:, None], p.to_array(), DT, rtol=1e-10, atol=ATOL)
     assert (ref[:, rc.Y] > L).any() and (ref[:, rc.Y] < 0.0).any()  # both stops hit
 
     def nrmse(a, b):
@@ -427,8 +430,8 @@ def numerical_jacobian(y, u, p_arr):
         yp[j] += scale[j]
         ym[j] -= scale[j]
         fp, fm = np.empty(rc.N_STATES), np.empty(rc.N_STATES)
-        plant_rhs(RODLESS_CYLINDER, yp, u, p_arr, fp)
-        plant_rhs(RODLESS_CYLINDER, ym, u, p_arr, fm)
+        registry.get("rodless_cylinder").kernels.rhs(yp, u, p_arr, fp)
+        registry.get("rodless_cylinder").kernels.rhs(ym, u, p_arr, fm)
         J[:, j] = (fp - fm) / (2 * scale[j])
     return J
 
@@ -463,11 +466,11 @@ def test_stiffness_bound_covers_the_numerical_jacobian(spec):
 
 
 def test_substeps_for_nominal_and_corners(spec):
-    assert rk4_substeps(rc.stiffness_modes(NOMINAL), DT)[0] == 5
+    assert substeps_from_stiffness(rc.stiffness_modes(NOMINAL), DT)[0] == 5
     for flags in (False, True):
         p = spec.corner(flags)
         modes = rc.stiffness_modes(p)
-        n_sub, h, _ = rk4_substeps(modes, DT)
+        n_sub, h, _ = substeps_from_stiffness(modes, DT)
         assert n_sub <= 8
         assert h * max(modes.values()) <= DEFAULT_SAFETY * RK4_REAL_STABILITY_LIMIT + 1e-12
 
@@ -478,15 +481,15 @@ def test_parallel_and_serial_kernels_are_bit_identical(spec):
     params = [spec.sample(rng) for _ in range(n)]
     P = np.stack([q.to_array() for q in params])
     Y0 = np.stack([rc.rest_state(q, rng.uniform(0.2, 0.8) * q.stroke) for q in params])
-    nsub = np.array([rk4_substeps(rc.stiffness_modes(q), DT)[0] for q in params], dtype=np.int64)
+    nsub = np.array([substeps_from_stiffness(rc.stiffness_modes(q), DT)[0] for q in params], dtype=np.int64)
     out = []
-    for kernel in (step_batch_serial, step_batch_parallel):
+    for kernel in (registry.get("rodless_cylinder").kernels.step_serial, registry.get("rodless_cylinder").kernels.step_parallel):
         Y_ = Y0.copy()
         W = np.zeros((n, 5, rc.N_STATES))
         c = np.zeros(n, dtype=np.int64)
         rng_u = np.random.default_rng(2)
         for _ in range(200):
-            kernel(RODLESS_CYLINDER, Y_, rng_u.uniform(0, 10, (n, 1)), P, DT, nsub, W, c)
+            kernel(Y_, rng_u.uniform(0, 10, (n, 1)), P, DT, nsub, W, c)
         out.append(Y_)
     assert np.array_equal(out[0], out[1])
 
@@ -502,7 +505,7 @@ def test_guard_clamps_pressure_and_mass_to_positive_floors():
     y = rc.rest_state(p, 0.0, v=-0.5)
     y[rc.PB] = p.pressure_floor
     dy = np.empty(rc.N_STATES)
-    plant_rhs(RODLESS_CYLINDER, y, np.array([10.0]), p.to_array(), dy)
+    registry.get("rodless_cylinder").kernels.rhs(y, np.array([10.0]), p.to_array(), dy)
     assert np.all(np.isfinite(dy)) and dy[rc.PB] >= 0.0
 
 
@@ -547,7 +550,7 @@ def test_guards_at_randomisation_extremes_with_bang_bang(spec):
 
 # ============================================================================ validation rows
 def test_validation_rows_pass():
-    rows = rc._rodless_cylinder_rows()
+    rows = rv.rows()
     assert len(rows) >= 4
     for r in rows:
         if r.report_only:  # printed eq (23): reported with the cause, see the zeta check row

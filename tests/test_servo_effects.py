@@ -9,7 +9,7 @@ import math
 import numpy as np
 import pytest
 
-from hydro_envs.plants import servo_cylinder as sc
+from hydro_envs.plants.servo_cylinder import model as sc
 
 
 def _rhs(params, y, u=0.0):

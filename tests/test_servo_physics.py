@@ -11,12 +11,12 @@ import numpy as np
 import pytest
 
 from hydro_envs.params import ParameterError
-from hydro_envs.plants import servo_cylinder as sc
-from hydro_envs.plants.servo_cylinder import ServoCylinderParams
+from hydro_envs.plants.servo_cylinder import model as sc
+from hydro_envs.plants.servo_cylinder.params import ServoCylinderParams
 from hydro_envs.randomization import load_randomization
-from hydro_envs.sim.kernels import SERVO_CYLINDER, plant_rhs, step_batch_parallel, step_batch_serial
+from hydro_envs import registry
 from hydro_envs.sim.reference import reference_rollout
-from hydro_envs.sim.stiffness import DEFAULT_SAFETY, RK4_REAL_STABILITY_LIMIT, rk4_amplification, rk4_substeps
+from hydro_envs.sim.stiffness import DEFAULT_SAFETY, RK4_REAL_STABILITY_LIMIT, rk4_amplification, substeps_from_stiffness
 
 DT = 1e-3
 ATOL = np.array([1e-13, 1e-10, 1e-3, 1e-15, 1e-12, 0.0])[:6]
@@ -35,7 +35,7 @@ def simulate(params: ServoCylinderParams, y0, commands, n_sub: int, dt: float = 
     U = np.zeros((1, 1))
     for k, u in enumerate(commands):
         U[0, 0] = u
-        step_batch_serial(SERVO_CYLINDER, Y, U, P, dt, nsub, W, clamps)
+        registry.get("servo_cylinder").kernels.step_serial(Y, U, P, dt, nsub, W, clamps)
         out[k + 1] = Y[0]
     return out
 
@@ -173,9 +173,9 @@ def _random_step_case(seconds: float, seed: int = 3):
 
 def _compare_with_radau(seconds: float) -> tuple[float, float, float, int]:
     p, y0, cmds = _random_step_case(seconds)
-    n_sub = rk4_substeps(sc.stiffness_modes(p), DT)[0]
+    n_sub = substeps_from_stiffness(sc.stiffness_modes(p), DT)[0]
     fixed = simulate(p, y0, cmds, n_sub=n_sub)
-    ref = reference_rollout(SERVO_CYLINDER, y0, cmds[:, None], p.to_array(), DT, rtol=1e-10, atol=ATOL)
+    ref = reference_rollout(registry.get("servo_cylinder"), y0, cmds[:, None], p.to_array(), DT, rtol=1e-10, atol=ATOL)
     # the case must really hit both stops, or it does not test the contact
     hits = (ref[:, sc.X] > p.stroke).any() and (ref[:, sc.X] < 0).any()
     pressure = max(nrmse(fixed[:, sc.P1], ref[:, sc.P1]), nrmse(fixed[:, sc.P2], ref[:, sc.P2]))
@@ -201,7 +201,7 @@ def test_rk4_converges_at_fourth_order_on_smooth_motion():
     y0 = rest_state(p, x=0.5 * p.stroke)
     t = DT * np.arange(150)
     cmds = 2.0 * np.sin(2 * np.pi * 8 * t)  # +-2 V: stays clear of the stops
-    ref = reference_rollout(SERVO_CYLINDER, y0, cmds[:, None], p.to_array(), DT, rtol=1e-11, atol=ATOL)
+    ref = reference_rollout(registry.get("servo_cylinder"), y0, cmds[:, None], p.to_array(), DT, rtol=1e-11, atol=ATOL)
     errs = [np.max(np.abs(simulate(p, y0, cmds, n)[:, sc.P1] - ref[:, sc.P1])) for n in (4, 8)]
     assert errs[0] / errs[1] >= 10  # 2^4 = 16 in the asymptotic range
 
@@ -209,7 +209,7 @@ def test_rk4_converges_at_fourth_order_on_smooth_motion():
 # ------------------------------------------------------------------- stiffness bound
 def numerical_jacobian(y, u, p_arr):
     f0 = np.empty(6)
-    plant_rhs(SERVO_CYLINDER, y, u, p_arr, f0)
+    registry.get("servo_cylinder").kernels.rhs(y, u, p_arr, f0)
     J = np.empty((6, 6))
     scale = np.array([1e-7, 1e-6, 1.0, 1.0, 1e-9, 1e-7])
     for j in range(6):
@@ -217,8 +217,8 @@ def numerical_jacobian(y, u, p_arr):
         yp[j] += scale[j]
         ym[j] -= scale[j]
         fp, fm = np.empty(6), np.empty(6)
-        plant_rhs(SERVO_CYLINDER, yp, u, p_arr, fp)
-        plant_rhs(SERVO_CYLINDER, ym, u, p_arr, fm)
+        registry.get("servo_cylinder").kernels.rhs(yp, u, p_arr, fp)
+        registry.get("servo_cylinder").kernels.rhs(ym, u, p_arr, fm)
         J[:, j] = (fp - fm) / (2 * scale[j])
     return J
 
@@ -251,7 +251,7 @@ def test_substep_choice_is_stable_for_every_randomised_corner():
     spec = load_randomization("servo_cylinder", ServoCylinderParams)
     for flags in (False, True):
         p = spec.corner(flags)
-        n_sub, h, _ = rk4_substeps(sc.stiffness_modes(p), DT)
+        n_sub, h, _ = substeps_from_stiffness(sc.stiffness_modes(p), DT)
         assert h * max(sc.stiffness_modes(p).values()) <= DEFAULT_SAFETY * RK4_REAL_STABILITY_LIMIT + 1e-12
     assert abs(rk4_amplification(-RK4_REAL_STABILITY_LIMIT)) == pytest.approx(1.0, abs=1e-12)
     # inside the bound a real mode decays monotonically (no chatter): 0 < R < 1
@@ -277,7 +277,7 @@ def test_cavitation_floor_holds_and_is_needed():
     nsub = np.array([3])
     lowest = np.inf
     for _ in range(200):
-        step_batch_serial(SERVO_CYLINDER, Y, np.zeros((1, 1)), P, DT, nsub, W, clamps)
+        registry.get("servo_cylinder").kernels.step_serial(Y, np.zeros((1, 1)), P, DT, nsub, W, clamps)
         lowest = min(lowest, Y[0, sc.P1], Y[0, sc.P2])
     assert lowest >= p.pressure_floor
     assert lowest == pytest.approx(p.pressure_floor, abs=1.0)  # the floor was reached
@@ -313,15 +313,15 @@ def test_parallel_and_serial_kernels_are_bit_identical():
     params = [spec.sample(rng) for _ in range(n)]
     P = np.stack([q.to_array() for q in params])
     Y0 = np.stack([rest_state(q, rng.uniform(0.2, 0.8) * q.stroke) for q in params])
-    nsub = np.array([rk4_substeps(sc.stiffness_modes(q), DT)[0] for q in params], dtype=np.int64)
+    nsub = np.array([substeps_from_stiffness(sc.stiffness_modes(q), DT)[0] for q in params], dtype=np.int64)
     out = []
-    for kernel in (step_batch_serial, step_batch_parallel):
+    for kernel in (registry.get("servo_cylinder").kernels.step_serial, registry.get("servo_cylinder").kernels.step_parallel):
         Y = Y0.copy()
         W = np.zeros((n, 5, 6))
         c = np.zeros(n, dtype=np.int64)
         rng_u = np.random.default_rng(2)
         for _ in range(200):
-            kernel(SERVO_CYLINDER, Y, rng_u.uniform(-10, 10, (n, 1)), P, DT, nsub, W, c)
+            kernel(Y, rng_u.uniform(-10, 10, (n, 1)), P, DT, nsub, W, c)
         out.append(Y)
     assert np.array_equal(out[0], out[1])
 
@@ -334,7 +334,7 @@ def test_minimum_chamber_volume_guard_keeps_derivatives_finite():
     assert p.piston_area * x + p.line_volume_1 < 0
     y = np.array([x, -0.01, 2e6, 2e6, 0.0, 0.0])
     dy = np.empty(6)
-    plant_rhs(SERVO_CYLINDER, y, np.array([0.0]), p.to_array(), dy)
+    registry.get("servo_cylinder").kernels.rhs(y, np.array([0.0]), p.to_array(), dy)
     assert np.all(np.isfinite(dy))
     # chamber 1 is being compressed (v < 0, valve closed): its pressure must rise at the
     # rate of the guarded volume, beta / V_min * A |v|

@@ -25,7 +25,7 @@ from scipy.optimize import fsolve
 import hydro_envs  # noqa: F401  (registers the envs)
 from hydro_envs.data.channels import channels_for
 from hydro_envs.envs.shaking_table import ACCELEROMETER_RANGE, ShakingTableEnv
-from hydro_envs.envs.table_references import (
+from hydro_envs.envs.shaking_table_references import (
     KANAI_TAJIMI,
     TABLE_REFERENCE_KINDS,
     generate_table_reference,
@@ -35,12 +35,14 @@ from hydro_envs.laws.bulk_modulus import ifas_bulk_modulus
 from hydro_envs.laws.bulk_modulus_fast import ifas_bulk_modulus_fast
 from hydro_envs.laws.filters import butterworth_lowpass_sos, sos_filter_step
 from hydro_envs.params import ParameterError
-from hydro_envs.plants import shaking_table as st
-from hydro_envs.plants.shaking_table import PRESETS, ShakingTableParams
+from hydro_envs.plants.shaking_table import model as st
+from hydro_envs.plants.shaking_table import analysis as st_analysis
+from hydro_envs.plants.shaking_table import validation as st_validation
+from hydro_envs.plants.shaking_table.params import PRESETS, ShakingTableParams
 from hydro_envs.randomization import load_randomization
-from hydro_envs.sim.kernels import SHAKING_TABLE, plant_rhs, step_batch_parallel, step_batch_serial
+from hydro_envs import registry
 from hydro_envs.sim.reference import reference_rollout
-from hydro_envs.sim.stiffness import DEFAULT_SAFETY, RK4_REAL_STABILITY_LIMIT, rk4_substeps
+from hydro_envs.sim.stiffness import DEFAULT_SAFETY, RK4_REAL_STABILITY_LIMIT, substeps_from_stiffness
 from hydro_envs.validation import ValidationRow
 
 ENV_ID = "hydro_envs/ShakingTable-v0"
@@ -70,7 +72,7 @@ def simulate(p: ShakingTableParams, y0, commands, n_sub: int, dt: float = DT):
     out[0] = Y[0]
     for k, u in enumerate(commands):
         U[0, 0] = u
-        step_batch_serial(SHAKING_TABLE, Y, U, P, dt, nsub, W, clamps)
+        registry.get("shaking_table").kernels.step_serial(Y, U, P, dt, nsub, W, clamps)
         out[k + 1] = Y[0]
     return out
 
@@ -176,7 +178,7 @@ def test_null_pressure_balances_underlap_flow_and_external_leak():
     # the external leak pulls the null pressure about 2 MPa below (P_s + P_T)/2
     assert 1.5e6 < 0.5 * (p.supply_pressure + p.tank_pressure) - pn < 2.5e6
     dy = np.empty(6)
-    plant_rhs(SHAKING_TABLE, st.rest_state(p), np.zeros(1), p.to_array(), dy)
+    registry.get("shaking_table").kernels.rhs(st.rest_state(p), np.zeros(1), p.to_array(), dy)
     assert np.max(np.abs(dy)) < 1e-3  # at rest: pressures steady within 1 mPa/s
     # without external leakage it is the symmetric (P_s + P_T)/2
     q = dataclasses.replace(p, external_leakage=0.0)
@@ -249,19 +251,19 @@ def test_modified_modulus_minimum_at_equal_pressures_and_positive(spec):
     sets += [spec.corner(rng.integers(0, 2, len(spec.entries)).astype(bool)) for _ in range(3)]
     for k, p in enumerate(sets):
         if k == 0:  # nominal, whole load line: the minimum sits at P_a = P_b (the validate row)
-            r = st.modulus_minimum(p, n_grid=401)
+            r = st_analysis.modulus_minimum(p, n_grid=401)
             assert abs(r["dp_min"]) <= 1e3, r
             assert r["e_min"] == pytest.approx(r["e_closed_form"], rel=1e-9)
         else:
             # within +-3 P_Lt of the centre; the notch bottom is flat (mu P_Lt >> 1): where the
             # IFAS curvature wins, the minimum moves inside the notch, by < 1e-5 of its depth
-            r = st.modulus_minimum(p, n_grid=401, span=3 * p.threshold_pressure)
+            r = st_analysis.modulus_minimum(p, n_grid=401, span=3 * p.threshold_pressure)
             assert abs(r["dp_min"]) < p.threshold_pressure
             assert r["e_closed_form"] <= r["e_min"] * (1 + 1e-5)
         assert r["e_floor"] > 0.0  # E_a, E_b > 0 on [p_floor, 1.2 P_s]^2
         assert r["e_far"] > 1.2 * r["e_min"]  # the notch is real
     # negative control: plain IFAS has its *largest* mid-stroke modulus at P_a = P_b
-    r = st.modulus_minimum(ShakingTableParams.preset("ifas"), n_grid=401)
+    r = st_analysis.modulus_minimum(ShakingTableParams.preset("ifas"), n_grid=401)
     assert abs(r["dp_min"]) > 1e6
     assert r["e_far"] == pytest.approx(r["e_closed_form"], rel=1e-6)
 
@@ -322,9 +324,9 @@ def test_fixed_step_matches_radau_through_stop_impact_and_cavitation(preset):
     p = ShakingTableParams.preset(preset)
     cmds = _bang_bang_commands()
     y0 = st.rest_state(p)
-    n_sub = rk4_substeps(st.stiffness_modes(p), DT)[0]
+    n_sub = substeps_from_stiffness(st.stiffness_modes(p), DT)[0]
     fixed = simulate(p, y0, cmds, n_sub)
-    ref = reference_rollout(SHAKING_TABLE, y0, cmds[:, None], p.to_array(), DT, rtol=1e-10, atol=ATOL)
+    ref = reference_rollout(registry.get("shaking_table"), y0, cmds[:, None], p.to_array(), DT, rtol=1e-10, atol=ATOL)
     assert (ref[:, st.X] > HALF).sum() > 50  # really pressed into the end stop
     assert ref[:, 2:4].max() > 1.3 * p.supply_pressure  # stop impact pressure peak
     assert nrmse(fixed[:, st.X], ref[:, st.X]) <= 1e-4
@@ -339,9 +341,9 @@ def test_fixed_step_matches_radau_through_the_notch_at_the_steepest_corner(spec)
     t = DT * np.arange(600)
     cmds = 6.0 * np.sin(2 * np.pi * 8 * t)
     y0 = st.rest_state(p)
-    fixed = simulate(p, y0, cmds, rk4_substeps(st.stiffness_modes(p), DT)[0])
+    fixed = simulate(p, y0, cmds, substeps_from_stiffness(st.stiffness_modes(p), DT)[0])
     # rtol 1e-8 is five orders tighter than the 1e-3 checked below, and twice as fast as 1e-10
-    ref = reference_rollout(SHAKING_TABLE, y0, cmds[:, None], p.to_array(), DT, rtol=1e-8, atol=ATOL * 10)
+    ref = reference_rollout(registry.get("shaking_table"), y0, cmds[:, None], p.to_array(), DT, rtol=1e-8, atol=ATOL * 10)
     dp = ref[:, st.PA] - ref[:, st.PB]
     assert np.count_nonzero(np.diff(np.sign(dp)) != 0) >= 8  # the notch is crossed
     pa = p.to_array()
@@ -357,7 +359,7 @@ def test_rk4_converges_at_fourth_order_on_smooth_motion():
     y0[st.XV] = 0.2  # spool beyond the underlap throughout: eq (3)'s kink at |x_v| = U is never crossed
     t = DT * np.arange(150)
     cmds = 2.0 + 1.0 * np.sin(2 * np.pi * 6 * t)
-    ref = reference_rollout(SHAKING_TABLE, y0, cmds[:, None], p.to_array(), DT, rtol=1e-12, atol=ATOL * 1e-2)
+    ref = reference_rollout(registry.get("shaking_table"), y0, cmds[:, None], p.to_array(), DT, rtol=1e-12, atol=ATOL * 1e-2)
     errs = [np.max(np.abs(simulate(p, y0, cmds, n)[:, st.PA] - ref[:, st.PA])) for n in (4, 8)]
     assert errs[0] / errs[1] >= 10  # 2^4 = 16 asymptotically
 
@@ -370,8 +372,8 @@ def numerical_jacobian(y, p_arr):
         yp, ym = y.copy(), y.copy()
         yp[j] += scale[j]
         ym[j] -= scale[j]
-        plant_rhs(SHAKING_TABLE, yp, np.zeros(1), p_arr, fp)
-        plant_rhs(SHAKING_TABLE, ym, np.zeros(1), p_arr, fm)
+        registry.get("shaking_table").kernels.rhs(yp, np.zeros(1), p_arr, fp)
+        registry.get("shaking_table").kernels.rhs(ym, np.zeros(1), p_arr, fm)
         J[:, j] = (fp - fm) / (2 * scale[j])
     return J
 
@@ -404,10 +406,10 @@ def test_stiffness_bound_covers_the_numerical_jacobian(spec):
 
 
 def test_substeps_nominal_and_at_the_randomisation_corners(spec):
-    assert rk4_substeps(st.stiffness_modes(NOMINAL), DT)[0] == 4  # documented in the env
+    assert substeps_from_stiffness(st.stiffness_modes(NOMINAL), DT)[0] == 4  # documented in the env
     for flags in (False, True):
         p = spec.corner(flags)
-        n_sub, h, _ = rk4_substeps(st.stiffness_modes(p), DT)
+        n_sub, h, _ = substeps_from_stiffness(st.stiffness_modes(p), DT)
         assert h * max(st.stiffness_modes(p).values()) <= DEFAULT_SAFETY * RK4_REAL_STABILITY_LIMIT + 1e-12
         assert n_sub <= 8
 
@@ -418,14 +420,14 @@ def test_parallel_and_serial_kernels_are_bit_identical(spec):
               for k in range(48)]
     P = np.stack([q.to_array() for q in params])
     Y0 = np.stack([st.rest_state(q, rng.uniform(-0.05, 0.05)) for q in params])
-    nsub = np.array([rk4_substeps(st.stiffness_modes(q), DT)[0] for q in params], dtype=np.int64)
+    nsub = np.array([substeps_from_stiffness(st.stiffness_modes(q), DT)[0] for q in params], dtype=np.int64)
     out = []
-    for kernel in (step_batch_serial, step_batch_parallel):
+    for kernel in (registry.get("shaking_table").kernels.step_serial, registry.get("shaking_table").kernels.step_parallel):
         Y = Y0.copy()
         W, c = np.zeros((48, 5, 6)), np.zeros(48, dtype=np.int64)
         rng_u = np.random.default_rng(2)
         for _ in range(200):
-            kernel(SHAKING_TABLE, Y, rng_u.uniform(-10, 10, (48, 1)), P, DT, nsub, W, c)
+            kernel(Y, rng_u.uniform(-10, 10, (48, 1)), P, DT, nsub, W, c)
         out.append(Y)
     assert np.array_equal(out[0], out[1])
 
@@ -436,7 +438,7 @@ def test_cavitation_floor_holds_when_the_table_is_thrown():
     P, W, c = p.to_array()[None, :], np.zeros((1, 5, 6)), np.zeros(1, dtype=np.int64)
     lowest = np.inf
     for _ in range(300):
-        step_batch_serial(SHAKING_TABLE, Y, np.zeros((1, 1)), P, DT, np.array([4]), W, c)
+        registry.get("shaking_table").kernels.step_serial(Y, np.zeros((1, 1)), P, DT, np.array([4]), W, c)
         lowest = min(lowest, Y[0, st.PA], Y[0, st.PB])
         assert np.all(np.isfinite(Y))
     assert lowest >= p.pressure_floor
@@ -450,14 +452,14 @@ def test_cavitation_floor_holds_when_the_table_is_thrown():
 def test_linearised_natural_frequency_matches_small_signal_response(preset, specimen):
     p = ShakingTableParams.preset(preset, specimen)
     lin = st.hydraulic_natural_frequency(p)
-    res = st.small_signal_frequency(p)
+    res = st_analysis.small_signal_frequency(p)
     assert res["omega_n"] == pytest.approx(lin, rel=0.02)
     assert res["fit_rms"] < 1e-3  # the damped-sine model describes the response
     assert abs(res["fft_peak"] - lin) < 0.05 * lin  # independent of the fit
 
 
 def test_validation_rows_pass_and_absolute_rows():
-    rows = st._validation_rows()
+    rows = st_validation.rows()
     assert len(rows) == 5
     for r in rows:
         assert r.passed, (r.name, r.published, r.reproduced, r.tolerance)

@@ -13,11 +13,12 @@ import pytest
 
 from hydro_envs.data import channels_for, load_measured, write_measured
 from hydro_envs.params import ParameterError
-from hydro_envs.plants import slider as sl
-from hydro_envs.plants.slider import SliderParams, simulate_slider, slider_friction, stiffness_modes
-from hydro_envs.sim.kernels import SLIDER, plant_rhs, step_batch_parallel, step_batch_serial
+from hydro_envs.plants.slider import model as sl
+from hydro_envs.plants.slider.params import SliderParams
+from hydro_envs.plants.slider.model import simulate_slider, slider_friction, stiffness_modes
+from hydro_envs import registry
 from hydro_envs.sim.reference import reference_rollout
-from hydro_envs.sim.stiffness import rk4_substeps
+from hydro_envs.sim.stiffness import substeps_from_stiffness
 from identification.slider import SliderIdentificationError, identify_slider, identify_slider_measured
 
 NO_FRICTION = dict(coulomb_friction=0.0, static_friction=0.0, viscous_friction=0.0)
@@ -25,7 +26,6 @@ NO_FRICTION = dict(coulomb_friction=0.0, static_friction=0.0, viscous_friction=0
 
 # =============================================================================== plant
 def test_plant_id_parameters_sources_and_channels():
-    assert SLIDER == 6
     p = SliderParams()
     assert (p.mass, p.coulomb_friction, p.static_friction, p.stribeck_velocity, p.viscous_friction,
             p.force_offset) == (1.0, 10.0, 15.0, 5e-3, 20.0, 0.0)
@@ -76,7 +76,7 @@ def test_stribeck_slider_matches_radau_reference():
     rng = np.random.default_rng(0)
     f = np.repeat(rng.uniform(-30, 30, 40), 25)  # 1 s of random force steps, through v = 0
     y = simulate_slider(p, f, dt)
-    ref = reference_rollout(SLIDER, sl.rest_state(p), f[:, None], p.to_array(), dt,
+    ref = reference_rollout(registry.get("slider"), sl.rest_state(p), f[:, None], p.to_array(), dt,
                             rtol=1e-10, atol=np.array([1e-12, 1e-10]))
     assert np.max(np.abs(y[:, 0] - ref[:, 0])) < 2e-8  # 20 nm over 37 mm of travel
     assert np.max(np.abs(y[:, 1] - ref[:, 1])) < 1e-6
@@ -114,7 +114,7 @@ def test_friction_helper_matches_the_rhs():
     p = SliderParams(force_offset=0.5)
     dy = np.empty(2)
     for v in (-0.3, -4e-3, -1e-4, 0.0, 2e-4, 6e-3, 0.5):
-        plant_rhs(SLIDER, np.array([0.1, v]), np.array([0.0]), p.to_array(), dy)
+        registry.get("slider").kernels.rhs(np.array([0.1, v]), np.array([0.0]), p.to_array(), dy)
         assert dy[1] == pytest.approx(-(slider_friction(v, p) + 0.5) / p.mass, rel=1e-12, abs=1e-12)
 
 
@@ -126,8 +126,8 @@ def numerical_jacobian(y, p_arr):
         yp[j] += h[j]
         ym[j] -= h[j]
         fp, fm = np.empty(2), np.empty(2)
-        plant_rhs(SLIDER, yp, np.array([0.0]), p_arr, fp)
-        plant_rhs(SLIDER, ym, np.array([0.0]), p_arr, fm)
+        registry.get("slider").kernels.rhs(yp, np.array([0.0]), p_arr, fp)
+        registry.get("slider").kernels.rhs(ym, np.array([0.0]), p_arr, fm)
         J[:, j] = (fp - fm) / (2 * h[j])
     return J
 
@@ -176,14 +176,14 @@ def test_batch_equals_single_and_serial_equals_parallel():
     for i in (0, 33, 69):
         np.testing.assert_array_equal(Yb[i], simulate_slider(params[i], F[i], 1e-3))
     P = np.stack([q.to_array() for q in params])
-    nsub = np.array([rk4_substeps(stiffness_modes(q), 1e-3)[0] for q in params], dtype=np.int64)
+    nsub = np.array([substeps_from_stiffness(stiffness_modes(q), 1e-3)[0] for q in params], dtype=np.int64)
     out = []
-    for kernel in (step_batch_serial, step_batch_parallel):
+    for kernel in (registry.get("slider").kernels.step_serial, registry.get("slider").kernels.step_parallel):
         Y = np.stack([sl.rest_state(q) for q in params])
         W = np.zeros((70, 5, 2))
         c = np.zeros(70, dtype=np.int64)
         for k in range(50):
-            kernel(SLIDER, Y, F[:, k : k + 1].copy(), P, 1e-3, nsub, W, c)
+            kernel(Y, F[:, k : k + 1].copy(), P, 1e-3, nsub, W, c)
         out.append(Y)
     assert np.array_equal(out[0], out[1])
     assert np.all(c == 0)  # the guard has nothing to clamp
@@ -231,7 +231,7 @@ def pd_experiment(params, x_ref, v_ref, dt, seed, kp=2.5e5, kd=1000.0):
     Y = np.array([[x_ref[0], 0.0]])
     W = np.zeros((1, 5, 2))
     c = np.zeros(1, dtype=np.int64)
-    nsub = np.array([rk4_substeps(stiffness_modes(params), dt, sl.ACCURATE_SAFETY)[0]], dtype=np.int64)
+    nsub = np.array([substeps_from_stiffness(stiffness_modes(params), dt, sl.ACCURATE_SAFETY)[0]], dtype=np.int64)
     U = np.zeros((1, 1))
     n = x_ref.size
     xs, fs = np.empty(n), np.empty(n)
@@ -239,7 +239,7 @@ def pd_experiment(params, x_ref, v_ref, dt, seed, kp=2.5e5, kd=1000.0):
         f = kp * (x_ref[k] - Y[0, 0]) + kd * (v_ref[k] - Y[0, 1])
         xs[k], fs[k] = Y[0, 0], f
         U[0, 0] = f
-        step_batch_serial(SLIDER, Y, U, P, dt, nsub, W, c)
+        registry.get("slider").kernels.step_serial(Y, U, P, dt, nsub, W, c)
     return fs + NOISE_F * rng.standard_normal(n), xs + NOISE_X * rng.standard_normal(n)
 
 

@@ -15,11 +15,11 @@ import numpy as np
 import pytest
 
 import hydro_envs  # noqa: F401
-from hydro_envs.plants import force_actuator as fa
-from hydro_envs.plants import servo_cylinder as sc
-from hydro_envs.sim import soak
-from hydro_envs.sim.kernels import FORCE_ACTUATOR, SERVO_CYLINDER, step_batch_parallel
-from hydro_envs.sim.stiffness import rk4_substeps
+from hydro_envs.plants.force_actuator import model as fa
+from hydro_envs.plants.servo_cylinder import model as sc
+from hydro_envs import soak
+from hydro_envs import registry
+from hydro_envs.sim.stiffness import substeps_from_stiffness
 
 SHORT_STEPS = 48_000
 
@@ -40,14 +40,14 @@ def test_long_soak_has_no_breach(env_id):
 
 
 def test_soak_covers_every_registered_env():
-    assert set(soak.SOAK_ENVS) == set(hydro_envs._ENVS)
+    assert set(soak.SOAK_ENVS) == {e.id for _, e in registry.env_entries()} and len(soak.SOAK_ENVS) == 5
 
 
 # ------------------------------------------------------------------ the checks can fail
 def _servo_batch(params, y0, nsub=None):
     P = params.to_array()[None, :]
     Y0 = np.asarray(y0, dtype=float)[None, :]
-    n_sub = rk4_substeps(sc.stiffness_modes(params), 1e-3)[0] if nsub is None else nsub
+    n_sub = substeps_from_stiffness(sc.stiffness_modes(params), 1e-3)[0] if nsub is None else nsub
     return P, Y0, np.array([n_sub], dtype=np.int64)
 
 
@@ -56,10 +56,10 @@ def _replay(P, Y0, NSUB, u=0.0):
     W = np.zeros((1, 5, sc.N_STATES))
     Yend = np.empty_like(Y0)
     out = np.zeros((1, 7))
-    soak.energy_replay(SERVO_CYLINDER, Y0, U, P, 1e-3, NSUB, W, Yend, out)
+    registry.get("servo_cylinder").module("energy").energy_replay(Y0, U, P, 1e-3, NSUB, W, Yend, out)
     # the replay is the env kernel's integration, bit for bit
     Yk = Y0.copy()
-    step_batch_parallel(SERVO_CYLINDER, Yk, U, P, 1e-3, NSUB, np.zeros_like(W), np.zeros(1, dtype=np.int64))
+    registry.get("servo_cylinder").kernels.step_parallel(Yk, U, P, 1e-3, NSUB, np.zeros_like(W), np.zeros(1, dtype=np.int64))
     assert np.array_equal(Yk, Yend)
     return out[0], Yend[0]
 
@@ -114,7 +114,7 @@ def test_force_actuator_free_piston_balance_and_static_friction_passivity(fricti
     static curve with negative levels is caught as non-passive."""
     p = dataclasses.replace(fa.ForceActuatorParams(), piston_locked=0.0, load_mass=0.5,
                             friction_model=friction_model)
-    n_sub = rk4_substeps(fa.stiffness_modes(p), 2e-4)[0]
+    n_sub = substeps_from_stiffness(fa.stiffness_modes(p), 2e-4)[0]
     P = p.to_array()[None, :]
     Y0 = fa.rest_state(p)[None, :]
     U = np.array([[p.rated_current]])
@@ -124,7 +124,7 @@ def test_force_actuator_free_piston_balance_and_static_friction_passivity(fricti
     for _ in range(200):  # 40 ms
         Yend = np.empty_like(Y0)
         out = np.zeros((1, 7))
-        soak.energy_replay(FORCE_ACTUATOR, Y0, U, P, 2e-4, NSUB, W, Yend, out)
+        registry.get("force_actuator").module("energy").energy_replay(Y0, U, P, 2e-4, NSUB, W, Yend, out)
         assert out[0, 5] == 0
         outs.append(out[0])
         Y0 = Yend
@@ -136,7 +136,7 @@ def test_force_actuator_free_piston_balance_and_static_friction_passivity(fricti
         P[0, fa.I_FC] = P[0, fa.I_FSR] = P[0, fa.I_FSE] = -30.0
         Y0[0, fa.VP] = 0.05
         out = np.zeros((1, 7))
-        soak.energy_replay(FORCE_ACTUATOR, Y0, U, P, 2e-4, NSUB, W, np.empty_like(Y0), out)
+        registry.get("force_actuator").module("energy").energy_replay(Y0, U, P, 2e-4, NSUB, W, np.empty_like(Y0), out)
         assert out[0, 5] > 0
 
 
@@ -147,15 +147,15 @@ def test_state_checks_fail_on_breached_states():
     flags = np.zeros((1, 2), dtype=np.int64)
     run = np.zeros((1, 6))
     ok = np.array([[0.03, 0.1, pm, pm, 0.0, 0.0]])
-    soak.state_breaches(SERVO_CYLINDER, ok, P, run, flags)
+    registry.get("servo_cylinder").module("energy").state_breaches(ok, P, run, flags)
     assert flags.tolist() == [[0, 0]]
     below = ok.copy()
     below[0, sc.P2] = 0.5 * p.pressure_floor
-    soak.state_breaches(SERVO_CYLINDER, below, P, run, flags)
+    registry.get("servo_cylinder").module("energy").state_breaches(below, P, run, flags)
     assert flags.tolist() == [[1, 0]]
     nan = ok.copy()
     nan[0, sc.P1] = math.nan
-    soak.state_breaches(SERVO_CYLINDER, nan, P, run, flags)
+    registry.get("servo_cylinder").module("energy").state_breaches(nan, P, run, flags)
     assert flags[0, 0] == 1
     # penetration: running maxima v = 0.1 m/s, F = 0 N (p1 = p2, no load) -> tolerance
     # 2 (2 F/k + v sqrt(m/k)) = 0.2 sqrt(m/k) = 70 nm
@@ -163,11 +163,11 @@ def test_state_checks_fail_on_breached_states():
     tol = 2.0 * 0.1 * math.sqrt(p.mass / p.stop_stiffness)
     inside = ok.copy()
     inside[0, sc.X] = p.stroke + 0.9 * tol
-    soak.state_breaches(SERVO_CYLINDER, inside, P, run, flags)
+    registry.get("servo_cylinder").module("energy").state_breaches(inside, P, run, flags)
     assert flags.tolist() == [[0, 0]]
     out = ok.copy()
     out[0, sc.X] = p.stroke + 1.1 * tol
-    soak.state_breaches(SERVO_CYLINDER, out, P, run, flags)
+    registry.get("servo_cylinder").module("energy").state_breaches(out, P, run, flags)
     assert flags.tolist() == [[0, 1]]
 
 

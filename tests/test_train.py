@@ -124,7 +124,7 @@ def test_resolved_config_round_trips(ppo_run, sac_run):
 
 
 def test_shipped_configs_resolve_for_every_env():
-    ids = sorted(k for k in hydro_envs._ENVS)
+    ids = sorted(e.id for _, e in hydro_envs.registry.env_entries())
     for algo in T.ALGOS:
         data = yaml.safe_load(T.config_path(algo).read_text())
         assert sorted(data) == ids, algo

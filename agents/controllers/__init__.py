@@ -74,7 +74,7 @@ class ZeroController:
 
 def _servo() -> dict[str, Callable[[], Any]]:
     from agents.controllers.friction_models import identified_friction
-    from hydro_envs.demo import ProportionalPositionController
+    from agents.controllers.servo import ProportionalPositionController
 
     return {
         "zero": lambda: ZeroController(1),

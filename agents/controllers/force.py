@@ -6,7 +6,7 @@ Observation (:mod:`hydro_envs.envs.force_actuator`): ``obs[0] = F_s/F_max``, ``o
 
 Tuning rule: Ziegler-Nichols from the plant's own limit-cycle experiment. 001 closes a
 proportional loop ``i = K_f (r - F_s)/F_max i_rated``; the env's validation helper
-(:func:`hydro_envs.plants.force_actuator.closed_loop_summary`, :func:`limit_cycle_sweep`) finds
+(:func:`hydro_envs.plants.force_actuator.closed_loop.closed_loop_summary`, :func:`limit_cycle_sweep`) finds
 the onset of the limit cycle at ``K_u = 6.2`` with period ``P_u = 5.0 ms`` (200 Hz) on the
 nominal plant. The ultimate-gain rules of Tyreus-Luyben (the robust variant of
 Ziegler-Nichols for lightly damped loops) give the PID::
@@ -28,7 +28,7 @@ from typing import Any
 import numpy as np
 
 from agents.controllers.core import BaseController, PIDCore
-from hydro_envs.plants.force_actuator import ForceActuatorParams
+from hydro_envs.plants.force_actuator.params import ForceActuatorParams
 
 __all__ = ["K_ULTIMATE", "P_ULTIMATE", "ForcePIDController", "force_tuning"]
 

@@ -49,10 +49,11 @@ def _servo_points():
 
 
 def _table_points():
-    from hydro_envs.plants import shaking_table as st
-    from hydro_envs.sim.kernels import SHAKING_TABLE, step_batch_serial
-    from hydro_envs.sim.stiffness import rk4_substeps
+    from hydro_envs import registry
+    from hydro_envs.plants.shaking_table import model as st
+    from hydro_envs.sim.stiffness import substeps_from_stiffness
 
+    step = registry.get("shaking_table").kernels.step_serial
     p = st.ShakingTableParams.preset("modified_ifas")
     dt = 1e-3
     half = 0.5 * p.stroke
@@ -62,7 +63,7 @@ def _table_points():
     y = np.stack([st.rest_state(p, -0.95 * half * np.sign(c)) for c in commands])
     U = (commands * p.command_max).reshape(n, 1)
     P = np.tile(p.to_array(), (n, 1))
-    nsub = np.full(n, rk4_substeps(st.stiffness_modes(p), dt)[0], dtype=np.int64)
+    nsub = np.full(n, substeps_from_stiffness(st.stiffness_modes(p), dt)[0], dtype=np.int64)
     W = np.zeros((n, 5, st.N_STATES))
     clamps = np.zeros(n, dtype=np.int64)
     lo, hi = -0.2 * half * 2, 0.2 * half * 2  # middle 40 % of the stroke
@@ -70,7 +71,7 @@ def _table_points():
     x_in, t_in = np.full(n, np.nan), np.zeros(n)
     done = np.zeros(n, dtype=bool)
     for k in range(int(60.0 / dt)):
-        step_batch_serial(SHAKING_TABLE, y, U, P, dt, nsub, W, clamps)
+        step(y, U, P, dt, nsub, W, clamps)
         x = y[:, st.X]
         inside = (x > lo) & (x < hi) & ~done
         first = inside & np.isnan(x_in)
@@ -90,13 +91,15 @@ def _table_points():
 
 
 def _rodless_points():
-    from hydro_envs.plants import rodless_cylinder as rc
+    from hydro_envs.plants.rodless_cylinder import model as rc
+
+    from hydro_envs.plants.rodless_cylinder.experiments import constant_command_run
 
     p = rc.RodlessCylinderParams()
     du = np.geomspace(0.03, 2.5, 24)
     vs, fs = [], []
     for c in np.concatenate([p.command_centre + du, p.command_centre - du]):
-        v, f, _ = rc.constant_command_run(p, float(c), max_time=10.0)
+        v, f, _ = constant_command_run(p, float(c), max_time=10.0)
         if np.isfinite(v):
             vs.append(v)
             fs.append(f)

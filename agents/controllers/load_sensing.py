@@ -38,8 +38,8 @@ from typing import Any
 import numpy as np
 
 from agents.controllers.core import BaseController, PIDCore
-from hydro_envs.plants import ls_circuit as plant
-from hydro_envs.plants.ls_circuit import LSCircuitParams
+from hydro_envs.plants.ls_circuit import model as plant
+from hydro_envs.plants.ls_circuit.params import LSCircuitParams
 
 __all__ = ["LoadSensingPIDController", "PassiveCompensatorBaseline", "ls_tuning"]
 

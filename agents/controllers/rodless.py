@@ -34,10 +34,8 @@ from typing import Any
 import numpy as np
 
 from agents.controllers.servo import PIDController
-from hydro_envs.plants.rodless_cylinder import (
-    RodlessCylinderParams,
-    linearize_mid_stroke,
-)
+from hydro_envs.plants.rodless_cylinder.params import RodlessCylinderParams
+from hydro_envs.plants.rodless_cylinder.model import linearize_mid_stroke
 
 __all__ = ["RodlessFrictionFeedforwardController", "RodlessPIDController", "rodless_tuning"]
 

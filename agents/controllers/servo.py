@@ -27,7 +27,7 @@ and place the crossover at half that limit (6 dB gain margin):
                                                      well below the resonance)
     T_t     = T_i                                  (back-calculation tracking time)
 
-The P controller of :mod:`hydro_envs.demo` uses ``K_v = 40 1/s`` and no integral action.
+The P controller (:class:`ProportionalPositionController`) uses ``K_v = 40 1/s`` and no integral action.
 
 Discrete law (``dt = 1 ms``, backward Euler), ``e = r - x_meas`` in metres::
 
@@ -51,11 +51,8 @@ from typing import Any
 
 import numpy as np
 
-from hydro_envs.plants.servo_cylinder import (
-    ServoCylinderParams,
-    hydraulic_natural_frequency,
-    no_load_velocity,
-)
+from hydro_envs.plants.servo_cylinder.params import ServoCylinderParams
+from hydro_envs.plants.servo_cylinder.model import hydraulic_natural_frequency, no_load_velocity
 
 __all__ = [
     "DT",
@@ -299,3 +296,29 @@ class ServoFlowController:
         self.integral = self.integral + np.where(grow, self.dt * self.omega_c / self.ti * e, 0.0)
         act = a.astype(np.float32)[:, None]
         return (act[0] if single else act), state
+
+
+#: bandwidth of :class:`ProportionalPositionController`'s loop [1/s]
+LOOP_BANDWIDTH = 40.0
+
+
+class ProportionalPositionController:
+    """``a = K_p (r - x)`` on the env observation (SB3-style ``predict``).
+
+    The classical loop for a valve-controlled cylinder: the plant is an integrator with
+    velocity gain ``K_q = v_noload`` per unit action (orifice law, 002 eqs (3)-(5)), so
+    ``a = K_p e`` closes a first-order loop with bandwidth ``K_q K_p``, placed at
+    :data:`LOOP_BANDWIDTH` = 40 1/s, well below the usual stability limit ``2 zeta_h omega_h``
+    of a valve-controlled cylinder (omega_h = 680 rad/s at the stroke end, zeta_h ~ 0.1 gives
+    136 1/s)."""
+
+    def __init__(self, nominal: ServoCylinderParams | None = None, error_scale: float = 0.01,
+                 bandwidth: float = LOOP_BANDWIDTH) -> None:
+        nominal = nominal or ServoCylinderParams()
+        self.kp = bandwidth / no_load_velocity(nominal)  # action per metre of error
+        self.error_scale = error_scale
+
+    def predict(self, obs, state=None, episode_start=None, deterministic=True):
+        obs = np.asarray(obs)
+        error = obs[..., 0:1] * self.error_scale  # obs[0] = e / error_scale
+        return np.clip(self.kp * error, -1.0, 1.0).astype(np.float32), state

@@ -43,8 +43,8 @@ from typing import Any
 import numpy as np
 
 from agents.controllers.core import BaseController, PIDCore, check_positive
-from hydro_envs.plants import shaking_table as st
-from hydro_envs.plants.shaking_table import ShakingTableParams
+from hydro_envs.plants.shaking_table import model as st
+from hydro_envs.plants.shaking_table.params import ShakingTableParams
 
 __all__ = [
     "LAMBDA_V",

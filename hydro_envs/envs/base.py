@@ -5,14 +5,14 @@ A task (servo position tracking, table acceleration tracking, ...) subclasses
 episode draw (initial state, reference, sensor noise), the observation/reward kernel, the
 spaces and the sensor channels. Everything else lives here once:
 
-* parameters: nominal set, declarative randomisation (``configs/randomization/<plant>.yaml``),
+* parameters: nominal set, declarative randomisation (the plant's ``randomization.yaml``),
   ``reset(options={"params": ...})`` overrides, per-copy RK4 sub-steps from the plant's
   stiffness bound;
 * seeding: every copy draws from its own ``np.random.Generator``; a vector env reset with seed
   ``s`` seeds copy ``i`` with ``s + i`` (as ``SyncVectorEnv`` does), so copy ``i`` reproduces
   a single env reset with seed ``s + i`` bit for bit;
-* stepping: :func:`hydro_envs.sim.kernels.step_batch_serial` for the single env (entering a
-  parallel region costs more than a whole env step), ``step_batch_parallel`` for vector envs;
+* stepping: the plant's compiled ``step_serial`` for the single env (entering a parallel
+  region costs more than a whole env step), ``step_parallel`` for vector envs;
 * :class:`BatchedEnv` (a ``gymnasium.Env`` that is a view on a batch of one) and
   :class:`BatchedVectorEnv` (a ``gymnasium.vector.VectorEnv`` with NEXT_STEP or SAME_STEP
   autoreset and per-copy truncation).
@@ -33,8 +33,8 @@ from gymnasium.vector.utils import batch_space
 
 from hydro_envs.params import PhysicalParams
 from hydro_envs.randomization import RandomizationSpec, load_randomization
-from hydro_envs.sim.kernels import step_batch_parallel, step_batch_serial
-from hydro_envs.sim.stiffness import DEFAULT_SAFETY, rk4_substeps
+from hydro_envs.sim.stiffness import DEFAULT_SAFETY, substeps_from_stiffness
+from hydro_envs.spec import PlantSpec
 
 __all__ = ["PlantBatch", "BatchedEnv", "BatchedVectorEnv", "check_actions", "check_nonnegative"]
 
@@ -81,12 +81,12 @@ class PlantBatch:
     Subclasses set the class attributes and implement the ``task`` hooks below.
     """
 
-    #: plant module: PLANT (name), N_STATES, STATE_NAMES, stiffness_modes(params)
+    #: the plant's registry entry (hydro_envs.registry)
+    plant_spec: ClassVar[PlantSpec]
+    #: plant model module: N_STATES, STATE_NAMES, stiffness_modes(params)
     plant: ClassVar[ModuleType]
     #: the plant's validated parameter dataclass
     params_cls: ClassVar[type[PhysicalParams]]
-    #: plant id of the kernel dispatch (hydro_envs.sim.kernels)
-    kernel_id: ClassVar[int]
     #: control period [s] and episode length [steps]
     dt: ClassVar[float]
     episode_steps_default: ClassVar[int]
@@ -123,12 +123,14 @@ class PlantBatch:
             self.spec: RandomizationSpec | None = (
                 randomization
                 if isinstance(randomization, RandomizationSpec)
-                else load_randomization(self.plant.PLANT, self.params_cls, randomization)
+                else load_randomization(self.plant_spec.name, self.params_cls, randomization)
             )
         else:
             self.spec = None
         self.n = n
         self.parallel = parallel
+        kernels = self.plant_spec.kernels
+        self.step_kernel = kernels.step_parallel if parallel else kernels.step_serial
         self.episode_steps = episode_steps
         self.safety = float(safety)
         ns = self.plant.N_STATES
@@ -179,7 +181,7 @@ class PlantBatch:
     # ------------------------------------------------------------------ generic
     def substeps_for(self, p: PhysicalParams) -> int:
         """RK4 sub-steps per env step for parameter set ``p`` (stiffness bound)."""
-        return rk4_substeps(self.plant.stiffness_modes(p), self.dt, self.safety)[0]
+        return substeps_from_stiffness(self.plant.stiffness_modes(p), self.dt, self.safety)[0]
 
     def state_from_options(self, y: np.ndarray, options: Mapping[str, Any]) -> None:
         """Overwrite entries of ``y`` from ``options['state']`` (names checked, finite)."""
@@ -218,8 +220,7 @@ class PlantBatch:
         self.prev_a[:] = self.last_a
         self.last_a[:] = actions
         self.apply_actions()
-        kernel = step_batch_parallel if self.parallel else step_batch_serial
-        kernel(self.kernel_id, self.Y, self.U, self.P, self.dt, self.NSUB, self.W, self.clamps)
+        self.step_kernel(self.Y, self.U, self.P, self.dt, self.NSUB, self.W, self.clamps)
         self.K += 1
         self.observe()
 
@@ -241,7 +242,7 @@ class BatchedEnv(gym.Env):
         self.action_space = self._batch.action_space()
         self.observation_space = self._batch.observation_space()
         self.dt = self._batch.dt
-        self.plant_name = self._batch.plant.PLANT
+        self.plant_name = self._batch.plant_spec.name
         self._params_info: dict[str, float] = {}
         self._history: list[tuple[float, ...]] = []
         self._dim = self._batch.action_dim
@@ -292,7 +293,7 @@ class BatchedEnv(gym.Env):
                 b.last_a[0] = b.prev_a[0]
                 raise
         b.apply_actions()
-        step_batch_serial(b.kernel_id, b.Y, b.U, b.P, b.dt, b.NSUB, b.W, b.clamps)
+        b.step_kernel(b.Y, b.U, b.P, b.dt, b.NSUB, b.W, b.clamps)
         b.K[0] += 1
         b.observe()
         if self.render_mode is not None:
@@ -350,7 +351,7 @@ class BatchedVectorEnv(VectorEnv):
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self.dt = self._batch.dt
-        self.plant_name = self._batch.plant.PLANT
+        self.plant_name = self._batch.plant_spec.name
         self.render_mode = None
         self._needs_reset = np.zeros(self.num_envs, dtype=bool)
         self._params_info: dict[str, np.ndarray] = {}

@@ -36,10 +36,8 @@ module) and ``params`` (this episode's parameter set).
 stiffness bound (:func:`hydro_envs.plants.force_actuator.stiffness_modes`): 5 for the nominal
 plant (h = 40 us), set by the Dahl friction state.
 
-Closed-loop helpers for the validation rows (:func:`proportional_loop`,
-:func:`closed_loop_frequency_response`, :func:`limit_cycle_sweep`) run proportional force
-control ``i = K_f (r - F_s) / F_max * i_rated`` (Kf between normalised signals, see
-:func:`proportional_loop`) for a whole batch of copies in one parallel numba call.
+Closed-loop proportional force control of the plant (001 sec. 4.7: bandwidth, limit cycle) is in
+:mod:`hydro_envs.plants.force_actuator.closed_loop`.
 """
 
 from __future__ import annotations
@@ -53,10 +51,9 @@ from gymnasium import spaces
 
 from hydro_envs.envs.base import BatchedEnv, BatchedVectorEnv, PlantBatch, check_nonnegative
 from hydro_envs.envs.render import render_cylinder
-from hydro_envs.plants import force_actuator as plant
-from hydro_envs.plants.force_actuator import ForceActuatorParams
-from hydro_envs.sim.kernels import FORCE_ACTUATOR, rk4_substeps
-from hydro_envs.sim.stiffness import rk4_substeps as substeps_from_modes
+from hydro_envs.plants.force_actuator import model as plant
+from hydro_envs.plants.force_actuator.params import ForceActuatorParams
+from hydro_envs.plants.force_actuator.spec import SPEC
 
 __all__ = [
     "ForceActuatorEnv",
@@ -64,9 +61,6 @@ __all__ = [
     "ForceActuatorBatch",
     "FORCE_REFERENCE_KINDS",
     "generate_force_reference",
-    "proportional_loop",
-    "closed_loop_frequency_response",
-    "limit_cycle_sweep",
 ]
 
 DT = 2e-4
@@ -158,9 +152,9 @@ def observation_space() -> spaces.Box:
 class ForceActuatorBatch(PlantBatch):
     """Force-tracking episodes of the seed-001 actuator (see the module docstring)."""
 
+    plant_spec = SPEC
     plant = plant
     params_cls = ForceActuatorParams
-    kernel_id = FORCE_ACTUATOR
     dt = DT
     episode_steps_default = EPISODE_STEPS
     obs_dim = OBS_DIM
@@ -270,126 +264,3 @@ class ForceActuatorEnv(BatchedEnv):
 class ForceActuatorVectorEnv(BatchedVectorEnv):
     __doc__ = BatchedVectorEnv.__doc__
     batch_cls = ForceActuatorBatch
-
-
-# ------------------------------------------------------------------ closed-loop helpers
-@nb.njit(cache=True, error_model="numpy", parallel=True)
-def _proportional_loop(Y, P, NSUB, REF, KF, dt, OUT, VMAX):
-    n, n_steps = REF.shape
-    for i in nb.prange(n):
-        y = Y[i]
-        work = np.zeros((5, y.shape[0]))
-        u = np.zeros(1)
-        fmax = P[i, plant.I_A1] * P[i, plant.I_PS]
-        i_rated = P[i, plant.I_IR]
-        i_max = P[i, plant.I_IMAX]
-        h = dt / NSUB[i]
-        for k in range(n_steps):
-            fs = P[i, plant.I_KS] * y[plant.XS]
-            OUT[i, k] = fs
-            c = KF[i] * (REF[i, k] - fs) / fmax * i_rated
-            u[0] = min(max(c, -i_max), i_max)
-            rk4_substeps(FORCE_ACTUATOR, y, u, P[i], h, NSUB[i], work)
-            v = abs(y[plant.VS] + y[plant.VP])
-            if v > VMAX[i]:
-                VMAX[i] = v
-
-
-def proportional_loop(
-    params: ForceActuatorParams | Sequence[ForceActuatorParams],
-    reference: np.ndarray,
-    kf: float | np.ndarray,
-    dt: float = DT,
-) -> tuple[np.ndarray, np.ndarray]:
-    """Proportional force control of a batch: returns sensed forces ``(n, steps)`` [N] and each
-    copy's peak relative piston speed [m/s].
-
-    ``i = K_f (r - F_s) / F_max * i_rated`` held over each ``dt`` (the env's 5 kHz loop), clipped
-    to the driver range. 001 does not print the unit of ``K_f`` (its on-board analog card);
-    we read it as the gain between normalised signals: force error as a fraction of the
-    maximum thrust, current as a fraction of the rated current. Row ``j`` of ``reference``
-    runs with ``kf[j]`` and ``params[j]`` (or one set for all) from the rest state.
-    """
-    reference = np.atleast_2d(np.asarray(reference, dtype=np.float64))
-    n = reference.shape[0]
-    plist = [params] * n if isinstance(params, ForceActuatorParams) else list(params)
-    if len(plist) != n:
-        raise ValueError(f"need {n} parameter sets, got {len(plist)}")
-    P = np.stack([q.to_array() for q in plist])
-    Y = np.stack([plant.rest_state(q) for q in plist])
-    NSUB = np.array([substeps_from_modes(plant.stiffness_modes(q), dt)[0] for q in plist], dtype=np.int64)
-    KF = np.broadcast_to(np.asarray(kf, dtype=np.float64), (n,)).copy()
-    out = np.zeros(reference.shape)
-    vmax = np.zeros(n)
-    _proportional_loop(Y, P, NSUB, np.ascontiguousarray(reference), KF, dt, out, vmax)
-    return out, vmax
-
-
-def _first_harmonic(x: np.ndarray, f: float, dt: float, t_start: float) -> complex:
-    t = dt * np.arange(x.size)
-    m = t >= t_start
-    tt = t[m]
-    n_per = math.floor((tt[-1] - tt[0]) * f)
-    keep = tt < tt[0] + n_per / f
-    return complex(2.0 * np.mean(x[m][keep] * np.exp(-2j * math.pi * f * tt[keep])))
-
-
-def closed_loop_frequency_response(
-    params: ForceActuatorParams,
-    kf: float,
-    amplitudes: Sequence[float],
-    frequencies: Sequence[float],
-    bias: float = 0.0,
-    duration: float = 0.5,
-    settle: float = 0.2,
-) -> np.ndarray:
-    """First-harmonic closed-loop response ``F_s / r`` ``(len(amplitudes), len(frequencies))``
-    to sines ``bias + A sin(2 pi f t)`` (one batch copy per amplitude and frequency)."""
-    n = int(round(duration / DT))
-    t = DT * np.arange(n)
-    cases = [(a, f) for a in amplitudes for f in frequencies]
-    ref = np.stack([bias + a * np.sin(2 * math.pi * f * t) for a, f in cases])
-    out, _ = proportional_loop(params, ref, kf)
-    h = [
-        _first_harmonic(out[j] - bias, f, DT, settle) / _first_harmonic(ref[j] - bias, f, DT, settle)
-        for j, (_, f) in enumerate(cases)
-    ]
-    return np.array(h).reshape(len(amplitudes), len(frequencies))
-
-
-def bandwidth(frequencies: np.ndarray, response: np.ndarray, drop_db: float = 3.0) -> float:
-    """First frequency where ``|H| / |H(f_0)|`` falls below ``-drop_db`` (linear interpolation
-    in log frequency); nan if it never does."""
-    mag = 20 * np.log10(np.abs(response) / abs(response[0]))
-    below = np.flatnonzero(mag < -drop_db)
-    if below.size == 0:
-        return float("nan")
-    j = below[0]
-    if j == 0:
-        return float(frequencies[0])
-    f0, f1, m0, m1 = math.log(frequencies[j - 1]), math.log(frequencies[j]), mag[j - 1], mag[j]
-    return float(math.exp(f0 + (f1 - f0) * (-drop_db - m0) / (m1 - m0)))
-
-
-def limit_cycle_sweep(
-    params: ForceActuatorParams,
-    gains: Sequence[float],
-    level: float = 100.0,
-    duration: float = 0.4,
-    window: float = 0.1,
-    threshold: float = 20.0,
-) -> tuple[np.ndarray, np.ndarray]:
-    """Peak-to-peak sensed-force oscillation [N] and its frequency [Hz] over the last
-    ``window`` seconds after a reference step 0 -> ``level`` N, one copy per gain.
-
-    A copy is in a limit cycle when the peak-to-peak amplitude exceeds ``threshold``.
-    """
-    n = int(round(duration / DT))
-    ref = np.full((len(gains), n), float(level))
-    out, _ = proportional_loop(params, ref, np.asarray(gains, dtype=float))
-    w = int(round(window / DT))
-    seg = out[:, -w:]
-    pp = seg.max(axis=1) - seg.min(axis=1)
-    freqs = np.fft.rfftfreq(w, DT)
-    fr = np.array([freqs[np.argmax(np.abs(np.fft.rfft((s - s.mean()) * np.hanning(w))))] for s in seg])
-    return pp, np.where(pp > threshold, fr, np.nan)

@@ -38,7 +38,7 @@ a_{k-1}|^2`` with true (noise-free) values after the step.
 
 **Episode**: 1 kHz (``dt = 1 ms``), truncated after 2000 steps (2 s); no termination.
 
-**Reset** draws the parameters from ``configs/randomization/ls_circuit.yaml`` (oil temperature
+**Reset** draws the parameters from the plant's ``randomization.yaml`` (oil temperature
 22-40 C, i.e. the compensator's viscous coefficient c = 3.5-9 N s/m of 000 Fig. 14, load mass,
 load force, bulk modulus), a demand profile (``steps``, ``ramps`` or ``mixed``: 0.1-0.3 s at
 rest, then one to three levels in 0.02-0.15 m/s, reached by steps or 50-300 ms ramps), and the
@@ -66,9 +66,9 @@ import numpy as np
 from gymnasium import spaces
 
 from hydro_envs.envs.base import BatchedEnv, BatchedVectorEnv, PlantBatch, check_nonnegative
-from hydro_envs.plants import ls_circuit as plant
-from hydro_envs.plants.ls_circuit import LSCircuitParams
-from hydro_envs.sim.kernels import LS_CIRCUIT, step_batch_serial
+from hydro_envs.plants.ls_circuit import model as plant
+from hydro_envs.plants.ls_circuit.params import LSCircuitParams
+from hydro_envs.plants.ls_circuit.spec import SPEC
 
 __all__ = ["LoadSensingEnv", "LoadSensingVectorEnv", "LoadSensingBatch", "REFERENCE_KINDS", "generate_demand"]
 
@@ -178,9 +178,9 @@ def observation_space() -> spaces.Box:
 class LoadSensingBatch(PlantBatch):
     """Load-sensing velocity-delivery episodes (see the module docstring)."""
 
+    plant_spec = SPEC
     plant = plant
     params_cls = LSCircuitParams
-    kernel_id = LS_CIRCUIT
     dt = DT
     episode_steps_default = EPISODE_STEPS
     action_dim = 2
@@ -231,9 +231,8 @@ class LoadSensingBatch(PlantBatch):
         self.Y[i] = plant.standby_state(p, xa0)
         # settle at standby (CV closed, no force) so the episode starts from rest
         n_settle = int(round(SETTLE_TIME / DT))
-        tmp = np.zeros(1, dtype=np.int64)
-        step_batch_serial(LS_CIRCUIT, self.Y[i : i + 1], np.zeros((1, 2)), self.P[i : i + 1],
-                          SETTLE_TIME, self.NSUB[i : i + 1] * n_settle, self.W[i : i + 1], tmp)
+        SPEC.kernels.step_serial(self.Y[i : i + 1], np.zeros((1, 2)), self.P[i : i + 1], SETTLE_TIME,
+                                 self.NSUB[i : i + 1] * n_settle, self.W[i : i + 1], np.zeros(1, dtype=np.int64))
         self.Y[i, plant.XA] = xa0
         self.Y[i, plant.VA] = 0.0
         self.state_from_options(self.Y[i], options)

@@ -31,7 +31,7 @@ randomised plant (0.35 m/s).
 **Episode**: 1 kHz control (``dt = 1 ms``), truncated after 2000 steps (2 s) by the registered
 ``max_episode_steps``; no termination (stops and guards keep the state physical).
 
-**Reset**: draws the plant parameters from ``configs/randomization/rodless_cylinder.yaml``
+**Reset**: draws the plant parameters from the plant's ``randomization.yaml``
 (Stribeck parameters +-30 %, slider + payload mass 0.4-2 kg, supply 0.4-0.7 MPa gauge) unless
 ``randomize=False``, a reference, and a rest state: slider in the middle half of the stroke,
 spool at the centre, both chambers at the valve's centre equilibrium pressure p_0 (leakage in
@@ -71,9 +71,9 @@ from hydro_envs.envs.cylinder_tracking import (
     observation_space,
 )
 from hydro_envs.envs.references import REFERENCE_KINDS, generate_reference
-from hydro_envs.plants import rodless_cylinder as plant
-from hydro_envs.plants.rodless_cylinder import RodlessCylinderParams
-from hydro_envs.sim.kernels import RODLESS_CYLINDER
+from hydro_envs.plants.rodless_cylinder import model as plant
+from hydro_envs.plants.rodless_cylinder.params import RodlessCylinderParams
+from hydro_envs.plants.rodless_cylinder.spec import SPEC
 
 __all__ = [
     "RodlessCylinderEnv",
@@ -104,9 +104,9 @@ def _apply_actions(last_a, P, U):
 class RodlessCylinderBatch(CylinderTrackingBatch):
     """Rodless-cylinder positioning / tracking episodes (see the module docstring)."""
 
+    plant_spec = SPEC
     plant = plant
     params_cls = RodlessCylinderParams
-    kernel_id = RODLESS_CYLINDER
     dt = DT
     episode_steps_default = EPISODE_STEPS
     position_index = plant.Y

@@ -23,7 +23,7 @@ position error ``e`` after the step (sensor noise does not enter the reward).
 **Episode**: 1 kHz control (``dt = 1 ms``), truncated after 2000 steps (2 s) by the registered
 ``max_episode_steps``; no termination (the stops and guards keep the state physical).
 
-**Reset**: draws the plant parameters from ``configs/randomization/servo_cylinder.yaml``
+**Reset**: draws the plant parameters from the plant's ``randomization.yaml``
 (unless ``randomize=False``), a reference (``steps``, ``smooth``, ``sine``, ``chirp`` or
 ``mixed``) and a rest state with the piston in the middle half of the stroke and both chambers
 at the valve's null pressure ``(p_s + p_R)/2``. ``reset(options=...)`` accepts ``params`` (a
@@ -36,7 +36,7 @@ values) and ``reference`` (a kind name or an array of positions [m], one per ste
 **Numerics**: every env step is one call of the compiled batch kernel; the number of RK4
 sub-steps is chosen each episode from the drawn parameters' stiffness bound
 (:func:`hydro_envs.plants.servo_cylinder.stiffness_modes`,
-:func:`hydro_envs.sim.stiffness.rk4_substeps`): 3 for the nominal plant (h = 0.33 ms).
+:func:`hydro_envs.sim.stiffness.substeps_from_stiffness`): 3 for the nominal plant (h = 0.33 ms).
 """
 
 from __future__ import annotations
@@ -53,9 +53,9 @@ from hydro_envs.envs.cylinder_tracking import (
     observation_space,
 )
 from hydro_envs.envs.references import REFERENCE_KINDS, generate_reference
-from hydro_envs.plants import servo_cylinder as plant
-from hydro_envs.plants.servo_cylinder import ServoCylinderParams
-from hydro_envs.sim.kernels import SERVO_CYLINDER
+from hydro_envs.plants.servo_cylinder import model as plant
+from hydro_envs.plants.servo_cylinder.params import ServoCylinderParams
+from hydro_envs.plants.servo_cylinder.spec import SPEC
 
 __all__ = ["ServoCylinderPositionEnv", "ServoCylinderPositionVectorEnv", "ServoCylinderBatch", "observation_space",
            "OBS_DIM", "PREVIEW_STEPS"]
@@ -71,9 +71,9 @@ REF_RATE_FRACTION = 0.6
 class ServoCylinderBatch(CylinderTrackingBatch):
     """Servo-cylinder position-tracking episodes (see the module docstring)."""
 
+    plant_spec = SPEC
     plant = plant
     params_cls = ServoCylinderParams
-    kernel_id = SERVO_CYLINDER
     dt = DT
     episode_steps_default = EPISODE_STEPS
     position_index = plant.X

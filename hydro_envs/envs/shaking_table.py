@@ -3,7 +3,7 @@ r"""Acceleration tracking with the servo-hydraulic shaking table (seed 003).
 ``hydro_envs/ShakingTable-v0``: the agent drives the proportional valve (Bosch-Rexroth 4WS.2E)
 of a 650 kg uni-axial table with a 0-500 kg specimen so that the *table acceleration* follows
 a reference -- sines 0.5-15 Hz, pulses, amplitude transitions (003 eq (23)) and synthetic
-earthquakes (:mod:`hydro_envs.envs.table_references`) -- while keeping the table inside its
+earthquakes (:mod:`hydro_envs.envs.shaking_table_references`) -- while keeping the table inside its
 260 mm stroke. It observes only what the rig measures (sec. 2): the potentiometer position,
 the accelerometer, the velocity the paper derived from the position (sec. 4: differentiated,
 8th-order Butterworth at 40 Hz), plus the reference. Plant physics:
@@ -33,7 +33,7 @@ after the step (sensor noise does not enter the reward); defaults 0.01 and 0.25.
 by the registered ``max_episode_steps``; no termination (end stops and guards keep the state
 physical; the position penalty discourages drifting into them).
 
-**Reset**: draws the plant from ``configs/randomization/shaking_table.yaml`` (unless
+**Reset**: draws the plant from the plant's ``randomization.yaml`` (unless
 ``randomize=False``) on top of the ``preset`` (``modified_ifas`` default, ``ifas``,
 ``constant``; 003 Table 2), a reference of kind ``reference`` and a rest state: table within
 +-13 mm of mid-stroke, spool centred, both chambers at the valve's null pressure
@@ -65,15 +65,16 @@ from gymnasium import spaces
 
 from hydro_envs.envs.base import BatchedEnv, BatchedVectorEnv, PlantBatch, check_nonnegative
 from hydro_envs.envs.render import render_cylinder
-from hydro_envs.envs.table_references import (
+from hydro_envs.envs.shaking_table_references import (
     TABLE_REFERENCE_KINDS,
     generate_table_reference,
     reference_limits,
 )
 from hydro_envs.laws.filters import butterworth_lowpass_sos, sos_filter_step
-from hydro_envs.plants import shaking_table as plant
-from hydro_envs.plants.shaking_table import SPECIMENS, ShakingTableParams, table_acceleration
-from hydro_envs.sim.kernels import SHAKING_TABLE
+from hydro_envs.plants.shaking_table import model as plant
+from hydro_envs.plants.shaking_table.model import table_acceleration
+from hydro_envs.plants.shaking_table.params import SPECIMENS, ShakingTableParams
+from hydro_envs.plants.shaking_table.spec import SPEC
 
 __all__ = [
     "ShakingTableEnv",
@@ -215,9 +216,9 @@ def _specimen_mass(value: str | float) -> float:
 class ShakingTableBatch(PlantBatch):
     """Shaking-table acceleration-tracking episodes (see the module docstring)."""
 
+    plant_spec = SPEC
     plant = plant
     params_cls = ShakingTableParams
-    kernel_id = SHAKING_TABLE
     dt = DT
     episode_steps_default = EPISODE_STEPS
     obs_dim = OBS_DIM

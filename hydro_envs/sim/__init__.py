@@ -1,21 +1,15 @@
-"""Fixed-step compiled integration (RK4 sub-steps, batched) and stiff reference solves."""
+"""Fixed-step compiled integration (RK4 sub-steps, batched), sub-steps from the stiffness
+bound, batched trajectories (:func:`simulate`) and stiff reference solves."""
 
-from hydro_envs.sim.kernels import (
-    SERVO_CYLINDER,
-    plant_guard,
-    plant_rhs,
-    rk4_substeps,
-    step_batch_parallel,
-    step_batch_serial,
-)
-from hydro_envs.sim.stiffness import rk4_substeps as substeps_from_stiffness
+from hydro_envs.sim.rk4 import rk4_advance, rk4_trajectory
+from hydro_envs.sim.simulate import simulate, substeps
+from hydro_envs.sim.stiffness import DEFAULT_SAFETY, substeps_from_stiffness
 
 __all__ = [
-    "SERVO_CYLINDER",
-    "plant_guard",
-    "plant_rhs",
-    "rk4_substeps",
-    "step_batch_parallel",
-    "step_batch_serial",
+    "DEFAULT_SAFETY",
+    "rk4_advance",
+    "rk4_trajectory",
+    "simulate",
+    "substeps",
     "substeps_from_stiffness",
 ]

@@ -8,16 +8,16 @@ every change of the input so it never integrates across a discontinuity. This is
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 from scipy.integrate import solve_ivp
-
-from hydro_envs.sim.kernels import plant_rhs
 
 __all__ = ["reference_rollout"]
 
 
 def reference_rollout(
-    plant_id: int,
+    spec: Any,
     y0: np.ndarray,
     inputs: np.ndarray,
     params: np.ndarray,
@@ -26,10 +26,12 @@ def reference_rollout(
     rtol: float = 1e-10,
     atol: np.ndarray | float = 1e-12,
 ) -> np.ndarray:
-    """States at ``t = 0, dt, ..., n dt`` under ``inputs`` of shape ``(n, n_inputs)``.
+    """States at ``t = 0, dt, ..., n dt`` of plant ``spec`` (a :class:`hydro_envs.spec.PlantSpec`)
+    under ``inputs`` of shape ``(n, n_inputs)``, input row ``k`` held over ``[k dt, (k+1) dt)``.
 
     Consecutive equal input rows are integrated in one solve. Returns ``(n + 1, n_states)``.
     """
+    plant_rhs = spec.kernels.rhs
     inputs = np.atleast_2d(np.asarray(inputs, dtype=np.float64))
     params = np.ascontiguousarray(params, dtype=np.float64)
     y = np.array(y0, dtype=np.float64)
@@ -45,7 +47,7 @@ def reference_rollout(
 
         def f(_t, state, u=u):
             dy = np.empty_like(state)
-            plant_rhs(plant_id, np.ascontiguousarray(state), u, params, dy)
+            plant_rhs(np.ascontiguousarray(state), u, params, dy)
             return dy
 
         t_eval = dt * np.arange(k + 1, k_end + 1)

@@ -21,7 +21,7 @@ from __future__ import annotations
 import math
 from typing import Mapping
 
-__all__ = ["RK4_REAL_STABILITY_LIMIT", "DEFAULT_SAFETY", "rk4_substeps", "rk4_amplification"]
+__all__ = ["RK4_REAL_STABILITY_LIMIT", "DEFAULT_SAFETY", "substeps_from_stiffness", "rk4_amplification"]
 
 RK4_REAL_STABILITY_LIMIT = 2.785293563405282  # the z < 0 with R(z) = 1: the real-axis edge
 DEFAULT_SAFETY = 0.8
@@ -32,7 +32,7 @@ def rk4_amplification(z: complex) -> complex:
     return 1 + z + z * z / 2 + z**3 / 6 + z**4 / 24
 
 
-def rk4_substeps(
+def substeps_from_stiffness(
     modes: Mapping[str, float], dt: float, safety: float = DEFAULT_SAFETY
 ) -> tuple[int, float, str]:
     """Number of RK4 sub-steps per ``dt``, the sub-step, and the mode that set it."""

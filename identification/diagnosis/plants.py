@@ -1,6 +1,6 @@
 r"""What the diagnosis workflow needs to know about each plant.
 
-A :class:`DiagnosisPlant` names the plant's parameter dataclass and kernel, its input and
+A :class:`DiagnosisPlant` names the plant's parameter dataclass, its input and
 measured channels (:mod:`hydro_envs.data.channels` names), the *base-fit* parameters that are
 calibrated in every model (quantities every rig needs calibrated whatever effects it has:
 mass, viscous damping, oil stiffness, valve gain), how to estimate the full state at the
@@ -46,7 +46,6 @@ class DiagnosisPlant:
 
     name: str
     params_factory: Callable[[], PhysicalParams]  # nominal parameters
-    kernel_id: int
     n_states: int
     inputs: tuple[str, ...]
     outputs: Mapping[str, int | Callable[[np.ndarray, np.ndarray], np.ndarray]]  # channel -> state index
@@ -121,8 +120,7 @@ def _multisine(f_lo: float, f_hi: float, n: int):
 
 # ------------------------------------------------------------------------------- slider
 def _slider() -> DiagnosisPlant:
-    from hydro_envs.plants import slider as sl
-    from hydro_envs.sim.kernels import SLIDER
+    from hydro_envs.plants.slider import model as sl
 
     def init(params, m):
         return np.array([m["x"], m.get("v", 0.0)])
@@ -134,7 +132,7 @@ def _slider() -> DiagnosisPlant:
         return float(np.clip(f, -params.force_max, params.force_max))
 
     return DiagnosisPlant(
-        name="slider", params_factory=sl.SliderParams, kernel_id=SLIDER, n_states=sl.N_STATES,
+        name="slider", params_factory=sl.SliderParams, n_states=sl.N_STATES,
         inputs=("f",), outputs={"x": sl.X}, derivative_outputs={}, required=("f", "x"),
         base_fit=("mass", "viscous_friction"),
         # 1 um encoder, 0.02 N load cell
@@ -147,8 +145,7 @@ def _slider() -> DiagnosisPlant:
 
 # ------------------------------------------------------------------------------- servo
 def _servo() -> DiagnosisPlant:
-    from hydro_envs.plants import servo_cylinder as sc
-    from hydro_envs.sim.kernels import SERVO_CYLINDER
+    from hydro_envs.plants.servo_cylinder import model as sc
 
     def init(params, m):
         y = np.zeros(sc.N_STATES)
@@ -167,8 +164,7 @@ def _servo() -> DiagnosisPlant:
         return float(np.clip(u, -params.command_max, params.command_max))
 
     return DiagnosisPlant(
-        name="servo_cylinder", params_factory=sc.ServoCylinderParams, kernel_id=SERVO_CYLINDER,
-        n_states=sc.N_STATES, inputs=("u",), outputs={"x": sc.X, "p1": sc.P1, "p2": sc.P2},
+        name="servo_cylinder", params_factory=sc.ServoCylinderParams, n_states=sc.N_STATES, inputs=("u",), outputs={"x": sc.X, "p1": sc.P1, "p2": sc.P2},
         derivative_outputs={}, required=("u", "x"),
         base_fit=("viscous_friction", "bulk_modulus", "discharge_coefficient"),
         # 1 um encoder (quantisation + electronics), 0.05 bar filtered pressure transducer
@@ -182,8 +178,7 @@ def _servo() -> DiagnosisPlant:
 
 # ------------------------------------------------------------------------------- shaking table
 def _shaking_table() -> DiagnosisPlant:
-    from hydro_envs.plants import shaking_table as st
-    from hydro_envs.sim.kernels import SHAKING_TABLE
+    from hydro_envs.plants.shaking_table import model as st
 
     def init(params, m):
         y = st.rest_state(params, m["x"], m.get("v", 0.0))
@@ -201,8 +196,7 @@ def _shaking_table() -> DiagnosisPlant:
         return float(np.clip(u, -params.command_max, params.command_max))
 
     return DiagnosisPlant(
-        name="shaking_table", params_factory=st.ShakingTableParams, kernel_id=SHAKING_TABLE,
-        n_states=st.N_STATES, inputs=("u",), outputs={"x": st.X, "pa": st.PA, "pb": st.PB},
+        name="shaking_table", params_factory=st.ShakingTableParams, n_states=st.N_STATES, inputs=("u",), outputs={"x": st.X, "pa": st.PA, "pb": st.PB},
         derivative_outputs={"a": st.V},
         required=("u", "x"),
         base_fit=("e0", "flow_coefficient"),  # viscous friction stays at 003 Table 2 (429.4 N s/m)
@@ -218,8 +212,7 @@ def _shaking_table() -> DiagnosisPlant:
 
 # ------------------------------------------------------------------------------- rodless (004)
 def _rodless() -> DiagnosisPlant:
-    from hydro_envs.plants import rodless_cylinder as rc
-    from hydro_envs.sim.kernels import RODLESS_CYLINDER
+    from hydro_envs.plants.rodless_cylinder import model as rc
 
     def init(params, m):
         y = rc.rest_state(params, m["y"], m.get("v", 0.0), m.get("pa"), m.get("pb"))
@@ -235,8 +228,7 @@ def _rodless() -> DiagnosisPlant:
         return float(np.clip(u, 0.0, params.command_max))
 
     return DiagnosisPlant(
-        name="rodless_cylinder", params_factory=rc.RodlessCylinderParams, kernel_id=RODLESS_CYLINDER,
-        n_states=rc.N_STATES, inputs=("u",), outputs={"y": rc.Y, "pa": rc.PA, "pb": rc.PB},
+        name="rodless_cylinder", params_factory=rc.RodlessCylinderParams, n_states=rc.N_STATES, inputs=("u",), outputs={"y": rc.Y, "pa": rc.PA, "pb": rc.PB},
         derivative_outputs={}, required=("u", "y"),
         base_fit=("viscous_friction", "discharge_coefficient"),
         # 1 um encoder, 0.5 kPa (5 mbar) pressure transducers of a 10-bar range
@@ -250,8 +242,7 @@ def _rodless() -> DiagnosisPlant:
 
 # ------------------------------------------------------------------------------- LS compensator (000)
 def _ls_compensator() -> DiagnosisPlant:
-    from hydro_envs.plants import ls_compensator as lc
-    from hydro_envs.sim.kernels import LS_COMPENSATOR
+    from hydro_envs.plants.ls_compensator import model as lc
 
     def init(params, m):
         y = np.zeros(lc.N_STATES)
@@ -274,8 +265,7 @@ def _ls_compensator() -> DiagnosisPlant:
     reference = _multisine(5.0, 400.0, 24)
 
     return DiagnosisPlant(
-        name="ls_compensator", params_factory=lc.LSCompensatorParams, kernel_id=LS_COMPENSATOR,
-        n_states=lc.N_STATES, inputs=("p1",), outputs={"x": lc.X, "p2": lc.P2}, derivative_outputs={},
+        name="ls_compensator", params_factory=lc.LSCompensatorParams, n_states=lc.N_STATES, inputs=("p1",), outputs={"x": lc.X, "p2": lc.P2}, derivative_outputs={},
         required=("p1", "x"), base_fit=("spring_stiffness", "bulk_modulus"),
         # LVDT 0.1 um electronics noise on a +-2 mm range; 1 kPa pressure transducer
         noise={"x": 1e-7, "p2": 1e3, "p1": 0.0},
@@ -289,7 +279,7 @@ def _ls_compensator() -> DiagnosisPlant:
 # ------------------------------------------------------------------------------- force actuator rigs: shared
 def _fa_sensed_force(S, P):
     """Sensed force of 001 eq (3), F_s = k_s x_s (output function of both force-actuator rigs)."""
-    from hydro_envs.plants import force_actuator as fa
+    from hydro_envs.plants.force_actuator import model as fa
 
     return P[:, fa.I_KS, None] * S[:, :, fa.XS]
 
@@ -301,8 +291,7 @@ def _fa_open_loop(meas, ref, p):
 
 # ------------------------------------------------------------------------------- force actuator (001)
 def _force_actuator() -> DiagnosisPlant:
-    from hydro_envs.plants import force_actuator as fa
-    from hydro_envs.sim.kernels import FORCE_ACTUATOR
+    from hydro_envs.plants.force_actuator import model as fa
 
     def params():
         # the blocked-piston rig of 001 sec. 4 (piston locked at mid-stroke), where the seed
@@ -319,7 +308,7 @@ def _force_actuator() -> DiagnosisPlant:
     reference = _multisine(2.0, 150.0, 16)
 
     return DiagnosisPlant(
-        name="force_actuator", params_factory=params, kernel_id=FORCE_ACTUATOR, n_states=fa.N_STATES,
+        name="force_actuator", params_factory=params, n_states=fa.N_STATES,
         inputs=("i",), outputs={"f": _fa_sensed_force}, derivative_outputs={}, required=("i", "f"),
         base_fit=("sensor_damping", "valve_offset"),
         noise={"f": 2.0, "i": 0.0},  # 0.15 % of the 1340 N range
@@ -332,8 +321,7 @@ def _force_actuator() -> DiagnosisPlant:
 
 # ------------------------------------------------------------------------------- force actuator, moving piston
 def _force_actuator_load() -> DiagnosisPlant:
-    from hydro_envs.plants import force_actuator as fa
-    from hydro_envs.sim.kernels import FORCE_ACTUATOR
+    from hydro_envs.plants.force_actuator import model as fa
 
     def params():
         # 001's actuator driving a load: the piston free, pushing a 5 kg payload against a
@@ -365,7 +353,7 @@ def _force_actuator_load() -> DiagnosisPlant:
     reference = _multisine(1.0, 60.0, 14)
 
     return DiagnosisPlant(
-        name="force_actuator_load", params_factory=params, kernel_id=FORCE_ACTUATOR, n_states=fa.N_STATES,
+        name="force_actuator_load", params_factory=params, n_states=fa.N_STATES,
         inputs=("i",), outputs={"f": _fa_sensed_force}, derivative_outputs={}, required=("i", "f"),
         # damping_linear: eq (5)'s linear term c v -- the viscous damping every moving-piston
         # model has (like the cylinders' viscous friction), so it is calibrated in the base

@@ -17,8 +17,8 @@ import math
 import numpy as np
 
 from hydro_envs.params import PhysicalParams
-from hydro_envs.sim.kernels import step_batch_serial
-from hydro_envs.sim.stiffness import rk4_substeps
+from hydro_envs import registry
+from hydro_envs.sim.stiffness import substeps_from_stiffness
 from identification.diagnosis.catalogue import effect, effects_for
 from identification.diagnosis.plants import DiagnosisPlant, diagnosis_plant, reference_signal
 from identification.diagnosis.records import Record
@@ -70,8 +70,8 @@ def closed_loop_record(spec: DiagnosisPlant, truth: Model, duration: float, dt: 
     u0 = spec.controller({"x": x0, "v": 0.0}, (ref[0], dref[0]), p)
     y = spec.initial_state(p, {spec.position_channel: x0, "v": 0.0, "u": u0})[None, :].copy()
     P = p.to_array()[None, :]
-    mod = __import__(type(p).__module__, fromlist=["stiffness_modes"])
-    nsub = 2 * rk4_substeps(mod.stiffness_modes(p), dt)[0]
+    plant = registry.get(type(p).plant)
+    nsub = 2 * substeps_from_stiffness(plant.stiffness_modes(p), dt)[0]
     NSUB = np.array([nsub], dtype=np.int64)
     W = np.empty((1, 5, spec.n_states))
     clamps = np.zeros(1, dtype=np.int64)
@@ -83,8 +83,6 @@ def closed_loop_record(spec: DiagnosisPlant, truth: Model, duration: float, dt: 
     v_filt = 0.0
     x_prev = None
     alpha = dt / (dt + 0.005)
-    from hydro_envs.sim.kernels import plant_rhs
-
     dy = np.empty(spec.n_states)
     meas_hist = []
     for k in range(n):
@@ -100,11 +98,11 @@ def closed_loop_record(spec: DiagnosisPlant, truth: Model, duration: float, dt: 
         U[0, 0] = spec.controller({"x": x_c, "v": v_filt}, (ref[k], dref[k]), p)
         inputs[k] = U[0, : len(spec.inputs)]
         if derivs:
-            plant_rhs(spec.kernel_id, y[0], U[0], P[0], dy)
+            plant.kernels.rhs(y[0], U[0], P[0], dy)
             for c, i in spec.derivative_outputs.items():
                 derivs[c][k] = dy[i]
         if k < n - 1:
-            step_batch_serial(spec.kernel_id, y, U, P, dt, NSUB, W, clamps)
+            plant.kernels.step_serial(y, U, P, dt, NSUB, W, clamps)
     if not np.all(np.isfinite(states)):
         raise RuntimeError(f"synthetic {spec.name} record diverged")
     chans = {}

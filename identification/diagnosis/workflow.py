@@ -307,7 +307,7 @@ def fit_model(spec: DiagnosisPlant, model: Model, records: Sequence[Record], *, 
         if not lo < v < hi:
             base = dataclasses.replace(base, **{n: min(max(v, lo + 1e-6 * (hi - lo)), hi - 1e-6 * (hi - lo))})
     off = spec.sensor_offsets if model.offsets is not None else ()
-    res = gb.fit_greybox(base, names, spec.kernel_id, exps, _channels(spec), bounds=bounds, sigma=sigma, log_scale=log,
+    res = gb.fit_greybox(base, names, exps, _channels(spec), bounds=bounds, sigma=sigma, log_scale=log,
                          max_nfev=max_nfev, tol=1e-8, tie=_tie_function(spec, base, present), jacobian="forward",
                          offsets=off)
     params = res.params
@@ -340,7 +340,7 @@ def _simulate(spec: DiagnosisPlant, models: Sequence[Model], records: Sequence[R
         base = models[idx[0]].params
         values = [{n: float(getattr(models[i].params, n)) for n in type(base).names()
                    if float(getattr(models[i].params, n)) != float(getattr(base, n))} for i in idx]
-        sims = gb.simulate_outputs(base, spec.kernel_id, exps, _channels(spec), values=values)
+        sims = gb.simulate_outputs(base, exps, _channels(spec), values=values)
         for i, s in zip(idx, sims):
             off = models[i].offsets or {}
             if off:  # fixed sensor-offset corrections (fitted on the fit records)

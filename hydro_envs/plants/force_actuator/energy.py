@@ -1,0 +1,81 @@
+"""Energy balance and guard checks of the force actuator (seed 001), for the soak test (:mod:`hydro_envs.soak`).
+
+``mech_terms(y, p)`` returns ``(E, P_in, D, D_scale, U_stop)`` (:mod:`hydro_envs.sim.balance`);
+``state_breaches`` flags guard breaches of a batch at an env-step boundary; ``energy_replay``
+re-integrates a batch step with the energy terms.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba as nb
+
+from hydro_envs.plants.force_actuator import model as fa
+from hydro_envs.plants.force_actuator.model import force_actuator_guard as guard
+from hydro_envs.plants.force_actuator.model import force_actuator_rhs as rhs
+from hydro_envs.sim.balance import replay_step, stop_split, stroke_check
+
+__all__ = ["mech_terms", "state_breaches", "energy_replay", "N_BODIES"]
+
+#: bodies whose running (speed, force) maxima the stroke check keeps
+N_BODIES = 1
+
+
+@nb.njit(cache=True, error_model="numpy")
+def mech_terms(y, p):
+    """Sensor mass on its spring (and, free, the piston with its load on the load spring):
+    kinetic and spring energy, stop spring. Ports: the valve-driven fluid force minus the
+    hydraulic damping (a filtered, not pointwise passive, force), and the Dahl friction state
+    (pre-sliding storage); dissipative: the sensor damper, the static friction curve (when
+    selected) and stop damping."""
+    _, xv = fa.valve_position(y, p)
+    xi = xv + p[fa.I_XOFF]
+    f_damp = p[fa.I_DG] * fa.hydraulic_damping(xi, y[fa.VF], p[fa.I_DA], p[fa.I_DV], p[fa.I_DK], p[fa.I_DLIN])
+    vs = y[fa.VS]
+    xs = y[fa.XS]
+    vrel = y[fa.VP] + vs
+    q = y[fa.XP] + xs
+    u_st, d_st = stop_split(q, vrel, 0.0, p[fa.I_L], p[fa.I_KSTOP], p[fa.I_ASTOP])
+    e = 0.5 * p[fa.I_M] * vs * vs + 0.5 * p[fa.I_KS] * xs * xs + u_st
+    if p[fa.I_LOCK] <= 0.5:
+        dxp = y[fa.XP] - 0.5 * p[fa.I_L]
+        e += 0.5 * (p[fa.I_MP] + p[fa.I_ML]) * y[fa.VP] ** 2 + 0.5 * p[fa.I_KL] * dxp * dxp - p[fa.I_FLOAD] * y[fa.XP]
+    d_sensor = p[fa.I_BS] * vs * vs
+    if p[fa.I_FMOD] > 0.5:  # static friction curve g(v) tanh(v / v_eps): memoryless, passive
+        g = fa.stiction_level(vrel, p[fa.I_FC], p[fa.I_FSR], p[fa.I_FSE], p[fa.I_VS])
+        d_f = g * math.tanh(vrel / p[fa.I_VEPS]) * vrel
+        p_in = (y[fa.R0 + 4] - f_damp) * vrel
+    else:  # Dahl friction state (pre-sliding storage): a port
+        d_f = 0.0
+        p_in = (y[fa.R0 + 4] - f_damp - y[fa.FF]) * vrel
+    return e, p_in, d_sensor + d_f + d_st, d_sensor + abs(d_f) + abs(d_st), u_st
+
+
+@nb.njit(cache=True, error_model="numpy")
+def state_breaches(Y, P, RUN, flags):
+    """``flags[i]`` = (0: no pressure states, the blocked force is a transfer function;
+    extension ``x_p + x_s`` past the stroke beyond the penetration bound); updates ``RUN``."""
+    for i in range(Y.shape[0]):
+        y = Y[i]
+        p = P[i]
+        _, xv = fa.valve_position(y, p)
+        xi = xv + p[fa.I_XOFF]
+        f_damp = p[fa.I_DG] * fa.hydraulic_damping(xi, y[fa.VF], p[fa.I_DA], p[fa.I_DV], p[fa.I_DK],
+                                                   p[fa.I_DLIN])
+        f = abs(y[fa.R0 + 4]) + abs(f_damp) + abs(y[fa.FF]) + p[fa.I_KS] * abs(y[fa.XS])
+        mass = p[fa.I_M]
+        if p[fa.I_LOCK] <= 0.5:
+            f += p[fa.I_KL] * abs(y[fa.XP] - 0.5 * p[fa.I_L]) + abs(p[fa.I_FLOAD])
+            mass += p[fa.I_MP] + p[fa.I_ML]
+        fs, _, _ = stroke_check(y[fa.XP] + y[fa.XS], 0.0, p[fa.I_L], abs(y[fa.VP] + y[fa.VS]), f, mass,
+                                p[fa.I_KSTOP], RUN[i], 0)
+        flags[i, 0] = 0
+        flags[i, 1] = 1 if fs else 0
+
+
+@nb.njit(cache=True, error_model="numpy", parallel=True)
+def energy_replay(Y0, U, P, dt, NSUB, W, Yend, out):
+    """:func:`hydro_envs.sim.balance.replay_step` of every copy (see there for ``out``)."""
+    for i in nb.prange(Y0.shape[0]):
+        replay_step(rhs, guard, mech_terms, Y0[i], U[i], P[i], dt, NSUB[i], W[i], Yend[i], out[i])

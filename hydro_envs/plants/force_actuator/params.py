@@ -1,0 +1,218 @@
+"""Parameters of the seed-001 force actuator: value, unit, allowed range and source per field.
+
+Defaults: ``001_3253c61f41166c3e.txt`` (sec. 2-4, Table 1) and the assumptions each field's
+source names; pressures gauge. The index constants ``I_*`` are the columns of the packed
+kernel parameter array.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+from hydro_envs.params import ParameterError, PhysicalParams, physical
+
+__all__ = ["PLANT", "ForceActuatorParams", "N_PARAMS", "null_valve_offset"]
+
+PLANT = "force_actuator"
+
+
+# ----------------------------------------------------------------------------- geometry
+_PS = 345.0e4  # 001 sec. 2-3: 345 N/cm^2 (500 psi) supply, gauge
+_FMAX = 1340.0  # 001 sec. 2: maximum thrust at 345 N/cm^2
+_A1 = _FMAX / _PS  # bore area: 3.884 cm^2 (a 7/8 in bore gives 3.879 cm^2)
+_ROD = 0.375 * 0.0254  # assumed 3/8 in rod
+
+
+def null_valve_offset(bore_area: float, rod_area: float) -> float:
+    """Valve position ``xi0`` with zero blocked force: ``A1 (1 + xi0)^2 = A2 (1 - xi0)^2``."""
+    a2 = bore_area - rod_area
+    s1, s2 = math.sqrt(bore_area), math.sqrt(a2)
+    return (s2 - s1) / (s1 + s2)
+
+
+_ROD_AREA = math.pi * _ROD**2 / 4.0
+_XI0 = null_valve_offset(_A1, _ROD_AREA)
+
+
+@dataclasses.dataclass(frozen=True)
+class ForceActuatorParams(PhysicalParams):
+    """Parameters of the seed-001 force actuator (SI; pressures gauge).
+
+    Valve positions are normalised: ``xi = 1`` is full jet deflection (force saturation), and
+    valve currents enter as fractions of ``rated_current`` (the current for ``xi = 1``).
+    """
+
+    plant = PLANT
+
+    supply_pressure: float = physical(
+        _PS, "Pa", (1e5, 35e6), "001 sec. 2-3: 345 N/cm^2 (500 psi), gauge; return at atmosphere"
+    )
+    bore_area: float = physical(
+        _A1, "m^2", (1e-6, 0.1), "001 sec. 2: max thrust 1340 N at 345 N/cm^2 -> A1 = 3.884 cm^2 (7/8 in bore)",
+        open_low=True,
+    )
+    rod_area: float = physical(
+        _ROD_AREA, "m^2", (0.0, 0.1),
+        "assumed: 3/8 in rod (0.713 cm^2); 001 gives only the positive bias of fig. 3 and the "
+        "asymmetric stiction (Table 2) of a single-rod piston",
+    )
+    stroke: float = physical(0.076, "m", (1e-3, 1.0), "001 sec. 2: 76 mm stroke", open_low=True)
+    rated_current: float = physical(
+        0.025, "A", (1e-4, 1.0),
+        "assumed: 25 mA for full jet deflection (jet-pipe torque motors 8-50 mA); with the "
+        "hysteresis reversal slope it gives 58 N/mA small-signal gain vs the 52.6 of eq (6) read in mA -> N",
+        open_low=True,
+    )
+    current_max: float = physical(
+        0.030, "A", (1e-4, 1.0),
+        "assumed: driver range +-30 mA = 120 % of rated, so saturation is reachable past the "
+        "valve offset and the hysteresis (001 sec. 4.2: 0.488 mA driver increments)",
+        open_low=True,
+    )
+    valve_offset: float = physical(
+        _XI0, "1", (-0.5, 0.5),
+        "001 sec. 3.1: negative offset added to x_v that nulls the force bias at zero current "
+        "(default: exact null of the orifice law for the nominal areas)",
+    )
+    hysteresis_width: float = physical(
+        0.05, "1", (0.0, 0.5),
+        "assumed: full major-loop width as a fraction of rated current (001 fig. 5 missing; "
+        "'significant', above the <= 3 % of catalogue servo-valves)",
+    )
+    hysteresis_reversal_slope: float = physical(
+        0.6, "1", (0.0, 0.95),
+        "assumed: branch slope right after a current reversal, relative to the major-loop slope",
+    )
+    sensor_mass: float = physical(
+        0.560, "kg", (1e-3, 100.0), "001 Table 1 / eq (2): m = actuator mass minus piston mass", open_low=True
+    )
+    sensor_stiffness: float = physical(
+        3.7592e6, "N/m", (1e4, 1e9), "001 Table 1: k_s = 37 592 N/cm (impulse test, used in the model)"
+    )
+    sensor_damping: float = physical(
+        425.0, "N s/m", (0.0, 1e5), "001 Table 1: b_s = 4.25 N/cm/s"
+    )
+    piston_mass: float = physical(
+        0.052, "kg", (1e-4, 100.0), "001 Table 1: m_a - m = 0.612 - 0.560 kg", open_low=True
+    )
+    load_mass: float = physical(
+        0.0, "kg", (0.0, 1e3), "assumed: no payload on the rod (free piston only)"
+    )
+    load_stiffness: float = physical(
+        0.0, "N/m", (0.0, 1e9), "assumed: no environment spring on the rod (free piston only)"
+    )
+    piston_locked: float = physical(
+        1.0, "1", (0.0, 1.0),
+        "001 sec. 4.1-4.7: piston locked to the mount (blocked force); 0 = free piston",
+    )
+    coulomb_friction: float = physical(26.0, "N", (0.0, 1e4), "001 eq (1) and Table 2: F_c = 26 N")
+    stiction_retract: float = physical(
+        99.0, "N", (0.0, 1e4), "001 Table 2: stiction pushing on the piston 99 N (v_p < 0)"
+    )
+    stiction_extend: float = physical(
+        54.0, "N", (0.0, 1e4), "001 Table 2: stiction pulling on the piston -54 N (v_p > 0)"
+    )
+    stribeck_velocity: float = physical(
+        5e-3, "m/s", (1e-5, 1.0), "assumed: 5 mm/s, typical of lubricated hydraulic seals"
+    )
+    friction_stiffness: float = physical(
+        1.0e6, "N/m", (1e3, 1e8),
+        "assumed: sigma0 of eq (1) (gamma F_c^2); 1e6 N/m = 26 um pre-sliding (seals 10-100 um); "
+        "eq (1)'s gamma = 100 1/(N cm) gives 6.76e6 (needs ~10 us steps)",
+    )
+    damping_gain: float = physical(
+        0.4, "1", (0.0, 2.0), "001 sec. 4.4: gain of .4 at the output of the hydraulic damping block"
+    )
+    damping_linear: float = physical(
+        4000.0, "N s/m", (0.0, 1e5), "001 eq (5): 40 v_p with v_p in cm/s (the simulator's N-cm units)"
+    )
+    damping_filter_frequency: float = physical(
+        2.0 * math.pi * 40.0, "rad/s", (1.0, 1e5), "001 sec. 4.4: band-limited differentiation, pole at 40 Hz"
+    )
+    damping_force_scale: float = physical(
+        1700.0, "N", (0.0, 1e5),
+        "assumed (fig. 6 missing): A(x_v) at full opening; 0.4 A (1 + tanh kappa) = 1360 N >= max thrust",
+    )
+    damping_knee_velocity: float = physical(
+        0.25, "m/s", (1e-3, 10.0),
+        "assumed (fig. 6 missing): -d(x_v) at full opening = flow-limited speed (5.8 L/min into 3.88 cm^2)",
+    )
+    damping_sharpness: float = physical(
+        3.0, "1", (0.1, 20.0), "assumed (fig. 6 missing): kappa = s(x_v) |d(x_v)| of eq (5)"
+    )
+    stop_stiffness: float = physical(
+        1e8, "N/m", (1e5, 1e11), "assumed: built-in stops, 13 um penetration at max thrust"
+    )
+    stop_damping: float = physical(
+        2.0, "s/m", (0.0, 100.0), "assumed: Hunt-Crossley alpha (as the servo cylinder)"
+    )
+    friction_model: float = physical(
+        0.0, "1", (0.0, 1.0),
+        "0 = eq (1) with its Dahl pre-sliding state (default); 1 = the static curve "
+        "g(v) tanh(v / friction_sign_velocity) without a pre-sliding state (smooth Coulomb-"
+        "Stribeck, as the other cylinders' static friction; used by the moving-piston "
+        "diagnosis rig, identification.diagnosis.plants, where the Dahl state's relaxation "
+        "4 sigma0 v / F_c at the free piston's speed bound would need ~15 RK4 sub-steps per 0.2 ms)",
+    )
+    friction_sign_velocity: float = physical(
+        5e-3, "m/s", (1e-5, 1.0),
+        "assumed: tanh regularisation velocity of the static curve (friction_model = 1); 5 mm/s "
+        "= the Stribeck velocity, so the curve's slope g/v_eps stays below the sensor's k_s / b_s",
+        open_low=True,
+    )
+    load_force: float = physical(
+        0.0, "N", (-1e5, 1e5),
+        "001 sec. 4.4: a constant external force on the free piston, + pushes it out (the hanging "
+        "mass m g of the damping test); 0 for the blocked-piston rig of the seed's model",
+    )
+
+    def _check_relations(self) -> None:
+        if self.rod_area >= self.bore_area:
+            raise ParameterError(
+                f"ForceActuatorParams.rod_area = {self.rod_area} must be below bore_area = {self.bore_area}"
+            )
+        lo = min(self.stiction_retract, self.stiction_extend)
+        if lo < self.coulomb_friction:
+            raise ParameterError(
+                f"ForceActuatorParams: stiction levels (stiction_retract, stiction_extend) = "
+                f"({self.stiction_retract}, {self.stiction_extend} N) must be >= coulomb_friction = "
+                f"{self.coulomb_friction} N"
+            )
+        if self.coulomb_friction == 0.0 and max(self.stiction_retract, self.stiction_extend) > 0.0:
+            raise ParameterError(
+                "ForceActuatorParams: coulomb_friction = 0 needs zero stiction_retract and stiction_extend "
+                "too (a frictionless set); "
+                "the Dahl state relaxes at sigma0 |v| / F_c"
+            )
+        if self.current_max < self.rated_current:
+            raise ParameterError(
+                f"ForceActuatorParams.current_max = {self.current_max} A must be >= rated_current = "
+                f"{self.rated_current} A"
+            )
+        if self.piston_locked not in (0.0, 1.0):
+            raise ParameterError(f"ForceActuatorParams.piston_locked must be 0 or 1, got {self.piston_locked}")
+        if self.friction_model not in (0.0, 1.0):
+            raise ParameterError(f"ForceActuatorParams.friction_model must be 0 or 1, got {self.friction_model}")
+
+    # convenience
+    @property
+    def max_thrust(self) -> float:
+        """Blocked-force saturation ``A1 p_s`` [N] (positive direction)."""
+        return self.bore_area * self.supply_pressure
+
+    @property
+    def min_thrust(self) -> float:
+        """Blocked-force saturation ``-A2 p_s`` [N] (negative direction)."""
+        return -(self.bore_area - self.rod_area) * self.supply_pressure
+
+
+(
+    I_PS, I_A1, I_AR, I_L, I_IR, I_IMAX, I_XOFF, I_HW, I_HR, I_M, I_KS, I_BS, I_MP, I_ML, I_KL,
+    I_LOCK, I_FC, I_FSR, I_FSE, I_VS, I_SIG, I_DG, I_DLIN, I_WC, I_DA, I_DV, I_DK, I_KSTOP, I_ASTOP,
+    I_FMOD, I_VEPS, I_FLOAD,
+) = range(32)
+N_PARAMS = 32
+assert ForceActuatorParams.names()[I_ASTOP] == "stop_damping" and len(ForceActuatorParams.names()) == N_PARAMS
+assert ForceActuatorParams.names()[I_VEPS] == "friction_sign_velocity"
+assert ForceActuatorParams.names()[I_FLOAD] == "load_force"

@@ -1,0 +1,227 @@
+"""Parameters of the load-sensing circuit of seed 000 Fig. 1: value, unit, range and source.
+
+The flow compensator's spool, spring and damping are those of the seed-000 compensator
+(:mod:`hydro_envs.plants.ls_compensator.params`, method-2 configuration); pressures absolute.
+The index constants ``I_*`` are the columns of the packed kernel parameter array; ``D_*`` the
+derived columns :func:`derived` computes and :meth:`LSCircuitParams.to_array` appends.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+
+from hydro_envs.laws.pipe import pipe_inductance, pipe_laminar_resistance
+from hydro_envs.laws.viscosity import iso_vg_kinematic_viscosity
+from hydro_envs.params import ParameterError, PhysicalParams, physical
+from hydro_envs.plants.ls_compensator.params import ORIGINAL_SPRING_STIFFNESS, LSCompensatorParams
+
+__all__ = ["PLANT", "LSCircuitParams", "N_PARAMS", "N_FIELDS", "derived"]
+
+PLANT = "ls_circuit"
+
+_ATM = 1.0e5
+_BAR = 1.0e5
+_SPOOL_MASS = LSCompensatorParams().spool_mass
+_SPOOL_D = LSCompensatorParams().spool_diameter
+_A_SPOOL = 0.25 * math.pi * _SPOOL_D**2
+_MARGIN = 20.0 * _BAR
+_X_LAP = 0.5e-3
+_PRELOAD = _MARGIN * _A_SPOOL - ORIGINAL_SPRING_STIFFNESS * _X_LAP  # 42.1 N
+
+
+@dataclasses.dataclass(frozen=True)
+class LSCircuitParams(PhysicalParams):
+    """Parameters of the load-sensing circuit of 000 Fig. 1 (SI, absolute pressures)."""
+
+    plant = PLANT
+
+    # ---- oil
+    oil_grade: float = physical(46.0, "mm^2/s", (2.0, 1500.0), "000 sec. 3.3: ISO VG 46")
+    oil_temperature: float = physical(
+        40.0, "degC", (-20.0, 120.0), "000 sec. 3.4: c measured at 40, 30, 22 C"
+    )
+    oil_density: float = physical(870.0, "kg/m^3", (700.0, 1100.0), "assumed: ISO VG 46 mineral oil")
+    bulk_modulus: float = physical(
+        1.2e9, "Pa", (1e8, 3e9), "assumed: effective oil + hose modulus at 20-250 bar"
+    )
+    # ---- flow compensator (000, method-2 configuration)
+    spool_diameter: float = physical(_SPOOL_D, "m", (1e-4, 0.1), "000 Table 1 a2 -> 7.00 mm (ls_compensator)")
+    spool_mass: float = physical(
+        _SPOOL_MASS + LSCompensatorParams().spring_mass / 3.0, "kg", (0.0, 10.0),
+        "000 Table 1: m = 20.47 g incl. 1/3 of the spring (ls_compensator)", open_low=True,
+    )
+    spring_stiffness: float = physical(
+        ORIGINAL_SPRING_STIFFNESS, "N/m", (0.0, 1e8), "000 eq (19): original spring, 294 Hz",
+        open_low=True,
+    )
+    spring_preload: float = physical(
+        _PRELOAD, "N", (0.0, 1e4),
+        "000 sec. 2: margin 'typically around 20 bar' = (F0 + k x_lap)/A at x_lap = 0.5 mm",
+    )
+    viscous_friction_40c: float = physical(
+        3.5, "N s/m", (0.0, 1e4), "000 sec. 4-5: c = 3.5 N/(m/s) at 40 C, proportional to viscosity"
+    )
+    spool_stroke: float = physical(3.0e-3, "m", (0.0, 0.1), "assumed: 3 mm FC spool travel", open_low=True)
+    spool_stop_stiffness: float = physical(
+        1.0e6, "N/m", (1e4, 1e11),
+        "assumed: seat + spring-seat compliance, 0.1 mm at 100 N (softer than ls_compensator's "
+        "2e6: the seat is touched only in transients, and it sets the RK4 step)",
+    )
+    spool_stop_damping: float = physical(
+        0.05, "s/m", (0.0, 100.0), "assumed: Hunt-Crossley alpha, restitution ~0.99 at 0.1 m/s"
+    )
+    metering_width: float = physical(
+        1.0e-3, "m", (0.0, 0.1),
+        "assumed: one 1 mm port (pump-control FC metering; half the method-2 test configuration)",
+        open_low=True,
+    )
+    metering_lap: float = physical(
+        _X_LAP, "m", (0.0, 0.01), "assumed: P -> X opens 0.5 mm from the seat (X -> T open below)"
+    )
+    port_length: float = physical(1.0e-3, "m", (1e-6, 0.05), "assumed: 1 mm ports")
+    discharge_coefficient: float = physical(
+        0.7, "1", (0.0, 1.0), "000 sec. 1: discharge coefficients 0.6-0.9", open_low=True
+    )
+    jet_angle: float = physical(math.radians(69.0), "rad", (0.0, 0.5 * math.pi), "assumed: 69 deg jet angle")
+    solenoid_force_max: float = physical(
+        20.0, "N", (0.0, 1e3),
+        "assumed: +-20 N electro-proportional force = +-5.2 bar of margin on the 7 mm spool",
+    )
+    solenoid_time_constant: float = physical(
+        0.01, "s", (1e-4, 1.0), "assumed: 10 ms proportional solenoid + current driver"
+    )
+    # ---- LS pilot line (000 eqs (1)-(3), (5)-(6))
+    ls_line_length: float = physical(2.0, "m", (0.01, 50.0), "assumed: 2 m LS hose from valve block to pump")
+    ls_line_diameter: float = physical(4.0e-3, "m", (1e-4, 0.05), "assumed: 4 mm bore LS hose")
+    ls_damping_resistance: float = physical(
+        3.0e11, "Pa s/m^3", (0.0, 1e15),
+        "assumed: damping restrictor at the pump end of the LS line (standard in LS controllers); "
+        "with the line + chamber capacitance a 6.5 ms low-pass on p_LS. Without it (R of the hose "
+        "alone) the hydro-mechanical loop limit-cycles with 4 t / 40 kN loads; 1e11 still does",
+    )
+    spring_chamber_volume: float = physical(
+        1.0e-6, "m^3", (1e-8, 1e-3), "assumed: 1 cm^3 FC spring chamber at the spool's seat", open_low=True,
+    )
+    # ---- pump and its control pistons
+    pump_displacement: float = physical(
+        28.0e-6 / (2.0 * math.pi), "m^3/rad", (0.0, 1e-2),
+        "assumed: 28 cm^3/rev axial piston LS pump", open_low=True,
+    )
+    pump_speed: float = physical(
+        1500.0 * 2.0 * math.pi / 60.0, "rad/s", (0.0, 1e3), "assumed: 1500 rpm drive", open_low=True
+    )
+    pump_leakage: float = physical(
+        5.0e-13, "m^3/(s Pa)", (0.0, 1e-8), "assumed: 0.6 L/min at 200 bar (2 % of full flow)"
+    )
+    control_area_large: float = physical(
+        0.25 * math.pi * 0.020**2, "m^2", (1e-6, 0.1), "assumed: piston 1, 20 mm (000 Fig. 1 'actuator 1')"
+    )
+    control_area_small: float = physical(
+        0.25 * math.pi * 0.014**2, "m^2", (1e-6, 0.1), "assumed: piston 2, 14 mm (000 Fig. 1 'actuator 2')"
+    )
+    control_stroke: float = physical(8.0e-3, "m", (1e-4, 0.1), "assumed: 8 mm piston travel, full to zero displacement")
+    control_mass: float = physical(
+        1.0, "kg", (1e-3, 100.0), "assumed: swash plate inertia and pistons reflected to the control piston"
+    )
+    control_damping: float = physical(
+        2000.0, "N s/m", (0.0, 1e6), "assumed: swash-plate bearing friction, damping ratio ~0.3 on the oil spring"
+    )
+    bias_spring_preload: float = physical(150.0, "N", (0.0, 1e5), "assumed: return spring holding full displacement")
+    bias_spring_stiffness: float = physical(1.0e4, "N/m", (0.0, 1e7), "assumed")
+    control_volume: float = physical(
+        2.0e-5, "m^3", (1e-8, 1e-2),
+        "assumed: 20 cm^3 behind piston 1 at full displacement (chamber + drilled control line)",
+        open_low=True,
+    )
+    control_leakage: float = physical(
+        2.0e-13, "m^3/(s Pa)", (0.0, 1e-8), "assumed: piston-1 clearance leak, 0.12 L/min at 100 bar"
+    )
+    control_stop_stiffness: float = physical(
+        1.0e7, "N/m", (1e4, 1e11), "assumed: swash-plate stop, 0.1 mm at 1 kN (reflected compliance)"
+    )
+    delivery_volume: float = physical(3.0e-4, "m^3", (1e-6, 1.0), "assumed: pump outlet + 1 m hose, 0.3 L")
+    relief_pressure: float = physical(250.0e5 + _ATM, "Pa", (1e6, 1e8), "assumed: 250 bar relief")
+    relief_gradient: float = physical(1.0e-10, "m^3/(s Pa)", (0.0, 1e-6), "assumed: 42 L/min at 7 bar override")
+    # ---- main control valve and actuator
+    cv_area_max: float = physical(
+        1.5e-5, "m^2", (1e-8, 1e-2),
+        "assumed: CV passes ~42 L/min (the pump's full flow) at the 20 bar margin",
+    )
+    piston_area: float = physical(0.25 * math.pi * 0.063**2, "m^2", (1e-5, 1.0), "assumed: 63 mm single-acting cylinder")
+    stroke: float = physical(0.6, "m", (0.01, 10.0), "assumed: 600 mm stroke")
+    line_volume: float = physical(5.0e-4, "m^3", (1e-6, 1.0), "assumed: 0.5 L hose CV -> cylinder + dead volume")
+    load_mass: float = physical(1000.0, "kg", (1.0, 1e5), "assumed: 1 t inertial load (randomised)")
+    load_force: float = physical(2.0e4, "N", (0.0, 1e6), "assumed: 20 kN load, 64 bar (randomised)")
+    actuator_viscous: float = physical(3000.0, "N s/m", (0.0, 1e6), "assumed: seal + guide viscous friction")
+    actuator_coulomb: float = physical(300.0, "N", (0.0, 1e5), "assumed: seal Coulomb friction")
+    friction_sign_velocity: float = physical(1e-3, "m/s", (1e-6, 0.1), "assumed: tanh sign, NOTES.md 1 mm/s")
+    actuator_stop_stiffness: float = physical(1.0e8, "N/m", (1e4, 1e11), "assumed: steel stop")
+    tank_pressure: float = physical(_ATM, "Pa", (0.0, 1e6), "assumed: tank at atmosphere")
+    orifice_transition_pressure: float = physical(
+        1.0e5, "Pa", (1.0, 1e6), "assumed: repo default 1 bar; every working drop here is >= 20 bar"
+    )
+    pressure_floor: float = physical(1e3, "Pa", (0.0, 1e5), "assumed: cavitation floor")
+
+    def _check_relations(self) -> None:
+        if not (self.pressure_floor < self.tank_pressure < self.relief_pressure):
+            raise ParameterError(
+                "LSCircuitParams: need pressure_floor < tank_pressure < relief_pressure, got "
+                f"{self.pressure_floor}, {self.tank_pressure}, {self.relief_pressure} Pa"
+            )
+        if self.control_area_small >= self.control_area_large:
+            raise ParameterError(
+                "LSCircuitParams.control_area_small must be below control_area_large (000 sec. 2: "
+                f"piston 2 is the smaller), got {self.control_area_small} >= {self.control_area_large}"
+            )
+        a = 0.25 * math.pi * self.spool_diameter**2
+        if self.spring_chamber_volume <= a * (self.spool_stroke + 1e-4):
+            raise ParameterError(
+                "LSCircuitParams.spring_chamber_volume must exceed the spool's swept volume "
+                f"A * stroke + 0.1 mm of travel (A from spool_diameter, stroke = spool_stroke) = "
+                f"{a * (self.spool_stroke + 1e-4)} m^3, got {self.spring_chamber_volume} m^3"
+            )
+
+    def to_array(self) -> np.ndarray:
+        d = derived(self)
+        return np.concatenate([super().to_array(), np.array([d[k] for k in _DERIVED], dtype=np.float64)])
+
+    @classmethod
+    def from_array(cls, values: np.ndarray) -> "LSCircuitParams":
+        values = np.asarray(values, dtype=np.float64)
+        n = len(cls.names())
+        if values.shape not in ((n,), (n + len(_DERIVED),)):
+            raise ParameterError(f"{cls.__name__}: expected {n} (or {n + len(_DERIVED)}) values, got {values.shape}")
+        return cls(**{k: float(v) for k, v in zip(cls.names(), values[:n])})
+
+
+_FIELDS = LSCircuitParams.names()
+N_FIELDS = len(_FIELDS)
+(
+    I_VG, I_T, I_RHO, I_BETA, I_DS, I_MS, I_K, I_F0, I_C40, I_XMAX, I_KSS, I_ASS, I_W, I_XLAP,
+    I_LPORT, I_CD, I_THETA, I_FSMAX, I_TSOL, I_LLS, I_DLS, I_RD, I_VSC, I_DP, I_WP, I_GP, I_A1, I_A2,
+    I_YMAX, I_MY, I_BY, I_FB0, I_KB, I_VX0, I_GX, I_KYS, I_VS, I_PRV, I_GRV, I_ACVMAX, I_AC,
+    I_STROKE, I_VL0, I_M, I_FL, I_BA, I_FCA, I_VEPS, I_KAS, I_PT, I_DPTR, I_PFLOOR,
+) = range(52)
+assert N_FIELDS == 52 and _FIELDS[I_PFLOOR] == "pressure_floor" and _FIELDS[I_FL] == "load_force"
+_DERIVED = ("spool_area", "viscous", "ls_inductance", "ls_resistance", "ls_line_volume", "k_meter", "k_flow_force")
+(D_A, D_C, D_LLS, D_RLS, D_VLINE, D_KM, D_KFF) = range(N_FIELDS, N_FIELDS + len(_DERIVED))
+N_PARAMS = N_FIELDS + len(_DERIVED)
+
+
+def derived(params: LSCircuitParams) -> dict[str, float]:
+    """Kernel quantities computed once per parameter set (viscosity-dependent c and R)."""
+    p = params
+    nu = iso_vg_kinematic_viscosity(p.oil_grade, p.oil_temperature)
+    nu40 = iso_vg_kinematic_viscosity(p.oil_grade, 40.0)
+    return {
+        "spool_area": 0.25 * math.pi * p.spool_diameter**2,
+        "viscous": p.viscous_friction_40c * nu / nu40,
+        "ls_inductance": pipe_inductance(p.oil_density, p.ls_line_length, p.ls_line_diameter),
+        "ls_resistance": pipe_laminar_resistance(nu * p.oil_density, p.ls_line_length, p.ls_line_diameter),
+        "ls_line_volume": 0.25 * math.pi * p.ls_line_diameter**2 * p.ls_line_length,
+        "k_meter": p.discharge_coefficient * math.sqrt(2.0 / p.oil_density),
+        "k_flow_force": 2.0 * p.discharge_coefficient * math.cos(p.jet_angle) * p.metering_width,
+    }

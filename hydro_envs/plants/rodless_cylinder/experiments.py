@@ -1,0 +1,99 @@
+"""Virtual experiments on the rodless cylinder (seed 004, ``004_f1423316a055addb.txt``).
+
+* :func:`constant_command_run`: the friction measurement of sec. 3 -- hold the valve, let the
+  slider reach a steady speed, read eq (1) from the pressure difference;
+* :func:`small_signal_response`: the velocity response to a small valve step at mid-stroke,
+  fitted with the linear model of eq (21).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from hydro_envs.plants.rodless_cylinder.model import PA, PB, V, Y, linearize_mid_stroke, piston_area, rest_state
+from hydro_envs.plants.rodless_cylinder.params import RodlessCylinderParams
+from hydro_envs.plants.rodless_cylinder.spec import SPEC
+from hydro_envs.sim.simulate import simulate
+
+__all__ = ["constant_command_run", "small_signal_response"]
+
+
+def constant_command_run(params: RodlessCylinderParams, command: float, *, dt: float = 1e-3,
+                         window: tuple[float, float] = (0.35, 0.65), max_time: float = 30.0):
+    """004 sec. 3 friction measurement: hold the valve at ``command`` [V] and read eq (1).
+
+    The slider starts at rest at the end of stroke it moves away from (chambers at p_0); the
+    valve is held constant, the slider reaches a steady speed, and while it crosses the
+    ``window`` (fractions of the stroke) the mean velocity and the mean pressure force
+    ``A (p_a - p_b)`` are taken. At constant speed eq (1) ``F_f = A_a p_a - A_b p_b`` holds
+    (minus F_L). Returns ``(v_mean, f_mean, states)``; ``v_mean`` is NaN if the window is
+    not crossed within ``max_time``.
+    """
+    sign = 1.0 if command > params.command_centre else -1.0
+    y_start = 0.002 * params.stroke if sign > 0 else 0.998 * params.stroke
+    y0 = rest_state(params, y_start)
+    n = int(round(max_time / dt))
+    lo, hi = window[0] * params.stroke, window[1] * params.stroke
+    # simulate in chunks until the window has been crossed
+    states = [y0[None, :]]
+    y = y0
+    chunk = int(round(0.5 / dt))
+    done = 0
+    while done < n:
+        seg = simulate(SPEC, params, np.full(chunk, command), y, dt)[1:]
+        states.append(seg)
+        y = seg[-1]
+        done += chunk
+        if (sign > 0 and y[Y] > hi) or (sign < 0 and y[Y] < lo):
+            break
+    s = np.concatenate(states)
+    inside = np.flatnonzero((s[:, Y] > lo) & (s[:, Y] < hi))
+    if inside.size < 3 or not ((sign > 0 and s[-1, Y] > hi) or (sign < 0 and s[-1, Y] < lo)):
+        return float("nan"), float("nan"), s
+    i0, i1 = inside[0], inside[-1]
+    v_mean = (s[i1, Y] - s[i0, Y]) / ((i1 - i0) * dt)
+    a = piston_area(params)
+    f_mean = float(np.mean(a * (s[i0 : i1 + 1, PA] - s[i0 : i1 + 1, PB]))) - params.load_force
+    return float(v_mean), f_mean, s
+
+
+def small_signal_response(params: RodlessCylinderParams, delta_u: float = 0.01, *, dt: float = 1e-4,
+                          duration: float = 0.08):
+    """Velocity response of the friction-free plant to a small valve step at mid-stroke.
+
+    Starts from the centre equilibrium (slider at L/2, chambers at p_0 and T_s, spool at the
+    centre), steps the command from 5 V to ``5 V + delta_u`` and fits the linear model of
+    eq (21) in velocity form, ``v/x_v = K_T w^2 / (s^2 + 2 zeta w s + w^2)``, in series with
+    the known spool lag, to the simulated velocity by least squares. Returns
+    ``dict(k_t, zeta, omega_n, t, v, v_fit)``.
+    """
+    from scipy.optimize import least_squares
+    from scipy.signal import lsim
+
+    p = dataclasses.replace(
+        params, static_friction=0.0, coulomb_friction=0.0, viscous_friction=0.0,
+        bristle_stiffness=0.0, bristle_damping=0.0, load_force=0.0,
+    )
+    y0 = rest_state(p, 0.5 * p.stroke)
+    n = int(round(duration / dt))
+    s = simulate(SPEC, p, np.full(n, p.command_centre + delta_u), y0, dt)
+    t = dt * np.arange(n + 1)
+    v = s[:, V]
+    x_step = p.spool_stroke / (p.command_max - p.command_centre) * delta_u
+    wv, zv = p.valve_natural_frequency, p.valve_damping
+    lin = linearize_mid_stroke(p)
+
+    def model(theta):
+        k_t, zeta, w = theta
+        num = np.polymul([k_t * w * w], [wv * wv])
+        den = np.polymul([1.0, 2.0 * zeta * w, w * w], [1.0, 2.0 * zv * wv, wv * wv])
+        return lsim((num, den), np.full(t.size, x_step), t)[1]
+
+    def resid(theta):
+        return (model(theta) - v) / (abs(lin.k_t * x_step) + 1e-30)
+
+    sol = least_squares(resid, x0=[lin.k_t, max(lin.zeta, 0.01), lin.omega_n], method="lm", x_scale="jac")
+    k_t, zeta, w = sol.x
+    return {"k_t": float(k_t), "zeta": float(zeta), "omega_n": float(abs(w)), "t": t, "v": v, "v_fit": model(sol.x)}

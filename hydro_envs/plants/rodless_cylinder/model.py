@@ -1,0 +1,532 @@
+r"""Pneumatic mechanical rodless cylinder with a proportional 5/3 valve (seed 004).
+
+Source: ``004_f1423316a055addb.txt`` -- "Experimental Simulation and Verification of Position
+Servo Control of Mechanical Rodless Cylinder": Table 1 (SMC MYC25G-110L, bore 25 mm, stroke
+110 mm; FESTO MPYE-5-M5-010-B, 0-10 V; supply 0.6 MPa), friction eq (1) and Table 2,
+valve port area eq (2), compressible mass flow eqs (3)-(4), chambers eqs (8)-(13), slider
+eq (18), linearised model eqs (5)-(7), (14)-(27).
+
+State (SI, pressures absolute)::
+
+    index  name  unit  meaning
+    0      y     m     slider position, 0 at the chamber-a end of stroke, stroke at the other
+    1      v     m/s   slider velocity (+: chamber a grows)
+    2      pa    Pa    chamber-a pressure
+    3      pb    Pa    chamber-b pressure
+    4      ma    kg    air mass in chamber a (incl. its dead volume)
+    5      mb    kg    air mass in chamber b
+    6      xv    m     valve spool position (0 at the 5 V centre, +: P->A and B->R open)
+    7      vv    m/s   spool velocity
+    8      z     m     LuGre bristle deflection of the seals (pre-sliding; 0 in static mode)
+
+Chamber temperatures follow from the state, ``T = p V / (m R)`` (:func:`chamber_temperatures`).
+
+Input: ``u`` [V], valve command 0-10 V, closed centre at 5 V (MPYE-5 data sheet; 004 sec. 2).
+
+Equations (numbers of 004)::
+
+    y' = v
+    M v' = A (pa - pb) - F_f - F_L + F_stop                                    (18)
+    ma' = mdot(P->A) - mdot(A->R),   mb' = mdot(P->B) - mdot(B->R)              (8)-(9)
+    Va pa' = kappa R H_a - kappa pa A v + (kappa-1) Q_a                       (10)-(13)
+    Vb pb' = kappa R H_b + kappa pb A v + (kappa-1) Q_b
+    Va = A y + V_dead,a,   Vb = A (L - y) + V_dead,b                            (15)
+    mdot = C S(x) p_up / sqrt(R T_up) psi(p_down / p_up)                     (3)-(4)
+    S(x) = r^2 acos((r - x)/r) - (r - x) sqrt(r^2 - (r - x)^2)                 (2)
+    xv'' = -w_v^2 xv - 2 zeta_v w_v xv' + k_v w_v^2 (u - 5 V)                  (28) + lag
+    F_f = sigma0 z + sigma1 z' + sigma v,  z' = v - sigma0 |v| z / g(v)       Table 2, Fig. 4
+    g(v) = F_c + (F_s - F_c) exp(-|v| / v_s)                                   Table 2, Fig. 3
+
+``H = sum mdot_i T_i`` is the enthalpy flow (mass flow into the chamber times the upstream
+temperature: T_s from the supply, the chamber's own T for outflow, T_s for air drawn back
+from the exhaust). Heat flow ``Q = h (T_s - T)`` (h = 0: adiabatic, the seed's eq (11)).
+
+Decisions on the extracted text (see ``shared/seeds/README.md`` and the law docstrings):
+
+* Eqs (3)-(4) are garbled (root closed early, ``p_b/(R T_b)``); we use the standard
+  dimensionally consistent nozzle law, :func:`hydro_envs.laws.orifice.pneumatic_mass_flow`,
+  with a linear (laminar) tail above the pressure ratio ``laminar_pressure_ratio`` (0.999,
+  Simscape's default) -- the smooth choked/subsonic/zero-flow transition of NOTES.md. ISO 6358
+  (C, b) is the alternative (``flow_model = 1``): sonic conductance proportional to the
+  uncovered port area.
+* Eq (2) is written for one port and one shoulder; ``x`` is the edge travel past the near rim
+  of a port, ``x = x_v - (d - r)`` in 004's notation. A symmetric 5/3 valve has four metering
+  edges; edge P->A and B->R open by ``x_v + u_lap``, A->R and P->B by ``u_lap - x_v`` with
+  the underlap ``u_lap = r - d``. The paper's linearisation needs ``c_1, c_2 != 0`` at the
+  centre (eqs (5)-(6)), i.e. an underlapped valve (d < r); a real MPYE-5 does leak at mid
+  position. Eq (2) is printed up to x_v = d: the spool's full stroke is d (half a port).
+* Eqs (10)-(13) assume the whole chamber gas is isentropic (eq (11)). We integrate the mass
+  and the energy balance of each chamber (:mod:`hydro_envs.laws.pneumatic_chamber`): identical
+  to eq (13) for a sealed chamber and to eq (16) when linearised at T_s, but filling with
+  supply-temperature air is handled correctly. Mass is a state, so with the valve closed each
+  chamber's mass is conserved exactly.
+* Friction: 004 gives no formula. The construction of sec. 3.1 (tangent from F_s meets F_c
+  at v_s) identifies the exponential Stribeck curve (:mod:`hydro_envs.laws.stribeck_lugre`).
+  The conclusions' ``sigma = 3.27 mm/s`` is an extraction defect; Table 2's 0.31 N s/mm is
+  used. Default: LuGre with that curve as steady state (004 Fig. 4 reports a pre-sliding
+  displacement). ``bristle_stiffness = 0`` selects the static curve with a tanh sign
+  (``friction_sign_velocity``). Cost: the static curve needs ``v_eps << v_s = 3.27 mm/s``;
+  at v_eps = 1 mm/s its slope ``F_s / (M v_eps)`` is 7e4 1/s (34 RK4 sub-steps per 1 ms),
+  at v_s/10 about 100, while LuGre with sigma0 = 1e5 N/m needs 5 at the nominal plant (4-6
+  over the randomisation ranges; the bristle relaxation ``sigma0 |v| / F_c`` at the top speed
+  and the laminar orifice core set it).
+* Supply 0.6 MPa is read as gauge (Table 1's compressor "working pressure 0.4~0.7 MPa");
+  pressures here are absolute (+101.325 kPa).
+
+Guards (``shared/NOTES.md``, Hopsan): pressures and gas masses never integrate below a floor
+(1 Pa, 1e-12 kg: derivative clipped at the floor, state clamped after each sub-step), so
+``T = p V / (m R)`` stays positive; chamber volumes never below ``min_chamber_volume``; end
+stops at 0 and L act through a continuous Hunt-Crossley force (elastomer bumpers).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numba as nb
+import numpy as np
+
+from hydro_envs.laws.contact import end_stop_force
+from hydro_envs.laws.friction import stribeck_exponential
+from hydro_envs.laws.nozzle_fast import nozzle_mass_flow_fast
+from hydro_envs.laws.orifice import circular_orifice_area, iso6358_mass_flow_laminar
+from hydro_envs.laws.pneumatic_chamber import chamber_pressure_rate, gas_internal_energy
+from hydro_envs.laws.stribeck_lugre import lugre_exponential_rate
+from hydro_envs.laws.valve import second_order_valve_acceleration
+from hydro_envs.plants.rodless_cylinder.params import (  # noqa: F401  (re-exported)
+    D_AREA, D_COEF, D_CRIT, D_INVK, D_KV, D_PSIC, D_PSIL, D_SFULL, D_SQRTRTS,
+    ATM, I_ASTOP, I_BISO, I_CD, I_CISO, I_D, I_FC, I_FL, I_FLOW, I_FS, I_HW, I_K, I_KSTOP, I_L,
+    I_M, I_MFLOOR, I_PE, I_PFLOOR, I_PS, I_R, I_RLAM, I_RP, I_SIG0, I_SIG1, I_SIG2, I_TS, I_UC,
+    I_ULAP, I_UMAX, I_VDA, I_VDB, I_VEPS, I_VMIN, I_VS, I_WV, I_XVM, I_ZV, N_FIELDS, N_PARAMS,
+    PLANT, RHO_REF_ISO, RodlessCylinderParams, T_REF_ISO,
+)
+
+__all__ = [
+    "RodlessCylinderParams",
+    "STATE_NAMES",
+    "rodless_cylinder_rhs",
+    "rodless_cylinder_guard",
+    "stiffness_modes",
+    "piston_area",
+    "centre_pressure",
+    "rest_state",
+    "chamber_volumes",
+    "chamber_temperatures",
+    "total_energy",
+    "steady_friction",
+    "nominal_flow",
+    "speed_bound",
+    "MidStrokeLinearization",
+    "linearize_mid_stroke",
+]
+
+STATE_NAMES = ("y", "v", "pa", "pb", "ma", "mb", "xv", "vv", "z")
+STATE_UNITS = ("m", "m/s", "Pa", "Pa", "kg", "kg", "m", "m/s", "m")
+N_STATES = 9
+Y, V, PA, PB, MA, MB, XV, VV, Z = range(N_STATES)
+
+
+@nb.njit(cache=True, error_model="numpy")
+def _edge_flow(p, area, p_up, p_down, t_up, sqrt_rt_up):
+    """Mass flow [kg/s] through one metering edge of uncovered area ``area`` (eqs (3)-(4) or ISO 6358).
+
+    ``t_up`` must be the temperature of the side the gas comes from (the caller compares the
+    pressures), ``sqrt_rt_up = sqrt(R t_up)``. Closed edges cost nothing.
+    """
+    if area <= 0.0:
+        return 0.0
+    if p[I_FLOW] < 0.5:  # = pneumatic_mass_flow_laminar(C, S, ...) with precomputed constants
+        return nozzle_mass_flow_fast(
+            p[I_CD] * area, p_up, p_down, sqrt_rt_up, p[I_RLAM],
+            p[D_CRIT], p[D_PSIC], p[D_PSIL], p[D_INVK], p[D_COEF],
+        )
+    # ISO 6358: sonic conductance proportional to the uncovered area, C(full stroke) = C
+    return iso6358_mass_flow_laminar(
+        p[I_CISO] * area / p[D_SFULL], p[I_BISO], p_up, p_down, t_up, T_REF_ISO, RHO_REF_ISO, p[I_RLAM]
+    )
+
+
+@nb.njit(cache=True, error_model="numpy", inline="always")
+def _chamber_flows(p, s_in, s_out, pc, tc):
+    """(mass flow, enthalpy flow) into a chamber at pc, tc fed by P through ``s_in`` and
+    vented to R through ``s_out``; upstream temperatures follow the flow direction."""
+    ps = p[I_PS]
+    pe = p[I_PE]
+    ts = p[I_TS]
+    rts = p[D_SQRTRTS]
+    rtc = math.sqrt(p[I_R] * tc)
+    m_in = _edge_flow(p, s_in, ps, pc, ts, rts) if ps >= pc else _edge_flow(p, s_in, ps, pc, tc, rtc)  # (3)
+    m_out = _edge_flow(p, s_out, pc, pe, tc, rtc) if pc >= pe else _edge_flow(p, s_out, pc, pe, ts, rts)  # (4)
+    t_in = ts if m_in >= 0.0 else tc
+    t_out = tc if m_out >= 0.0 else ts
+    return m_in - m_out, m_in * t_in - m_out * t_out
+
+
+@nb.njit(cache=True, error_model="numpy")
+def rodless_cylinder_rhs(y, u, p, dy):
+    """Time derivative ``dy`` of state ``y`` under valve command ``u[0]`` [V] (004 model)."""
+    pos = y[Y]
+    v = y[V]
+    pa = y[PA]
+    pb = y[PB]
+    r_gas = p[I_R]
+    kappa = p[I_K]
+    ts = p[I_TS]
+    area = p[D_AREA]  # pi D^2 / 4
+
+    # chamber volumes with dead volumes (15), guarded
+    vol_a = max(area * pos + p[I_VDA], p[I_VMIN])
+    vol_b = max(area * (p[I_L] - pos) + p[I_VDB], p[I_VMIN])
+    ta = pa * vol_a / (max(y[MA], p[I_MFLOOR]) * r_gas)
+    tb = pb * vol_b / (max(y[MB], p[I_MFLOOR]) * r_gas)
+
+    # valve: the spool opening is limited to +-x_vm; eq (2) for the two edge openings
+    xvm = p[I_XVM]
+    xo = min(max(y[XV], -xvm), xvm)
+    s_plus = circular_orifice_area(p[I_ULAP] + xo, p[I_RP])  # P->A and B->R   (2)
+    s_minus = circular_orifice_area(p[I_ULAP] - xo, p[I_RP])  # P->B and A->R  (2)
+    mdot_a, h_a = _chamber_flows(p, s_plus, s_minus, pa, ta)  # (3)-(4)
+    mdot_b, h_b = _chamber_flows(p, s_minus, s_plus, pb, tb)
+
+    # energy balance of each chamber (10)-(13); dV_a/dt = A v, dV_b/dt = -A v
+    hw = p[I_HW]
+    dpa = chamber_pressure_rate(pa, vol_a, area * v, h_a, kappa, r_gas, hw * (ts - ta))
+    dpb = chamber_pressure_rate(pb, vol_b, -area * v, h_b, kappa, r_gas, hw * (ts - tb))
+    dma = mdot_a  # (8)-(9)
+    dmb = mdot_b
+    # guards: a chamber at the floor cannot lose more pressure or mass
+    if pa <= p[I_PFLOOR] and dpa < 0.0:
+        dpa = 0.0
+    if pb <= p[I_PFLOOR] and dpb < 0.0:
+        dpb = 0.0
+    if y[MA] <= p[I_MFLOOR] and dma < 0.0:
+        dma = 0.0
+    if y[MB] <= p[I_MFLOOR] and dmb < 0.0:
+        dmb = 0.0
+
+    # seal friction: LuGre with the Table 2 curve as steady state, or the static curve
+    sigma0 = p[I_SIG0]
+    if sigma0 > 0.0:
+        dz = lugre_exponential_rate(v, y[Z], p[I_FC], p[I_FS], p[I_VS], sigma0)
+        f_friction = sigma0 * y[Z] + p[I_SIG1] * dz + p[I_SIG2] * v
+    else:
+        dz = 0.0
+        f_friction = stribeck_exponential(v, p[I_FC], p[I_FS], p[I_VS], p[I_SIG2], p[I_VEPS])
+    f_stop = end_stop_force(pos, v, 0.0, p[I_L], p[I_KSTOP], p[I_ASTOP])
+
+    dy[Y] = v
+    dy[V] = (area * (pa - pb) - f_friction - p[I_FL] + f_stop) / p[I_M]  # (18)
+    dy[PA] = dpa
+    dy[PB] = dpb
+    dy[MA] = dma
+    dy[MB] = dmb
+    dy[XV] = y[VV]
+    # (28): x_v = K_v (U - 5 V), K_v = x_vm / 5 V, behind the spool lag
+    dy[VV] = second_order_valve_acceleration(y[XV], y[VV], u[0] - p[I_UC], p[D_KV], p[I_WV], p[I_ZV])
+    dy[Z] = dz
+
+
+@nb.njit(cache=True, error_model="numpy")
+def rodless_cylinder_guard(y, p):
+    """Project the state back onto the physical set after a sub-step; return #clamps."""
+    n = 0
+    if y[PA] < p[I_PFLOOR]:
+        y[PA] = p[I_PFLOOR]
+        n += 1
+    if y[PB] < p[I_PFLOOR]:
+        y[PB] = p[I_PFLOOR]
+        n += 1
+    if y[MA] < p[I_MFLOOR]:
+        y[MA] = p[I_MFLOOR]
+        n += 1
+    if y[MB] < p[I_MFLOOR]:
+        y[MB] = p[I_MFLOOR]
+        n += 1
+    return n
+
+
+# ---------------------------------------------------------------------------- analysis
+def piston_area(params: RodlessCylinderParams) -> float:
+    """Piston area ``A = pi D^2 / 4`` [m^2] (4.909 cm^2 for the 25 mm bore)."""
+    return 0.25 * math.pi * params.bore**2
+
+
+def _edge_flow_py(params: RodlessCylinderParams, area: float, p_up: float, p_down: float, t_up: float) -> float:
+    return float(_edge_flow(params.to_array(), area, p_up, p_down, t_up, math.sqrt(params.gas_constant * t_up)))
+
+
+def centre_pressure(params: RodlessCylinderParams) -> float:
+    """Equilibrium pressure p_0 [Pa] of a chamber at the valve centre (004 eq (14)-(15)).
+
+    At x_v = 0 both edges of a chamber are uncovered by the same underlap, so the leakage
+    in from the supply equals the leakage out to the exhaust at a pressure that does not
+    depend on the (equal) areas: solve ``mdot(p_s -> p_0) = mdot(p_0 -> p_e)`` at T_s. For a
+    zero-lap or overlapped valve the same p_0 is the limit of a vanishing underlap.
+    """
+    from scipy.optimize import brentq
+
+    p = params.to_array()
+    ts = params.supply_temperature
+    rts = math.sqrt(params.gas_constant * ts)
+    ps, pe = params.supply_pressure, params.exhaust_pressure
+    area = 1e-6
+
+    def f(p0):
+        return _edge_flow(p, area, ps, p0, ts, rts) - _edge_flow(p, area, p0, pe, ts, rts)
+
+    return float(brentq(f, pe, ps, xtol=1e-9, rtol=1e-14))
+
+
+def rest_state(params: RodlessCylinderParams, y: float, v: float = 0.0, pa: float | None = None,
+               pb: float | None = None, ta: float | None = None, tb: float | None = None) -> np.ndarray:
+    """State with the slider at ``y`` (velocity ``v``), spool at rest in the centre, chambers
+    at ``pa``, ``pb`` (default: the centre pressure p_0) and ``ta``, ``tb`` (default T_s)."""
+    p0 = centre_pressure(params)
+    pa = p0 if pa is None else pa
+    pb = p0 if pb is None else pb
+    ta = params.supply_temperature if ta is None else ta
+    tb = params.supply_temperature if tb is None else tb
+    a = piston_area(params)
+    va = a * y + params.dead_volume_a
+    vb = a * (params.stroke - y) + params.dead_volume_b
+    s = np.zeros(N_STATES)
+    s[Y], s[V], s[PA], s[PB] = y, v, pa, pb
+    s[MA] = pa * va / (params.gas_constant * ta)
+    s[MB] = pb * vb / (params.gas_constant * tb)
+    return s
+
+
+def chamber_volumes(states: np.ndarray, params: RodlessCylinderParams) -> tuple[np.ndarray, np.ndarray]:
+    """Chamber volumes [m^3] of state rows (eq (15) with dead volumes)."""
+    s = np.atleast_2d(states)
+    a = piston_area(params)
+    va = np.maximum(a * s[:, Y] + params.dead_volume_a, params.min_chamber_volume)
+    vb = np.maximum(a * (params.stroke - s[:, Y]) + params.dead_volume_b, params.min_chamber_volume)
+    return va, vb
+
+
+def chamber_temperatures(states: np.ndarray, params: RodlessCylinderParams) -> tuple[np.ndarray, np.ndarray]:
+    """Chamber gas temperatures ``T = p V / (m R)`` [K] of state rows."""
+    s = np.atleast_2d(states)
+    va, vb = chamber_volumes(s, params)
+    r = params.gas_constant
+    return s[:, PA] * va / (s[:, MA] * r), s[:, PB] * vb / (s[:, MB] * r)
+
+
+def total_energy(states: np.ndarray, params: RodlessCylinderParams) -> np.ndarray:
+    """Kinetic energy + chambers' internal energy + load potential ``F_L y`` [J] of state rows.
+
+    With the valve closed, no friction, no heat exchange and away from the stops this is
+    conserved exactly (the boundary work ``p dV`` moves energy between gas and slider only;
+    the constant load force F_L does work ``-F_L dy``). LuGre bristles store ``sigma0 z^2/2``,
+    not included (use a friction-free parameter set).
+    """
+    s = np.atleast_2d(states)
+    va, vb = chamber_volumes(s, params)
+    k = params.heat_capacity_ratio
+    return (
+        0.5 * params.mass * s[:, V] ** 2
+        + gas_internal_energy(s[:, PA], va, k)
+        + gas_internal_energy(s[:, PB], vb, k)
+        + params.load_force * s[:, Y]
+    )
+
+
+def steady_friction(params: RodlessCylinderParams, v) -> np.ndarray:
+    """Steady-state friction force [N] at constant velocity ``v`` (Table 2 Stribeck curve).
+
+    ``F = (F_c + (F_s - F_c) exp(-|v|/v_s)) sign(v) + sigma v`` -- the steady state of both
+    friction modes (LuGre exactly; the static mode with tanh(v/v_eps) ~ sign(v) for |v| >> v_eps).
+    """
+    v = np.asarray(v, dtype=float)
+    g = params.coulomb_friction + (params.static_friction - params.coulomb_friction) * np.exp(
+        -np.abs(v) / params.stribeck_velocity
+    )
+    return g * np.sign(v) + params.viscous_friction * v
+
+
+def nominal_flow(params: RodlessCylinderParams, p1_gauge: float = 6e5, dp: float = 1e5) -> float:
+    """Standard nominal flow [L/min, ANR] of one fully open path (P->A at full stroke).
+
+    Festo's definition: p1 = 6 bar gauge, p2 = 5 bar gauge, 20 C supply; ANR = 1.185 kg/m^3.
+    """
+    p1 = p1_gauge + params.exhaust_pressure
+    area = float(circular_orifice_area(params.spool_stroke + params.valve_underlap, params.port_radius))
+    m = _edge_flow_py(params, area, p1, p1 - dp, T_REF_ISO)
+    return m / RHO_REF_ISO * 60e3
+
+
+def speed_bound(params: RodlessCylinderParams) -> float:
+    """Upper estimate of the slider speed [m/s] used by :func:`stiffness_modes`.
+
+    In sliding the viscous term limits the speed to where ``sigma v + F_c`` balances the
+    largest steady pressure force ``A (p_s - p_e) + |F_L|``. Without viscous friction the
+    bound is the speed reached by that force acting over the whole stroke.
+    """
+    a = piston_area(params)
+    f_drive = a * (params.supply_pressure - params.exhaust_pressure) + abs(params.load_force)
+    v_energy = math.sqrt(2.0 * f_drive * params.stroke / params.mass)
+    if params.viscous_friction > 0.0:
+        return min(max(f_drive - params.coulomb_friction, 0.0) / params.viscous_friction, v_energy)
+    return v_energy
+
+
+def stiffness_modes(params: RodlessCylinderParams) -> dict[str, float]:
+    """Upper estimates of the Jacobian eigenvalue magnitudes [1/s] of every fast mode.
+
+    The fixed RK4 sub-step keeps ``h |lambda| <= 0.8 * 2.785`` for all of them
+    (:func:`hydro_envs.sim.stiffness.rk4_substeps`); worst cases over the state space:
+
+    * ``valve``: spool poles, ``omega_v``.
+    * ``gas_spring``: ``sqrt(kappa p_max A^2 (1/V_min + 1/V_max) / M)`` at the stroke end,
+      p_max = 1.5 p_s (compression above supply).
+    * ``orifice``: laminar tail of the flow law at full opening into the smallest chamber,
+      ``kappa R T_max / V_min * dmdot/dp`` with T_max = 1.5 T_s (adiabatic compression).
+    * ``friction``: every damping that acts on the slider at once is summed (they share the
+      velocity row of the Jacobian): viscous sigma, the Hunt-Crossley stop damping at full
+      thrust ``alpha F_max``, and the friction law's own slope. LuGre: bristle relaxation while
+      sliding ``sigma0 v_max / F_c`` (v_max from :func:`speed_bound`) plus ``(2 sigma1 + sigma +
+      alpha F_max)/M``; stuck: ``sqrt(sigma0/M)`` plus the same dampings. Static curve: slope
+      of the tanh curve at v = 0, ``F_s / (M v_eps)``, plus the dampings.
+    * ``end_stop``: ``sqrt(k/M)`` plus the Hunt-Crossley damping at full thrust, ``alpha F_max / M``.
+    * ``heat``: wall exchange ``(kappa - 1) h T_max / (p_e/2 V_min)``.
+    """
+    a = piston_area(params)
+    m = params.mass
+    kappa = params.heat_capacity_ratio
+    r_gas = params.gas_constant
+    ps = params.supply_pressure
+    p_max = 1.5 * ps
+    t_max = 1.5 * params.supply_temperature
+    f_max = a * (p_max - params.pressure_floor)
+    # stop penetration: static thrust plus an impact at the speed bound
+    pen = f_max / params.stop_stiffness + speed_bound(params) * math.sqrt(m / params.stop_stiffness)
+    v_min = max(min(params.dead_volume_a, params.dead_volume_b) - a * pen, params.min_chamber_volume)
+    v_big = a * params.stroke + max(params.dead_volume_a, params.dead_volume_b)
+    # laminar slope of the flow law at the largest opening (both models, same code path)
+    xs = np.linspace(-params.spool_stroke, params.spool_stroke, 41)
+    s_open = max(
+        float(circular_orifice_area(params.valve_underlap + x, params.port_radius)) for x in xs
+    )
+    rl = params.laminar_pressure_ratio
+    slope = _edge_flow_py(params, s_open, ps, rl * ps, t_max) / (ps * (1.0 - rl))
+    modes = {
+        "valve": params.valve_natural_frequency,
+        "gas_spring": math.sqrt(kappa * p_max * a * a * (1.0 / v_min + 1.0 / v_big) / m),
+        "orifice": kappa * r_gas * t_max * slope / v_min,
+        "end_stop": math.sqrt(params.stop_stiffness / m) + params.stop_damping * f_max / m,
+    }
+    damping = (params.viscous_friction + params.stop_damping * f_max) / m
+    if params.bristle_stiffness > 0.0:
+        s0 = params.bristle_stiffness
+        lugre = 2.0 * params.bristle_damping / m + damping
+        modes["friction_slip"] = s0 * speed_bound(params) / params.coulomb_friction + lugre
+        modes["friction_stick"] = math.sqrt(s0 / m) + lugre
+    else:
+        modes["friction"] = params.static_friction / (params.friction_sign_velocity * m) + damping
+    if params.wall_heat_conductance > 0.0:
+        modes["heat"] = (kappa - 1.0) * params.wall_heat_conductance * t_max / (0.5 * params.exhaust_pressure * v_min)
+    return modes
+
+
+# ---------------------------------------------------------------------- linearisation
+@dataclasses.dataclass(frozen=True)
+class MidStrokeLinearization:
+    """Linear model of 004 eqs (5)-(7), (14)-(27) at mid-stroke, valve centre.
+
+    Fields: ``p0`` [Pa] centre pressure, ``c1`` [kg/(s m)] mass-flow gain (6), ``c2``
+    [kg/(s Pa)] flow-pressure coefficient (6), ``v0`` [m^3] half the total volume incl. dead
+    volume, ``area`` [m^2], ``mass`` [kg], ``rt`` = R T_s [J/kg], ``kappa``, ``k_t`` [1/s]
+    gain (22), ``zeta`` [-] (23), ``omega_n`` [rad/s] (24), ``k_v`` [m/V] spool gain (28),
+    ``zeta_energy`` [-]: eq (23) with the energy-balance correction of c2 (see
+    :func:`linearize_mid_stroke`), the damping the nonlinear plant actually has.
+    """
+
+    p0: float
+    c1: float
+    c2: float
+    v0: float
+    area: float
+    mass: float
+    rt: float
+    kappa: float
+    k_t: float
+    zeta: float
+    omega_n: float
+    k_v: float
+    zeta_energy: float
+
+    def spool_to_position(self) -> tuple[np.ndarray, np.ndarray]:
+        """(num, den) of eq (21): y/x_v = K_T w^2 / (s (s^2 + 2 zeta w s + w^2))."""
+        w = self.omega_n
+        return np.array([self.k_t * w * w]), np.array([1.0, 2.0 * self.zeta * w, w * w, 0.0])
+
+    def force_to_position(self) -> tuple[np.ndarray, np.ndarray]:
+        """(num, den) of eqs (25)-(26): y/F_f = y/F_L = -(K_T w^2/(2 c1 A)) (V0/(R T kappa) s + c2) / (s(...)).
+
+        004 prints ``2 c_f A`` in (25) and ``2 c_I A`` in (26); both are ``2 c_1 A`` (the
+        factor follows from eq (20)).
+        """
+        w = self.omega_n
+        g = -self.k_t * w * w / (2.0 * self.c1 * self.area)
+        num = g * np.array([self.v0 / (self.rt * self.kappa), self.c2])
+        return num, np.array([1.0, 2.0 * self.zeta * w, w * w, 0.0])
+
+    def command_to_position(self) -> tuple[np.ndarray, np.ndarray]:
+        """(num, den) of y/U with the spool gain of eq (28), x_v = K_v U (U from the 5 V centre)."""
+        num, den = self.spool_to_position()
+        return num * self.k_v, den
+
+    def position(self, s: complex, x_v: complex = 0.0, f: complex = 0.0) -> complex:
+        """Eq (27): Y(s) for spool X_v(s) and total force F_f(s) + F_L(s)."""
+        w = self.omega_n
+        den = s * (s * s + 2.0 * self.zeta * w * s + w * w)
+        k = self.k_t * w * w
+        return (k * x_v - k * f / (2.0 * self.c1 * self.area) * (self.v0 / (self.rt * self.kappa) * s + self.c2)) / den
+
+
+def linearize_mid_stroke(params: RodlessCylinderParams) -> MidStrokeLinearization:
+    """004 eqs (5)-(7) and (19)-(24) at mid-stroke with the valve at its centre.
+
+    ``c1 = d mdot_a / d x_v`` and ``c2 = -d mdot_a / d p_a`` at x_v = 0, p_a = p_0, T = T_s
+    (eq (6)) by central differences of the same flow law the plant uses (both edges of
+    chamber a: P->A opens and A->R closes with x_v). ``V0`` is half the total volume
+    including the dead volumes (the paper's "half the total cylinder volume").
+
+    ``zeta_energy``: eq (16) linearises eq (13) at T = T_s, so the venting gas leaves at a fixed
+    temperature. In the energy balance the outflow carries the chamber's own temperature,
+    which swings isentropically with the pressure (dT/T = (kappa-1)/kappa dp/p; the throughflow
+    relaxes it only over seconds). Linearising ``T_a mdot_out(p_a, T_a)`` with
+    ``mdot_out ~ 1/sqrt(T_a)`` adds ``(kappa - 1)/(2 kappa) mdot_out/p_0`` to c2; with the
+    corrected c2 eq (23) gives ``zeta_energy`` (about 6 % above eq (23) at the nominal plant,
+    where the outflow term is 40 % of c2).
+    """
+    p0 = centre_pressure(params)
+    ts = params.supply_temperature
+    ps, pe = params.supply_pressure, params.exhaust_pressure
+    r = params.port_radius
+    u = params.valve_underlap
+
+    def mdot_a(xv, pa):
+        s_in = float(circular_orifice_area(u + xv, r))
+        s_out = float(circular_orifice_area(u - xv, r))
+        return _edge_flow_py(params, s_in, ps, pa, ts) - _edge_flow_py(params, s_out, pa, pe, ts)
+
+    hx = 1e-3 * max(abs(u), 1e-6)
+    hp = 1e-4 * p0
+    c1 = (mdot_a(hx, p0) - mdot_a(-hx, p0)) / (2.0 * hx)
+    c2 = -(mdot_a(0.0, p0 + hp) - mdot_a(0.0, p0 - hp)) / (2.0 * hp)
+    a = piston_area(params)
+    v0 = 0.5 * (a * params.stroke + params.dead_volume_a + params.dead_volume_b)
+    rt = params.gas_constant * ts
+    kappa = params.heat_capacity_ratio
+    m = params.mass
+    k_t = c1 * rt / (p0 * a)  # (22)
+    zeta = c2 * rt / (2.0 * a) * math.sqrt(kappa * m / (2.0 * v0 * p0))  # (23)
+    omega_n = math.sqrt(2.0 * kappa * p0 * a * a / (v0 * m))  # (24)
+    k_v = params.spool_stroke / (params.command_max - params.command_centre)
+    m_out = _edge_flow_py(params, float(circular_orifice_area(u, r)), p0, pe, ts)
+    c2_energy = c2 + (kappa - 1.0) / (2.0 * kappa) * m_out / p0
+    zeta_energy = c2_energy * rt / (2.0 * a) * math.sqrt(kappa * m / (2.0 * v0 * p0))
+    return MidStrokeLinearization(p0, c1, c2, v0, a, m, rt, kappa, k_t, zeta, omega_n, k_v, zeta_energy)

@@ -1,0 +1,217 @@
+"""Parameters of the seed-004 rodless cylinder: value, unit, allowed range and source per field.
+
+Defaults: ``004_f1423316a055addb.txt`` (Table 2 friction, sec. 2 hardware: SMC MYC25G-110L,
+FESTO MPYE-5, 0.6 MPa) and the data sheets named in each field's source; pressures absolute.
+The index constants ``I_*`` are the columns of the packed kernel parameter array; ``D_*`` the
+derived columns :meth:`RodlessCylinderParams.to_array` appends.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+
+from hydro_envs.laws.nozzle_fast import nozzle_flow_constants
+from hydro_envs.laws.orifice import circular_orifice_area
+from hydro_envs.params import ParameterError, PhysicalParams, physical
+
+__all__ = ["PLANT", "RodlessCylinderParams", "N_PARAMS", "N_FIELDS", "ATM", "T_REF_ISO", "RHO_REF_ISO"]
+
+PLANT = "rodless_cylinder"
+ATM = 101325.0  # Pa, standard atmosphere: gauge -> absolute, and the exhaust
+T_REF_ISO = 293.15  # K, ISO 8778 / ISO 6358 reference temperature (ANR)
+RHO_REF_ISO = 1.185  # kg/m^3, ISO 8778 reference density (ANR)
+
+
+@dataclasses.dataclass(frozen=True)
+class RodlessCylinderParams(PhysicalParams):
+    """Parameters of the seed-004 rodless cylinder (SI; pressures absolute).
+
+    Defaults are 004 Tables 1-2 unless the field's ``source`` says otherwise; everything the
+    paper does not give is taken from the named parts' data sheets or physics, marked assumed.
+    """
+
+    plant = PLANT
+
+    supply_pressure: float = physical(
+        0.6e6 + ATM, "Pa", (1.5e5, 1.2e6),
+        "004 sec. 3.2: 0.6 MPa supply (gauge, Table 1 compressor 0.4-0.7 MPa) + 101.325 kPa",
+    )
+    exhaust_pressure: float = physical(
+        ATM, "Pa", (5e4, 2e5), "assumed: valve exhausts to the standard atmosphere",
+    )
+    supply_temperature: float = physical(
+        293.15, "K", (200.0, 400.0),
+        "assumed: 20 C, ISO 8778 reference; also the wall and ambient temperature",
+    )
+    gas_constant: float = physical(287.0, "J/(kg K)", (200.0, 500.0), "004 eq (3): R of air")
+    heat_capacity_ratio: float = physical(
+        1.4, "1", (1.01, 1.67), "004 eq (11): isentropic index kappa of air", open_low=True
+    )
+    mass: float = physical(
+        0.5, "kg", (0.0, 1e4),
+        "assumed: piston, yoke and slide table of an SMC MY1C25 (data sheet order 0.5 kg); 004 gives no M_L",
+        open_low=True,
+    )
+    bore: float = physical(0.025, "m", (0.0, 1.0), "004 Table 1: SMC MYC25G, bore 25 mm", open_low=True)
+    stroke: float = physical(0.110, "m", (0.0, 10.0), "004 Table 1: stroke 110 mm", open_low=True)
+    dead_volume_a: float = physical(
+        5e-6, "m^3", (0.0, 1e-2),
+        "assumed: end-cover/cushion volume (~2.5 cm^3) + 0.5 m of 2.5 mm-bore tube to the M5 valve",
+        open_low=True,
+    )
+    dead_volume_b: float = physical(
+        5e-6, "m^3", (0.0, 1e-2), "assumed: as dead_volume_a (symmetric piping)", open_low=True
+    )
+    port_radius: float = physical(
+        1.23e-3, "m", (0.0, 0.02),
+        "assumed: r of eq (2) such that a half-open port gives the MPYE-5-M5 standard nominal "
+        "flow 100 L/min (6 -> 5 bar) at C = 0.7",
+        open_low=True,
+    )
+    valve_underlap: float = physical(
+        0.1e-3, "m", (-5e-3, 5e-3),
+        "assumed: u = r - d of eq (2); 0.1 mm gives 6 L/min (ANR) mid-position leakage at 6 bar, "
+        "the MPYE-5 data sheet order; < 0 is an overlap",
+    )
+    spool_stroke: float = physical(
+        1.13e-3, "m", (0.0, 0.02),
+        "assumed: eq (2) is printed up to x_v = d = r - u: full stroke uncovers half a port",
+        open_low=True,
+    )
+    command_centre: float = physical(5.0, "V", (0.0, 100.0), "004 Table 1 / MPYE-5 data sheet: 5 V centre")
+    command_max: float = physical(10.0, "V", (0.0, 100.0), "004 Table 1: 0-10 V driving voltage", open_low=True)
+    discharge_coefficient: float = physical(
+        0.7, "1", (0.0, 1.0), "assumed: C of eq (3), sharp-edged port (0.6-0.85)", open_low=True
+    )
+    laminar_pressure_ratio: float = physical(
+        0.999, "1", (0.9, 0.99999),
+        "assumed: Simscape default; linear flow above this p_down/p_up (NOTES.md, smooth transition)",
+    )
+    flow_model: float = physical(
+        0.0, "1", (0.0, 1.0), "switch: 0 = nozzle law 004 eqs (3)-(4), 1 = ISO 6358 (C, b)"
+    )
+    sonic_conductance: float = physical(
+        3.93e-9, "m^3/(s Pa)", (0.0, 1e-5),
+        "assumed: ISO 6358 C of the full opening for 100 L/min (6 -> 5 bar) at b = 0.3 (0.39 L/(s bar))",
+        open_low=True,
+    )
+    critical_pressure_ratio: float = physical(
+        0.3, "1", (0.0, 0.9), "assumed: ISO 6358 b of a spool valve (0.2-0.45)"
+    )
+    valve_natural_frequency: float = physical(
+        2.0 * math.pi * 100.0, "rad/s", (10.0, 2e4),
+        "assumed: MPYE-5 spool bandwidth order 100 Hz (004 eq (28) takes it as a pure gain)",
+    )
+    valve_damping: float = physical(0.7, "1", (0.05, 5.0), "assumed: position-controlled spool, well damped")
+    static_friction: float = physical(35.48, "N", (0.0, 1e4), "004 Table 2: F_s")
+    coulomb_friction: float = physical(15.31, "N", (0.0, 1e4), "004 Table 2: F_c")
+    stribeck_velocity: float = physical(3.27e-3, "m/s", (1e-5, 1.0), "004 Table 2: ydot_s = 3.27 mm/s")
+    viscous_friction: float = physical(
+        310.0, "N s/m", (0.0, 1e5),
+        "004 Table 2: sigma = 0.31 N s/mm (the conclusions' 'sigma = 3.27 mm/s' is an extraction defect)",
+    )
+    bristle_stiffness: float = physical(
+        1e5, "N/m", (0.0, 1e9),
+        "assumed: LuGre sigma0; pre-sliding F_s/sigma0 = 0.35 mm (004 Fig. 4 'displacement before "
+        "sliding'; soft lip seals and sealing band); 0 selects the static curve",
+    )
+    bristle_damping: float = physical(
+        450.0, "N s/m", (0.0, 1e6), "assumed: LuGre sigma1 = 2 sqrt(sigma0 M), critically damped bristles"
+    )
+    friction_sign_velocity: float = physical(
+        1e-3, "m/s", (1e-7, 0.1), "assumed: tanh sign of the static curve (used only if bristle_stiffness = 0)"
+    )
+    load_force: float = physical(0.0, "N", (-1e5, 1e5), "004 eq (18): F_L, no external load on the rig")
+    stop_stiffness: float = physical(
+        1e6, "N/m", (1e4, 1e10), "assumed: elastomer end bumpers, 0.35 mm deflection at full thrust"
+    )
+    stop_damping: float = physical(
+        2.0, "s/m", (0.0, 100.0), "assumed: Hunt-Crossley alpha, restitution ~0.3 at 0.5 m/s"
+    )
+    wall_heat_conductance: float = physical(
+        0.0, "W/K", (0.0, 100.0), "004 eq (11): adiabatic chambers (> 0: heat exchange with the wall at T_s)"
+    )
+    pressure_floor: float = physical(
+        1.0, "Pa", (0.0, 1e4), "assumed: guard only, Hopsan's 1 Pa pneumatic volume floor (NOTES.md)",
+        open_low=True,
+    )
+    min_gas_mass: float = physical(
+        1e-12, "kg", (0.0, 1e-6), "assumed: guard only, keeps T = pV/(mR) finite and positive", open_low=True
+    )
+    min_chamber_volume: float = physical(
+        1e-8, "m^3", (0.0, 1.0), "assumed: guard only; dead volumes keep chambers >= 5 cm^3", open_low=True
+    )
+
+    def _check_relations(self) -> None:
+        name = type(self).__name__
+        if self.static_friction < self.coulomb_friction:
+            raise ParameterError(
+                f"{name}.static_friction = {self.static_friction} must be >= coulomb_friction = "
+                f"{self.coulomb_friction} (Stribeck: F_s >= F_c)"
+            )
+        if self.bristle_stiffness > 0.0 and not self.coulomb_friction > 0.0:
+            raise ParameterError(
+                f"{name}.coulomb_friction must be > 0 when bristle_stiffness > 0 (LuGre needs g(v) > 0); "
+                "use bristle_stiffness = 0 for a friction-free slider"
+            )
+        if not (self.pressure_floor < self.exhaust_pressure < self.supply_pressure):
+            raise ParameterError(
+                f"{name}: need pressure_floor < exhaust_pressure < supply_pressure, got "
+                f"{self.pressure_floor}, {self.exhaust_pressure}, {self.supply_pressure} Pa"
+            )
+        if self.flow_model not in (0.0, 1.0):
+            raise ParameterError(f"{name}.flow_model = {self.flow_model} must be 0 (nozzle, eqs (3)-(4)) or 1 (ISO 6358)")
+        if not self.command_centre < self.command_max:
+            raise ParameterError(
+                f"{name}.command_centre = {self.command_centre} V must be below command_max = {self.command_max} V"
+            )
+        if abs(self.valve_underlap) >= self.port_radius:
+            raise ParameterError(
+                f"{name}.valve_underlap = {self.valve_underlap} m must satisfy |u| < port_radius = {self.port_radius} m"
+            )
+        if self.min_chamber_volume >= min(self.dead_volume_a, self.dead_volume_b):
+            raise ParameterError(
+                f"{name}.min_chamber_volume must be below the dead volumes dead_volume_a and "
+                f"dead_volume_b ({self.min_chamber_volume} >= {min(self.dead_volume_a, self.dead_volume_b)} m^3)"
+            )
+
+    # kernel array: the fields, then derived columns computed once per parameter set so the
+    # right-hand side needs no pow calls (see hydro_envs.laws.nozzle_fast)
+    def to_array(self) -> np.ndarray:
+        crit, psi_c, psi_lam, inv_k, coef = nozzle_flow_constants(self.heat_capacity_ratio, self.laminar_pressure_ratio)
+        extra = [
+            0.25 * math.pi * self.bore**2,  # piston area A
+            crit, psi_c, psi_lam, inv_k, coef,
+            math.sqrt(self.gas_constant * self.supply_temperature),  # sqrt(R T_s)
+            self.spool_stroke / (self.command_max - self.command_centre),  # K_v of eq (28)
+            float(circular_orifice_area(self.spool_stroke + self.valve_underlap, self.port_radius)),
+        ]
+        return np.concatenate([super().to_array(), np.array(extra, dtype=np.float64)])
+
+    @classmethod
+    def from_array(cls, values: np.ndarray) -> "RodlessCylinderParams":
+        values = np.asarray(values, dtype=np.float64)
+        n = len(cls.names())
+        if values.shape not in ((n,), (N_PARAMS,)):
+            raise ParameterError(
+                f"{cls.__name__}: expected {n} (or {N_PARAMS} with derived columns) values, got shape {values.shape}"
+            )
+        return cls(**{k: float(v) for k, v in zip(cls.names(), values[:n])})
+
+
+# Column indices of the packed parameter array (declaration order of the dataclass).
+(
+    I_PS, I_PE, I_TS, I_R, I_K, I_M, I_D, I_L, I_VDA, I_VDB, I_RP, I_ULAP, I_XVM, I_UC, I_UMAX,
+    I_CD, I_RLAM, I_FLOW, I_CISO, I_BISO, I_WV, I_ZV, I_FS, I_FC, I_VS, I_SIG2, I_SIG0, I_SIG1,
+    I_VEPS, I_FL, I_KSTOP, I_ASTOP, I_HW, I_PFLOOR, I_MFLOOR, I_VMIN,
+) = range(36)
+N_FIELDS = 36
+# derived columns appended by RodlessCylinderParams.to_array()
+(D_AREA, D_CRIT, D_PSIC, D_PSIL, D_INVK, D_COEF, D_SQRTRTS, D_KV, D_SFULL) = range(N_FIELDS, N_FIELDS + 9)
+N_PARAMS = N_FIELDS + 9
+assert RodlessCylinderParams.names()[I_VMIN] == "min_chamber_volume"
+assert RodlessCylinderParams.names()[I_SIG1] == "bristle_damping"
+assert len(RodlessCylinderParams.names()) == N_FIELDS

@@ -1,0 +1,1 @@
+"""Measured seal friction of a pneumatic cylinder (measured channels only, no model)."""

@@ -1,0 +1,273 @@
+r"""Valve-controlled double-rod servo cylinder (seed 002, Moog D765 servo-valve).
+
+Source: ``002_af30b681d6ccfd6c.txt`` -- "Neural Network-based Friction Identification in
+Hydraulic Actuators": state-space model eq (8), friction eq (1), Table 1 parameters.
+
+State (SI, pressures absolute)::
+
+    index  name  unit   meaning
+    0      x     m      piston position, 0 at the chamber-1 end, stroke at the other
+    1      v     m/s    piston velocity
+    2      p1    Pa     chamber-1 pressure
+    3      p2    Pa     chamber-2 pressure
+    4      xv    m      valve spool position
+    5      vv    m/s    valve spool velocity
+
+Input: ``u`` [V], servo-valve command, +-10 V for full spool stroke (Table 1: k_v = 0.0279
+mm/V, x_vm = 0.279 mm).
+
+Equations (numbers of 002)::
+
+    x'  = v                                                          (8.1)
+    m v' = A (p1 - p2) - F_f(v) - F_L + F_stop(x, v)                  (7), (8.2)
+    p1' = beta / (A x + V1) * (Q1 - A v)                              (5), (8.3)
+    p2' = beta / (A (L - x) + V2) * (Q2 + A v)                        (6), (8.4)
+    xv'' = -w_v^2 xv - 2 zeta_v w_v xv' + k_v w_v^2 u                 (2), (8.5-6)
+    F_f = (F_C + (F_S - F_C) exp(-|v|/v_S)) sign(v) + d v             (1), with d of (7)
+
+Valve flows (critically lapped, matched, symmetric; Q2 counted *into* chamber 2)::
+
+    Q1 = C_v w sqrt(2/rho) [ xv+ sqrt(p_s - p1) - xv- sqrt(p1 - p_R) ]     (3)
+    Q2 = C_v w sqrt(2/rho) [ xv- sqrt(p_s - p2) - xv+ sqrt(p2 - p_R) ]     (4)
+
+with ``xv+ = max(xv, 0)``, ``xv- = max(-xv, 0)``, the spool opening limited to +-x_vm.
+
+Effects outside the seed model (all 0 by default, i.e. exactly 002 eq (8); added by the
+diagnosis workflow, :mod:`identification.diagnosis`, when measured data call for them)::
+
+    valve_overlap x_lap:   every edge opens by max(+-xv - x_lap, 0) (all four edges evaluated)
+    internal_leakage C_il: Q1 -= C_il (p1 - p2), Q2 += C_il (p1 - p2)       (as 003 eqs (4)-(5))
+    external_leakage C_el: Q_i -= C_el (p_i - p_R)                          (as 003 eqs (4)-(5))
+    friction_asymmetry a, friction_pressure_coefficient c_p: both Stribeck levels of (1) become
+        (1 + a tanh(v/v_eps)) (F + c_p |p1 - p2|)
+
+Decisions on the extracted text (see ``shared/seeds/README.md``):
+
+* eq (5) prints the chamber volume as ``A x_p - V1``; physically it is ``A x_p + V1`` (the
+  line volume adds to the swept volume). We use ``+``.
+* eqs (3)-(4) in compact form ``sqrt((Ps-PR)/2 + sgn(xv)((Ps-PR)/2 - P1))`` equal the
+  edge-by-edge form above only for ``P_R = 0``; with absolute pressures we write the edges
+  out. The root is regularised (laminar below ``orifice_transition_pressure``) so reverse
+  flow (p1 > p_s while braking) is allowed and the Jacobian stays finite at zero pressure drop.
+* Table 1's "0.65 cm^3" for zeta_v is a stray unit: zeta_v = 0.65.
+* Table 1 gives no Stribeck parameters (the friction figures are missing from the text); the
+  defaults below are assumed, of the size of the fitting errors E = 2.5-3.1 N of sec. 5.
+
+Guards (``shared/NOTES.md``): chamber pressures never integrate below a cavitation floor
+(derivative clipped at the floor here, state clamped after each sub-step by the integrator),
+chamber volumes never below ``min_chamber_volume``, and end stops at 0 and L act through a
+continuous Hunt-Crossley contact force (:mod:`hydro_envs.laws.contact`).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba as nb
+import numpy as np
+
+from hydro_envs.laws.contact import end_stop_force
+from hydro_envs.laws.friction import stribeck_exponential
+from hydro_envs.laws.orifice import orifice_flow, spool_edge_opening
+from hydro_envs.laws.valve import second_order_valve_acceleration
+from hydro_envs.plants.servo_cylinder.params import (  # noqa: F401  (indices re-exported)
+    I_A, I_ASTOP, I_CD, I_CEL, I_CIL, I_D, I_DPTR, I_FASYM, I_FC, I_FL, I_FPC, I_FS, I_KSTOP, I_KV, I_L,
+    I_LAP, I_M, I_PFLOOR, I_PS, I_PT, I_RHO, I_UMAX, I_V1, I_V2, I_VEPS, I_VMIN, I_VS, I_W, I_WV, I_XVM,
+    I_ZV, I_BETA, N_PARAMS, PLANT, ServoCylinderParams,
+)
+
+__all__ = [
+    "ServoCylinderParams",
+    "STATE_NAMES",
+    "servo_cylinder_rhs",
+    "servo_cylinder_guard",
+    "stiffness_modes",
+    "hydraulic_natural_frequency",
+    "no_load_velocity",
+    "closed_valve_energy",
+]
+
+STATE_NAMES = ("x", "v", "p1", "p2", "xv", "vv")
+STATE_UNITS = ("m", "m/s", "Pa", "Pa", "m", "m/s")
+N_STATES = 6
+X, V, P1, P2, XV, VV = range(N_STATES)
+
+
+@nb.njit(cache=True, error_model="numpy")
+def servo_cylinder_rhs(y, u, p, dy):
+    """Time derivative ``dy`` of state ``y`` under command ``u[0]`` [V] (002 eq (8))."""
+    x = y[X]
+    v = y[V]
+    p1 = y[P1]
+    p2 = y[P2]
+    xv = y[XV]
+    vv = y[VV]
+    ps = p[I_PS]
+    pt = p[I_PT]
+    area = p[I_A]
+
+    # Spool opening limited by the spool stroke x_vm (Table 1).
+    xo = min(max(xv, -p[I_XVM]), p[I_XVM])
+    cd = p[I_CD]
+    rho = p[I_RHO]
+    dptr = p[I_DPTR]
+    w = p[I_W]
+    lap = p[I_LAP]
+    if lap == 0.0:
+        # Critical lap (the seed's valve): only the two edges on the side the spool moved to
+        # are open, so only they are evaluated: Q1 into chamber 1 (3), Q2 into chamber 2 (4).
+        if xo >= 0.0:  # P -> 1 and 2 -> T open, area w * xo
+            q1 = orifice_flow(cd, w * xo, ps - p1, rho, dptr)  # (3)
+            q2 = -orifice_flow(cd, w * xo, p2 - pt, rho, dptr)  # (4)
+        else:  # P -> 2 and 1 -> T open, area w * |xo|
+            q1 = -orifice_flow(cd, -w * xo, p1 - pt, rho, dptr)  # (3)
+            q2 = orifice_flow(cd, -w * xo, ps - p2, rho, dptr)  # (4)
+    else:
+        # Lapped spool: each of the four edges opens by max(+-xo - lap, 0) (Hopsan laps).
+        a_p1 = w * spool_edge_opening(xo, lap)  # P -> 1
+        a_2t = w * spool_edge_opening(xo, lap)  # 2 -> T
+        a_p2 = w * spool_edge_opening(-xo, lap)  # P -> 2
+        a_1t = w * spool_edge_opening(-xo, lap)  # 1 -> T
+        q1 = orifice_flow(cd, a_p1, ps - p1, rho, dptr) - orifice_flow(cd, a_1t, p1 - pt, rho, dptr)
+        q2 = orifice_flow(cd, a_p2, ps - p2, rho, dptr) - orifice_flow(cd, a_2t, p2 - pt, rho, dptr)
+    # Seal leaks (0 in the seed): cross-piston 1 -> 2 and each chamber to tank.
+    q_il = p[I_CIL] * (p1 - p2)
+    q1 -= q_il + p[I_CEL] * (p1 - pt)
+    q2 += q_il - p[I_CEL] * (p2 - pt)
+
+    vol1 = max(area * x + p[I_V1], p[I_VMIN])  # (5), "+ V1" (extraction defect fixed)
+    vol2 = max(area * (p[I_L] - x) + p[I_V2], p[I_VMIN])  # (6)
+    dp1 = p[I_BETA] / vol1 * (q1 - area * v)  # (5), (8.3)
+    dp2 = p[I_BETA] / vol2 * (q2 + area * v)  # (6), (8.4)
+    # Cavitation guard: a chamber at the floor cannot lose more pressure.
+    if p1 <= p[I_PFLOOR] and dp1 < 0.0:
+        dp1 = 0.0
+    if p2 <= p[I_PFLOOR] and dp2 < 0.0:
+        dp2 = 0.0
+
+    # (1), (7); levels scaled by direction (asymmetry) and raised by the seal pressure
+    level = (1.0 + p[I_FASYM] * math.tanh(v / p[I_VEPS]))
+    f_add = p[I_FPC] * abs(p1 - p2)
+    f_friction = stribeck_exponential(
+        v, level * (p[I_FC] + f_add), level * (p[I_FS] + f_add), p[I_VS], p[I_D], p[I_VEPS]
+    )
+    f_stop = end_stop_force(x, v, 0.0, p[I_L], p[I_KSTOP], p[I_ASTOP])
+    dy[X] = v  # (8.1)
+    dy[V] = (area * (p1 - p2) - f_friction - p[I_FL] + f_stop) / p[I_M]  # (7), (8.2)
+    dy[P1] = dp1
+    dy[P2] = dp2
+    dy[XV] = vv  # (8.5)
+    dy[VV] = second_order_valve_acceleration(xv, vv, u[0], p[I_KV], p[I_WV], p[I_ZV])  # (2), (8.6)
+
+
+@nb.njit(cache=True, error_model="numpy")
+def servo_cylinder_guard(y, p):
+    """Project the state back onto the physical set after a sub-step; return #clamps."""
+    n = 0
+    if y[P1] < p[I_PFLOOR]:
+        y[P1] = p[I_PFLOOR]
+        n += 1
+    if y[P2] < p[I_PFLOOR]:
+        y[P2] = p[I_PFLOOR]
+        n += 1
+    return n
+
+
+# ---------------------------------------------------------------------------- analysis
+def hydraulic_natural_frequency(params: ServoCylinderParams, x: float) -> float:
+    """Undamped hydraulic natural frequency [rad/s] at position ``x`` with the valve closed.
+
+    ``omega_h^2 = beta A^2 (1/V1 + 1/V2) / m`` (two oil springs in parallel on the mass).
+    """
+    vol1 = params.piston_area * x + params.line_volume_1
+    vol2 = params.piston_area * (params.stroke - x) + params.line_volume_2
+    k_oil = params.bulk_modulus * params.piston_area**2 * (1.0 / vol1 + 1.0 / vol2)
+    return math.sqrt(k_oil / params.mass)
+
+
+def stiffness_modes(params: ServoCylinderParams) -> dict[str, float]:
+    """Upper estimates of the Jacobian eigenvalue magnitudes [1/s] of every fast mode.
+
+    The fixed RK4 sub-step must keep ``h * |lambda| <= 2.78`` for all of them
+    (:func:`hydro_envs.sim.stiffness.rk4_substeps`). Each entry is the worst case over the
+    state space (stroke end, full opening, zero pressure drop, zero velocity):
+
+    * ``valve``: spool poles, ``|lambda| = omega_v``.
+    * ``hydraulic``: oil spring on the mass, largest at the stroke end (smallest volume).
+    * ``orifice``: laminar slope of the regularised root at zero drop, fully open, into the
+      smallest chamber: ``beta / V_min * C_v w x_vm sqrt(2/rho) / sqrt(dp_tr)``.
+    * ``friction``: slope of the regularised Stribeck curve at v = 0, ``(F_S/v_eps + d)/m``.
+    * ``end_stop``: contact spring ``sqrt(k/m)`` plus its damping ``alpha * F_max / m`` at the
+      penetration where the stop holds the full thrust ``F_max = A (p_s - p_floor)``.
+    """
+    a = params.piston_area
+    vol_min = min(params.line_volume_1, params.line_volume_2)
+    omega_h = max(
+        hydraulic_natural_frequency(params, 0.0),
+        hydraulic_natural_frequency(params, params.stroke),
+    )
+    underlap = max(-params.valve_overlap, 0.0)
+    g_lam = (
+        params.discharge_coefficient
+        * params.area_gradient
+        * (params.spool_stroke + 2.0 * underlap)  # open edge plus the opposite underlapped one
+        * math.sqrt(2.0 / params.oil_density)
+        / math.sqrt(params.orifice_transition_pressure)
+    )
+    g_leak = 2.0 * params.internal_leakage + params.external_leakage
+    f_max = a * (params.supply_pressure - params.pressure_floor)
+    f_static = (1.0 + abs(params.friction_asymmetry)) * (
+        params.static_friction
+        + params.friction_pressure_coefficient * (params.supply_pressure - params.pressure_floor)
+    )
+    return {
+        "valve": params.valve_natural_frequency,
+        "hydraulic": omega_h,
+        "orifice": params.bulk_modulus / vol_min * (g_lam + g_leak),
+        "friction": (f_static / params.friction_sign_velocity + params.viscous_friction)
+        / params.mass,
+        "end_stop": math.sqrt(params.stop_stiffness / params.mass)
+        + params.stop_damping * f_max / params.mass,
+    }
+
+
+def no_load_velocity(params: ServoCylinderParams) -> float:
+    """Orifice-law piston speed [m/s] at full spool opening with no load and no friction.
+
+    With p1 - p2 = 0 both metering edges see half the supply-to-tank drop:
+    ``v = C_v w x_vm sqrt(2/rho) sqrt((p_s - p_R)/2) / A`` (from 002 eqs (3)-(5)).
+    """
+    q = (
+        params.discharge_coefficient
+        * params.area_gradient
+        * params.spool_stroke
+        * math.sqrt(2.0 / params.oil_density)
+        * math.sqrt((params.supply_pressure - params.tank_pressure) / 2.0)
+    )
+    return q / params.piston_area
+
+
+def closed_valve_energy(y: np.ndarray, params: ServoCylinderParams, y0: np.ndarray) -> np.ndarray:
+    """Kinetic energy plus fluid energy stored since state ``y0`` [J] (rows of ``y`` are states).
+
+    For a sealed chamber at constant bulk modulus, ``dp = -beta dV / V`` gives
+    ``p(V) = p0 - beta ln(V/V0)`` and the energy stored by compressing it from V0 to V is
+    ``-int p dV = -p0 (V - V0) + beta (V ln(V/V0) - V + V0)``. With the valve closed and no
+    friction the sum over both chambers plus ``m v^2 / 2`` is conserved exactly.
+    """
+    y = np.atleast_2d(y)
+    a = params.piston_area
+    beta = params.bulk_modulus
+
+    def chamber(vol, vol0, p0):
+        return -p0 * (vol - vol0) + beta * (vol * np.log(vol / vol0) - vol + vol0)
+
+    v10 = a * y0[X] + params.line_volume_1
+    v20 = a * (params.stroke - y0[X]) + params.line_volume_2
+    v1 = a * y[:, X] + params.line_volume_1
+    v2 = a * (params.stroke - y[:, X]) + params.line_volume_2
+    return (
+        0.5 * params.mass * y[:, V] ** 2
+        + chamber(v1, v10, y0[P1])
+        + chamber(v2, v20, y0[P2])
+    )

@@ -1,0 +1,156 @@
+"""Parameters of the seed-002 servo cylinder: value, unit, allowed range and source per field.
+
+Defaults are Table 1 of ``002_af30b681d6ccfd6c.txt`` unless a field's ``source`` says
+otherwise; pressures are absolute. The index constants ``I_*`` are the columns of the packed
+kernel parameter array (:meth:`hydro_envs.params.PhysicalParams.to_array`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+from hydro_envs.params import ParameterError, PhysicalParams, physical
+
+__all__ = ["PLANT", "ServoCylinderParams", "N_PARAMS"]
+
+PLANT = "servo_cylinder"
+_ATM = 1.0e5  # Pa, atmosphere used to turn the seed's gauge pressures into absolute ones
+
+@dataclasses.dataclass(frozen=True)
+class ServoCylinderParams(PhysicalParams):
+    """Parameters of the seed-002 servo cylinder (SI; pressures absolute).
+
+    Defaults are Table 1 of 002 unless the field's ``source`` says otherwise.
+    """
+
+    plant = PLANT
+
+    supply_pressure: float = physical(
+        13.8e6 + _ATM, "Pa", (2e5, 35e6),
+        "002 sec. 3: operated at about 13.8 MPa (gauge) + 0.1 MPa atmosphere; Table 1 P_s <= 17 MPa",
+    )
+    tank_pressure: float = physical(
+        _ATM, "Pa", (0.0, 5e6),
+        "assumed: tank at atmosphere (002 Table 1: P_R < 0.25 MPa)",
+    )
+    mass: float = physical(12.3, "kg", (0.0, 1e4), "002 Table 1: m", open_low=True)
+    piston_area: float = physical(6.63e-4, "m^2", (0.0, 1.0), "002 Table 1: A", open_low=True)
+    stroke: float = physical(0.0696, "m", (0.0, 10.0), "002 Table 1: L", open_low=True)
+    line_volume_1: float = physical(88.7e-6, "m^3", (0.0, 1.0), "002 Table 1: V1", open_low=True)
+    line_volume_2: float = physical(88.7e-6, "m^3", (0.0, 1.0), "002 Table 1: V2", open_low=True)
+    oil_density: float = physical(847.0, "kg/m^3", (500.0, 1500.0), "002 Table 1: rho_oil")
+    bulk_modulus: float = physical(689e6, "Pa", (1e7, 3e9), "002 Table 1: beta_h")
+    discharge_coefficient: float = physical(
+        0.6, "1", (0.0, 1.0), "002 Table 1: C_v", open_low=True
+    )
+    area_gradient: float = physical(
+        20.75e-3, "m", (0.0, 1.0), "002 Table 1: w = 20.75 mm^2/mm", open_low=True
+    )
+    spool_stroke: float = physical(
+        0.279e-3, "m", (0.0, 0.01), "002 Table 1: x_vm", open_low=True
+    )
+    spool_gain: float = physical(
+        0.0279e-3, "m/V", (0.0, 1e-3), "002 Table 1: k_v = 0.0279 mm/V", open_low=True
+    )
+    valve_natural_frequency: float = physical(
+        2.0 * math.pi * 175.0, "rad/s", (10.0, 2e4), "002 Table 1: omega_v = 175 Hz"
+    )
+    valve_damping: float = physical(
+        0.65, "1", (0.05, 5.0), "002 Table 1: zeta_v (printed unit cm^3 is an extraction defect)"
+    )
+    command_max: float = physical(
+        10.0, "V", (0.0, 100.0), "002 Table 1: x_vm / k_v = 10 V", open_low=True
+    )
+    viscous_friction: float = physical(
+        250.0, "N s/m", (0.0, 1e5), "002 Table 1: d (eq (7)); the F_V v term of eq (1)"
+    )
+    coulomb_friction: float = physical(
+        40.0, "N", (0.0, 1e4), "assumed: 002 Fig. 6-7 missing; tens of N for a 6.63 cm^2 seal set"
+    )
+    static_friction: float = physical(
+        60.0, "N", (0.0, 1e4), "assumed: F_S/F_C = 1.5, typical for lubricated hydraulic seals"
+    )
+    stribeck_velocity: float = physical(
+        0.01, "m/s", (1e-5, 1.0), "assumed: 10 mm/s, inside 002's constant-velocity test range"
+    )
+    friction_sign_velocity: float = physical(
+        1e-3, "m/s", (1e-6, 0.1),
+        "assumed: tanh regularisation of sign(v); NOTES.md stiffness 4.4e3 1/s at 1 mm/s",
+    )
+    load_force: float = physical(0.0, "N", (-1e6, 1e6), "002 eq (7): F_L, no load on the rig")
+    stop_stiffness: float = physical(
+        1e8, "N/m", (1e5, 1e11),
+        "assumed: steel stop, 0.09 mm penetration at full thrust A*p_s",
+    )
+    stop_damping: float = physical(
+        2.0, "s/m", (0.0, 100.0), "assumed: Hunt-Crossley alpha, restitution ~0.3 at 0.5 m/s"
+    )
+    orifice_transition_pressure: float = physical(
+        1e5, "Pa", (1.0, 1e7),
+        "assumed: laminar transition of the regularised root (NOTES.md: 1e5 Pa -> |lambda| 4.1e3 1/s)",
+    )
+    pressure_floor: float = physical(
+        1e3, "Pa", (0.0, 1e5), "assumed: cavitation floor, about the oil's vapour/gas-release pressure"
+    )
+    min_chamber_volume: float = physical(
+        1e-7, "m^3", (0.0, 1.0), "assumed: guard only; line volumes keep chambers >= 88.7 cm^3",
+        open_low=True,
+    )
+    # --- effects outside the seed model (0 = the seed's model); the diagnosis catalogue
+    # (identification/diagnosis/catalogue.py) adds them when measured data call for them.
+    valve_overlap: float = physical(
+        0.0, "m", (-0.1e-3, 0.1e-3),
+        "002 eqs (3)-(4): critically lapped (0). > 0 overlap (dead band), < 0 underlap (all four "
+        "edges open at null); Hopsan lap convention, hydro_envs.laws.orifice.spool_edge_opening",
+    )
+    internal_leakage: float = physical(
+        0.0, "m^3/(s Pa)", (0.0, 1e-10),
+        "002 eq (8): leak-free piston seal (0); laminar cross-piston leak Q = C_il (p1 - p2), "
+        "as 003 eq (4)-(5) C_il",
+    )
+    external_leakage: float = physical(
+        0.0, "m^3/(s Pa)", (0.0, 1e-10),
+        "002 eq (8): no rod-seal leak (0); laminar leak of each chamber to tank Q = C_el (p_i - p_R), "
+        "as 003 eq (4)-(5) C_el",
+    )
+    friction_asymmetry: float = physical(
+        0.0, "1", (-0.9, 0.9),
+        "002 eq (1): symmetric friction (0); Coulomb and static levels times (1 + a) for v > 0 and "
+        "(1 - a) for v < 0 (rod-side vs cap-side seal lips, cf. 001 stiction +99/-54 N)",
+    )
+    friction_pressure_coefficient: float = physical(
+        0.0, "N/Pa", (0.0, 1e-4),
+        "002 eq (1): pressure-independent friction (0); Coulomb and static levels rise by "
+        "c_p |p1 - p2| (piston seal pressed by the pressure difference; seal data in "
+        "tests/data/pneumatic_seal_friction rise 5.4 -> 16.8 N from 1 to 7 bar)",
+    )
+
+    def _check_relations(self) -> None:
+        if self.static_friction < self.coulomb_friction:
+            raise ParameterError(
+                f"ServoCylinderParams.static_friction = {self.static_friction} must be >= "
+                f"coulomb_friction = {self.coulomb_friction} (Stribeck: F_S >= F_C)"
+            )
+        if not (self.pressure_floor < self.tank_pressure < self.supply_pressure):
+            raise ParameterError(
+                "ServoCylinderParams: need pressure_floor < tank_pressure < supply_pressure, got "
+                f"{self.pressure_floor}, {self.tank_pressure}, {self.supply_pressure} Pa"
+            )
+        if self.min_chamber_volume >= min(self.line_volume_1, self.line_volume_2):
+            raise ParameterError(
+                "ServoCylinderParams.min_chamber_volume must be below the line volumes line_volume_1 "
+                f"and line_volume_2 ({self.min_chamber_volume} >= "
+                f"{min(self.line_volume_1, self.line_volume_2)} m^3)"
+            )
+
+
+# Column indices of the packed parameter array (declaration order of the dataclass).
+(
+    I_PS, I_PT, I_M, I_A, I_L, I_V1, I_V2, I_RHO, I_BETA, I_CD, I_W, I_XVM, I_KV, I_WV,
+    I_ZV, I_UMAX, I_D, I_FC, I_FS, I_VS, I_VEPS, I_FL, I_KSTOP, I_ASTOP, I_DPTR, I_PFLOOR,
+    I_VMIN, I_LAP, I_CIL, I_CEL, I_FASYM, I_FPC,
+) = range(32)
+assert ServoCylinderParams.names()[I_VMIN] == "min_chamber_volume"
+assert ServoCylinderParams.names()[I_FPC] == "friction_pressure_coefficient"
+N_PARAMS = 32

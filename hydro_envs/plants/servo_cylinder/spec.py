@@ -1,0 +1,28 @@
+"""Registry entry of the valve-controlled servo cylinder (seed 002)."""
+
+from hydro_envs.spec import Channel, EnvEntry, PlantSpec
+
+SPEC = PlantSpec(
+    name="servo_cylinder",
+    title="valve-controlled double-rod servo cylinder, Moog D765 servo-valve",
+    source="002_af30b681d6ccfd6c.txt: eq (8), friction eq (1), Table 1",
+    channels=(
+        Channel("u", "V", "servo-valve command (+-10 V = full spool stroke)"),
+        Channel("x", "m", "piston position from the chamber-1 end of stroke (0..stroke)"),
+        Channel("p1", "Pa", "absolute pressure in chamber 1"),
+        Channel("p2", "Pa", "absolute pressure in chamber 2"),
+    ),
+    inputs=("u",),
+    package="hydro_envs.plants.servo_cylinder",
+    params_class="ServoCylinderParams",
+    envs=(
+        EnvEntry(
+            "hydro_envs/ServoCylinderPosition-v0",
+            "hydro_envs.envs.servo_cylinder:ServoCylinderPositionEnv",
+            "hydro_envs.envs.servo_cylinder:ServoCylinderPositionVectorEnv",
+            2000,
+        ),
+    ),
+    stroke_parameter="stroke",
+    pressure_parameter="supply_pressure",
+)

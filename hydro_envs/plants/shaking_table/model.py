@@ -1,0 +1,408 @@
+r"""Servo-hydraulic uni-axial shaking table (seed 003, University of Bergamo rig).
+
+Source: ``003_54985feb8193da53.txt`` -- "Nonlinear Model of a Servo-Hydraulic Shaking Table
+with Dynamic Model of Effective Bulk Modulus": underlapped 4/3 valve eqs (1)-(4), valve
+dynamics eq (5), chamber pressures with leakage eqs (6)-(9), piston eq (10), Stribeck friction
+with tanh sign eqs (11)-(12), IFAS bulk modulus eq (13), modified IFAS eqs (15)-(19),
+Tables 1-2. Hardware (sec. 2): Bosch-Rexroth CGH2 *double-rod* cylinder, bore 50 mm, rod
+36 mm, stroke 260 mm (so ``A_a = A_b = A = pi/4 (50^2 - 36^2) mm^2 = 9.4562e-4 m^2``, Table 1);
+4WS.2E proportional valve (20 l/min, about 150 Hz); 650 kg platform; 200 / 500 kg specimens;
+linear potentiometer (Gefran PC-M-300) and accelerometer (ADXL05).
+
+State (SI, pressures absolute)::
+
+    index  name  unit   meaning
+    0      x     m      table position, 0 at mid-stroke, +-stroke/2 at the mechanical ends
+    1      v     m/s    table velocity
+    2      pa    Pa     chamber-a pressure (chamber a grows with x)
+    3      pb    Pa     chamber-b pressure
+    4      xv    1      normalised spool position (+-1 = full stroke)
+    5      vv    1/s    normalised spool velocity
+
+Input: ``u`` [V], valve command, +-10 V = full spool stroke.
+
+Equations (numbers of 003)::
+
+    Q_a = R [ sgt(xv,U) sqrt~(P_s - P_a) - sgt(-xv,U) sqrt~(P_a - P_T) ]            (1)
+    Q_b = R [ sgt(-xv,U) sqrt~(P_s - P_b) - sgt(xv,U) sqrt~(P_b - P_T) ]            (2)
+    sgt(xv, U) = max(xv + U, 0)                                                    (3)
+    xv'' = w0^2 (k_u u - xv) - 2 zeta w0 xv'                                         (5)
+    P_a' = E_a / V_a (Q_a - Q_ia - Q_ea - A v),  V_a = V_0 + A (L/2 + x)             (6)
+    P_b' = E_b / V_b (Q_b - Q_ib - Q_eb + A v),  V_b = V_0 + A (L/2 - x)             (7)
+    Q_ia = C_il (P_a - P_b) = -Q_ib,  Q_ea = C_el (P_a - P_T),  Q_eb = C_el (P_b - P_T) (8)-(9)
+    M v' = A (P_a - P_b) - F_fric(v) + F_stop(x, v),  M = M_b + M_s                  (10)
+    F_fric = (F_C + (F_s - F_C) exp(-(v/v_s)^2)) tanh(beta v) + F_v v                 (11)-(12)
+    E = E_0 (constant) | E_IFAS(P) (13) | E_IFAS(P) h(P_a - P_b) (15)-(19)
+
+``sqrt~`` is the signed root ``sign(dp) sqrt(|dp|)`` of eqs (1)-(2) and (4), regularised below
+``orifice_transition_pressure`` (:func:`hydro_envs.laws.orifice.regularized_signed_sqrt`) so
+the Jacobian stays finite at zero pressure drop. The bulk-modulus model is the *numeric*
+parameter ``bulk_modulus_model`` (0 constant, 1 IFAS, 2 modified IFAS) so one compiled kernel
+handles every variant and a batch may mix them.
+
+Decisions on the extracted text (``shared/seeds/README.md`` and this module):
+
+* **Spool scale.** Eq (5) has unit gain from u to the normalised spool xv, and the text's
+  inputs are ``u = 0.3 sin(2 pi 2 t)`` while Table 3 writes ``3 sin(4 pi t)``: the text's u is
+  the normalised command (a fraction of full stroke) and Table 3's is in volts, with the usual
+  +-10 V = full stroke of a proportional valve. So ``xv_ss = k_u u`` with ``k_u = 0.1 1/V``.
+  Consistency check: R = 1.28e-7 m^3/(s sqrt(Pa)) at xv = 1 passes 20.3 l/min at 70 bar per
+  edge, the 4WS.2E's 20 l/min nominal flow (sec. 2); the spool opening is limited to +-1.
+* **Leakage signs.** Eqs (8)-(9) print ``C_il (|P_a - P_b|)`` in both chambers, which would
+  drain both chambers through the piston seal. Internal leakage flows from the high- to the
+  low-pressure chamber: ``Q_ia = C_il (P_a - P_b) = -Q_ib``. External leakage drains to the
+  tank/ambient pressure: ``Q_ea = C_el (P_a - P_T)`` (pressures here are absolute).
+* **Table 2 units** are not printed. SI throughout: C_il, C_el in m^3/(s Pa), F in N, F_v in
+  N s/m, v_s in m/s, beta in s/m, E_0 in Pa, mu in 1/Pa, P_Lt in Pa; P_0 is read in bar (36.85
+  bar, 8.7 bar), see :mod:`hydro_envs.laws.bulk_modulus`.
+* **Modified-IFAS shape.** Table 2's printed (lambda_1, lambda_2) = (1.08, 0.64) gives
+  ``h(0) = 1.08 - 2 0.64 tanh(8.08) = -0.20 < 0``: a negative modulus at mid-stroke. We use
+  the valid set of :mod:`hydro_envs.laws.bulk_modulus` (lambda_2 = 0.32, h(0) = 0.44, notch
+  depth 0.64); every parameter set is checked by :func:`modified_ifas_shape_is_valid`.
+* **Dead volume.** The paper's ``V_t / 2`` (eqs (6)-(7)) is ``V_0 + A L / 2`` here; the
+  hose/port volume V_0 is not given. Assumed 40 cm^3 per side (about 0.5 m of 10 mm bore hose
+  plus the valve and cylinder ports); randomised 25-60 cm^3.
+* **Reference pressure of IFAS.** Eq (13) uses the absolute pressure; the supply 206 bar of
+  Table 1 is gauge, so ``P_s = 20.6 MPa + 0.1 MPa``.
+
+Guards (``shared/NOTES.md``): a cavitation pressure floor (derivative clipped at the floor,
+state clamped after each sub-step), the IFAS law evaluated at ``max(P, floor)``, chamber
+volumes never below ``min_chamber_volume``, and continuous Hunt-Crossley end stops at +-L/2
+(the mechanical end-stroke (H) of the rig).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numba as nb
+import numpy as np
+
+from hydro_envs.laws.bulk_modulus import (
+    ifas_bulk_modulus,
+    modified_ifas_shape,
+)
+from hydro_envs.laws.bulk_modulus_fast import ifas_bulk_modulus_fast
+from hydro_envs.laws.contact import end_stop_force
+from hydro_envs.laws.friction import stribeck_gaussian
+from hydro_envs.laws.orifice import regularized_signed_sqrt, underlap_orifice_opening
+from hydro_envs.laws.valve import second_order_valve_acceleration
+from hydro_envs.plants.shaking_table.params import (  # noqa: F401  (re-exported)
+    BULK_MODULUS_MODELS, I_A, I_ALPHA, I_ASTOP, I_BETA, I_CEL, I_CIL, I_DPTR, I_E0, I_FC, I_FS,
+    I_FV, I_KAPPA, I_KSTOP, I_KU, I_L, I_L1, I_L2, I_M, I_MB, I_MODEL, I_MS, I_MU, I_P0,
+    I_PFLOOR, I_PLT, I_PS, I_PT, I_R, I_U, I_UMAX, I_V0, I_VMIN, I_VS, I_W0, I_ZETA, N_PARAMS,
+    PLANT, PRESETS, SPECIMENS, ShakingTableParams,
+)
+
+__all__ = [
+    "PLANT",
+    "ShakingTableParams",
+    "PRESETS",
+    "SPECIMENS",
+    "STATE_NAMES",
+    "BULK_MODULUS_MODELS",
+    "shaking_table_rhs",
+    "shaking_table_guard",
+    "table_acceleration",
+    "valve_flows",
+    "chamber_moduli",
+    "stiffness_modes",
+    "hydraulic_natural_frequency",
+    "null_pressure",
+    "rest_state",
+    "no_load_velocity",
+    "max_drive_force",
+    "effective_bulk_modulus",
+    "closed_valve_energy",
+    "ifas_relative_volume",
+]
+
+STATE_NAMES = ("x", "v", "pa", "pb", "xv", "vv")
+STATE_UNITS = ("m", "m/s", "Pa", "Pa", "1", "1/s")
+N_STATES = 6
+X, V, PA, PB, XV, VV = range(N_STATES)
+
+
+
+# ---------------------------------------------------------------------------- kernels
+@nb.njit(cache=True, error_model="numpy", inline="always")
+def chamber_moduli(pa, pb, p):
+    """Effective bulk moduli (E_a, E_b) [Pa] of the two chambers under ``p``'s model."""
+    model = p[I_MODEL]
+    if model < 0.5:  # constant
+        return p[I_E0], p[I_E0]
+    ea = ifas_bulk_modulus_fast(pa, p[I_E0], p[I_P0], p[I_M], p[I_ALPHA], p[I_KAPPA], p[I_PFLOOR])  # (13)/(17)
+    eb = ifas_bulk_modulus_fast(pb, p[I_E0], p[I_P0], p[I_M], p[I_ALPHA], p[I_KAPPA], p[I_PFLOOR])  # (13)/(18)
+    if model > 1.5:  # modified IFAS (15)-(16), shape (19)
+        h = modified_ifas_shape(pa, pb, p[I_L1], p[I_L2], p[I_MU], p[I_PLT])
+        ea *= h
+        eb *= h
+    return ea, eb
+
+
+@nb.njit(cache=True, error_model="numpy", inline="always")
+def valve_flows(xv, pa, pb, p):
+    """Valve flows (Q_a, Q_b) [m^3/s] into the chambers, 003 eqs (1)-(4)."""
+    xo = min(max(xv, -1.0), 1.0)  # spool stroke limit (normalised)
+    sa = underlap_orifice_opening(xo, p[I_U])  # sgt(xv, U)   (3)
+    sb = underlap_orifice_opening(-xo, p[I_U])  # sgt(-xv, U)
+    r = p[I_R]
+    dptr = p[I_DPTR]
+    ps = p[I_PS]
+    pt = p[I_PT]
+    qa = 0.0
+    qb = 0.0
+    if sa > 0.0:  # P -> a and b -> T
+        qa += sa * regularized_signed_sqrt(ps - pa, dptr)
+        qb -= sa * regularized_signed_sqrt(pb - pt, dptr)
+    if sb > 0.0:  # P -> b and a -> T
+        qb += sb * regularized_signed_sqrt(ps - pb, dptr)
+        qa -= sb * regularized_signed_sqrt(pa - pt, dptr)
+    return r * qa, r * qb
+
+
+@nb.njit(cache=True, error_model="numpy", inline="always")
+def _piston_force(x, v, pa, pb, p):
+    """Net force on the moving mass [N]: A (P_a - P_b) - F_fric + F_stop (003 eq (10))."""
+    half = 0.5 * p[I_L]
+    f_fric = stribeck_gaussian(v, p[I_FC], p[I_FS], p[I_VS], p[I_FV], 1.0 / p[I_BETA])  # (11)-(12)
+    f_stop = end_stop_force(x, v, -half, half, p[I_KSTOP], p[I_ASTOP])
+    return p[I_A] * (pa - pb) - f_fric + f_stop
+
+
+@nb.njit(cache=True, error_model="numpy")
+def table_acceleration(y, p):
+    """Table acceleration dv/dt [m/s^2] of state ``y`` -- what the accelerometer reads."""
+    return _piston_force(y[X], y[V], y[PA], y[PB], p) / (p[I_MB] + p[I_MS])
+
+
+@nb.njit(cache=True, error_model="numpy")
+def shaking_table_rhs(y, u, p, dy):
+    """Time derivative ``dy`` of state ``y`` under command ``u[0]`` [V] (003 eqs (1)-(19))."""
+    x = y[X]
+    v = y[V]
+    pa = y[PA]
+    pb = y[PB]
+    area = p[I_A]
+    half = 0.5 * p[I_L]
+    qa, qb = valve_flows(y[XV], pa, pb, p)  # (1)-(4)
+    ea, eb = chamber_moduli(pa, pb, p)  # (13), (15)-(19)
+    q_int = p[I_CIL] * (pa - pb)  # (8)-(9): internal leakage a -> b
+    vol_a = max(p[I_V0] + area * (half + x), p[I_VMIN])  # V_t/2 + A x
+    vol_b = max(p[I_V0] + area * (half - x), p[I_VMIN])  # V_t/2 - A x
+    dpa = ea / vol_a * (qa - q_int - p[I_CEL] * (pa - p[I_PT]) - area * v)  # (6)
+    dpb = eb / vol_b * (qb + q_int - p[I_CEL] * (pb - p[I_PT]) + area * v)  # (7)
+    if pa <= p[I_PFLOOR] and dpa < 0.0:  # cavitation guard
+        dpa = 0.0
+    if pb <= p[I_PFLOOR] and dpb < 0.0:
+        dpb = 0.0
+    dy[X] = v
+    dy[V] = _piston_force(x, v, pa, pb, p) / (p[I_MB] + p[I_MS])  # (10)
+    dy[PA] = dpa
+    dy[PB] = dpb
+    dy[XV] = y[VV]
+    dy[VV] = second_order_valve_acceleration(y[XV], y[VV], u[0], p[I_KU], p[I_W0], p[I_ZETA])  # (5)
+
+
+@nb.njit(cache=True, error_model="numpy")
+def shaking_table_guard(y, p):
+    """Project the state back onto the physical set after a sub-step; return #clamps."""
+    n = 0
+    if y[PA] < p[I_PFLOOR]:
+        y[PA] = p[I_PFLOOR]
+        n += 1
+    if y[PB] < p[I_PFLOOR]:
+        y[PB] = p[I_PFLOOR]
+        n += 1
+    return n
+
+
+@nb.njit(cache=True, error_model="numpy")
+def _moduli_array(pa, pb, p, out):
+    for k in range(pa.shape[0]):
+        ea, eb = chamber_moduli(pa[k], pb[k], p)
+        out[k, 0] = ea
+        out[k, 1] = eb
+
+
+# ---------------------------------------------------------------------------- analysis
+def effective_bulk_modulus(params: ShakingTableParams, pa, pb) -> np.ndarray:
+    """Chamber moduli ``(..., 2)`` [Pa] (E_a, E_b) at pressures ``pa``, ``pb`` (broadcast)."""
+    pa, pb = np.broadcast_arrays(np.asarray(pa, dtype=float), np.asarray(pb, dtype=float))
+    shape = pa.shape
+    out = np.empty((pa.size, 2))
+    _moduli_array(np.ascontiguousarray(pa.ravel()), np.ascontiguousarray(pb.ravel()), params.to_array(), out)
+    return out.reshape(shape + (2,))
+
+
+def _modulus_upper_bound(params: ShakingTableParams, p_hi: float | None = None) -> float:
+    """Largest chamber modulus [Pa] for pressures up to ``p_hi`` (default 1.5 P_s; IFAS grows
+    with P, h is at most max(lambda_1, h(0)))."""
+    if p_hi is None:
+        p_hi = 1.5 * params.supply_pressure
+    if params.bulk_modulus_model == 0.0:
+        return params.e0
+    e = float(
+        ifas_bulk_modulus(p_hi, params.e0, params.p0, params.oil_exponent, params.air_content,
+                          params.polytropic_exponent, params.pressure_floor)
+    )
+    if params.bulk_modulus_model == 2.0:
+        h_notch = params.lambda_1 - 2.0 * params.lambda_2 * math.tanh(params.mu * params.threshold_pressure)
+        e *= max(params.lambda_1, h_notch)
+    return e
+
+
+def null_pressure(params: ShakingTableParams) -> float:
+    """Chamber pressure [Pa] at rest with the spool centred (P_a = P_b).
+
+    Through the underlap both edges of each chamber are open by U; with no motion the supply
+    inflow equals the tank outflow plus the external leak (internal leakage is zero at
+    P_a = P_b): ``R U (sqrt~(P_s - P) - sqrt~(P - P_T)) = C_el (P - P_T)`` (eqs (1), (8)).
+    The external leak lowers it below (P_s + P_T)/2 (by about 2 MPa with Table 2's C_el).
+    """
+    from scipy.optimize import brentq
+
+    p = params.to_array()
+
+    def residual(pr: float) -> float:
+        qa, _ = valve_flows(0.0, pr, pr, p)
+        return qa - params.external_leakage * (pr - params.tank_pressure)
+
+    lo, hi = params.tank_pressure, params.supply_pressure
+    if params.flow_coefficient == 0.0 or params.underlap == 0.0:
+        return 0.5 * (lo + hi) if params.external_leakage == 0.0 else lo
+    return float(brentq(residual, lo, hi, xtol=1e-6, rtol=1e-14))
+
+
+def rest_state(params: ShakingTableParams, x: float = 0.0, v: float = 0.0) -> np.ndarray:
+    """State at position ``x`` (velocity ``v``), spool centred, chambers at the null pressure."""
+    y = np.zeros(N_STATES)
+    y[X] = x
+    y[V] = v
+    y[PA] = y[PB] = null_pressure(params)
+    return y
+
+
+def chamber_volumes(params: ShakingTableParams, x) -> tuple[Any, Any]:
+    """(V_a, V_b) [m^3] at position ``x`` (003 eqs (6)-(7))."""
+    half = 0.5 * params.stroke
+    return (params.dead_volume + params.piston_area * (half + np.asarray(x)),
+            params.dead_volume + params.piston_area * (half - np.asarray(x)))
+
+
+def hydraulic_natural_frequency(
+    params: ShakingTableParams, x: float = 0.0, pa: float | None = None, pb: float | None = None
+) -> float:
+    """Undamped hydraulic natural frequency [rad/s] of the linearisation at rest.
+
+    Linearising eqs (6), (7), (10) about an equilibrium (v = 0, Q_a - Q_ia - Q_ea = 0) the
+    terms with dE/dP multiply zero net flow, so the oil columns are two springs in parallel::
+
+        omega_h^2 = A^2 (E_a / V_a + E_b / V_b) / M
+
+    with E at the equilibrium pressures (default: the null pressure). The valve's
+    pressure-flow slope, leakage and friction add damping, not stiffness.
+    """
+    if pa is None or pb is None:
+        pa = pb = null_pressure(params)
+    ea, eb = effective_bulk_modulus(params, pa, pb)
+    va, vb = chamber_volumes(params, x)
+    k = params.piston_area**2 * (ea / va + eb / vb)
+    return math.sqrt(k / params.mass)
+
+
+def no_load_velocity(params: ShakingTableParams) -> float:
+    """Orifice-law table speed [m/s] at full spool opening, no load, no friction.
+
+    With P_a - P_b = 0 each metering edge sees (P_s - P_T)/2:
+    ``v = R (1 + U) sqrt((P_s - P_T)/2) / A`` (eqs (1)-(3), (6)-(7)); 0.43 m/s nominal.
+    """
+    return (params.flow_coefficient * (1.0 + params.underlap)
+            * math.sqrt(0.5 * (params.supply_pressure - params.tank_pressure)) / params.piston_area)
+
+
+def max_drive_force(params: ShakingTableParams) -> float:
+    """Largest hydraulic force A (P_s - P_T) [N] (stalled, full opening)."""
+    return params.piston_area * (params.supply_pressure - params.tank_pressure)
+
+
+def stiffness_modes(params: ShakingTableParams) -> dict[str, float]:
+    """Upper estimates of the Jacobian eigenvalue magnitudes [1/s] of every fast mode.
+
+    Each entry is a worst case over the state space (pressures up to 1.5 P_s):
+
+    * ``valve``: spool poles, ``|lambda| = w_0`` (eq (5)).
+    * ``hydraulic``: oil springs on the lightest mass at the stroke end,
+      ``sqrt(A^2 E_max (1/V_0 + 1/(V_0 + A L)) / M)``.
+    * ``orifice``: laminar slope of the regularised root at zero drop, full opening plus the
+      underlap edge, and the leaks, into the smallest chamber:
+      ``E(P_s) / V_0 (R (1 + 2U) / sqrt(dp_tr) + 2 C_il + C_el)``. The slope is largest at zero
+      drop, i.e. with the chamber at supply pressure (E evaluated at ``P_s + 10 dp_tr``); above
+      P_s the reverse drop flattens it like ``|dp|^(-1/2)``, and at tank pressure E is small.
+    * ``friction``: slope of eq (11)-(12): ``F_s beta + F_v`` at v = 0 and the Stribeck dip's
+      steepest (negative) slope ``(F_s - F_c) sqrt(2/e) / v_s``, over M.
+    * ``end_stop``: contact spring ``sqrt(k/M)`` plus its damping ``alpha F_max / M``.
+
+    Not bounded, by design: a pressure-dependent modulus adds ``dP'/dP = (dE/dP) F / V`` (F the
+    net inflow), i.e. ``(d ln E / dP) P'``: large only while the pressure sweeps fast through a
+    band where E changes steeply -- the air term of IFAS below a few bar (E' peaks near
+    0.2-1.8 bar) and the edge of the modified-IFAS notch (``d ln h / d(P_a - P_b)`` up to about
+    ``2 lambda_2 mu / h``, 1/mu = 0.5-2.5 bar wide). At the pressure rates of this plant such a
+    band is crossed in well under one sub-step, so the mode cannot grow; compressing air it is
+    a growth mode anyway, expanding it ends at the cavitation floor the guard holds. The tests
+    check the bound against the numerical Jacobian away from those bands, and the fixed step
+    against Radau through stop impacts, cavitation and notch crossings at the steepest corner.
+    """
+    m = params.mass
+    a = params.piston_area
+    e_max = _modulus_upper_bound(params)
+    e_orifice = _modulus_upper_bound(params, params.supply_pressure + 10.0 * params.orifice_transition_pressure)
+    v0 = max(params.dead_volume, params.min_chamber_volume)
+    k_h = a * a * e_max * (1.0 / v0 + 1.0 / (v0 + a * params.stroke))
+    g_lam = (params.flow_coefficient * (1.0 + 2.0 * params.underlap) / math.sqrt(params.orifice_transition_pressure)
+             + 2.0 * params.internal_leakage + params.external_leakage)
+    dip = (params.static_friction - params.coulomb_friction) * math.sqrt(2.0 / math.e) / params.stribeck_velocity
+    f_max = a * (1.5 * params.supply_pressure - params.pressure_floor)
+    return {
+        "valve": params.valve_natural_frequency,
+        "hydraulic": math.sqrt(k_h / m),
+        "orifice": e_orifice / v0 * g_lam,
+        "friction": (max(params.static_friction * params.tanh_gain, dip) + params.viscous_friction) / m,
+        "end_stop": math.sqrt(params.stop_stiffness / m) + params.stop_damping * f_max / m,
+    }
+
+
+def ifas_relative_volume(params: ShakingTableParams, p) -> np.ndarray:
+    """Volume of a fixed oil+air mass at pressure ``p`` relative to P_0 (IFAS eq (13) integrand).
+
+    ``v(P) = (1 - alpha) (1 + m (P - P_0)/E_0)^(-1/m) + alpha (P_0/P)^(1/kappa)``; eq (13) is
+    ``E = -v / (dv/dP)``, so in a sealed chamber ``V_chamber / v(P)`` (the trapped mass) is
+    constant. For the constant model ``v = exp(-(P - P_0)/E_0)``.
+    """
+    p = np.maximum(np.asarray(p, dtype=float), params.pressure_floor)
+    if params.bulk_modulus_model == 0.0:
+        return np.exp(-(p - params.p0) / params.e0)
+    m, e0, p0 = params.oil_exponent, params.e0, params.p0
+    return ((1.0 - params.air_content) * (1.0 + m * (p - p0) / e0) ** (-1.0 / m)
+            + params.air_content * (p0 / p) ** (1.0 / params.polytropic_exponent))
+
+
+def closed_valve_energy(y: np.ndarray, params: ShakingTableParams, y0: np.ndarray) -> np.ndarray:
+    """Kinetic energy plus oil energy stored since ``y0`` [J], constant modulus E_0.
+
+    Sealed chamber at constant modulus: ``p(V) = p0 - E ln(V/V0)``; the stored energy from V0
+    to V is ``-p0 (V - V0) + E (V ln(V/V0) - V + V0)``. With a sealed valve (R = 0), no leakage
+    and no friction the sum over both chambers plus ``M v^2/2`` is conserved.
+    """
+    if params.bulk_modulus_model != 0.0:
+        raise ValueError("closed_valve_energy is the closed form for bulk_modulus_model = 0 (constant)")
+    y = np.atleast_2d(y)
+    e = params.e0
+
+    def chamber(vol, vol0, p0):
+        return -p0 * (vol - vol0) + e * (vol * np.log(vol / vol0) - vol + vol0)
+
+    va0, vb0 = chamber_volumes(params, y0[X])
+    va, vb = chamber_volumes(params, y[:, X])
+    return 0.5 * params.mass * y[:, V] ** 2 + chamber(va, va0, y0[PA]) + chamber(vb, vb0, y0[PB])

@@ -1,0 +1,214 @@
+"""Parameters of the seed-003 shaking table: value, unit, allowed range and source per field.
+
+Defaults: ``003_54985feb8193da53.txt`` Table 1, Table 2 "modified IFAS" column (with the valid
+lambda_2), specimen 200 kg; named variants in :data:`PRESETS` and :data:`SPECIMENS`. The index
+constants ``I_*`` are the columns of the packed kernel parameter array.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from typing import Any
+
+from hydro_envs.laws.bulk_modulus import modified_ifas_shape_is_valid
+from hydro_envs.params import ParameterError, PhysicalParams, physical
+
+__all__ = ["PLANT", "ShakingTableParams", "PRESETS", "SPECIMENS", "BULK_MODULUS_MODELS", "N_PARAMS"]
+
+PLANT = "shaking_table"
+
+#: bulk_modulus_model values
+BULK_MODULUS_MODELS = {"constant": 0, "ifas": 1, "modified_ifas": 2}
+
+_ATM = 1.0e5  # Pa: the seed's gauge supply pressure + atmosphere = absolute
+_BAR = 1.0e5
+
+
+@dataclasses.dataclass(frozen=True)
+class ShakingTableParams(PhysicalParams):
+    """Parameters of the seed-003 shaking table (SI; pressures absolute).
+
+    Defaults: Table 1, Table 2 "modified IFAS" column (with the valid lambda_2), specimen
+    200 kg. Named variants: :data:`PRESETS` / :meth:`preset`.
+    """
+
+    plant = PLANT
+
+    supply_pressure: float = physical(
+        206 * _BAR + _ATM, "Pa", (2e5, 35e6), "003 Table 1: P_s = 206 bar (gauge) + 1 bar atmosphere"
+    )
+    tank_pressure: float = physical(_ATM, "Pa", (0.0, 5e6), "assumed: tank at atmosphere (P_T not given)")
+    platform_mass: float = physical(
+        650.0, "kg", (0.0, 1e5), "003 Table 1: M_b = 650 kg (mobile base + piston)", open_low=True
+    )
+    specimen_mass: float = physical(
+        200.0, "kg", (0.0, 1e5), "003 sec. 4: M_s = 200 kg (Figs 5-8, 10-11); 500 kg in Fig 9"
+    )
+    piston_area: float = physical(
+        9.4562e-4, "m^2", (0.0, 1.0), "003 Table 1: A (= pi/4 (50^2 - 36^2) mm^2, double rod, sec. 2)",
+        open_low=True,
+    )
+    stroke: float = physical(0.26, "m", (0.0, 10.0), "003 sec. 2: CGH2 stroke 260 mm", open_low=True)
+    dead_volume: float = physical(
+        40e-6, "m^3", (0.0, 1.0),
+        "assumed: hose (about 0.5 m of 10 mm bore) + valve/cylinder ports per side; V_t/2 = V_0 + A L/2",
+        open_low=True,
+    )
+    flow_coefficient: float = physical(
+        1.28e-7, "m^3/(s Pa^0.5)", (0.0, 1e-4),
+        "003 Table 1: R = C_d w / sqrt(rho) per unit normalised opening (20.3 l/min at 70 bar/edge)",
+    )
+    underlap: float = physical(0.005, "1", (0.0, 0.5), "003 Table 1: U = 0.005 (normalised spool underlap)")
+    spool_gain: float = physical(
+        0.1, "1/V", (0.0, 10.0),
+        "assumed: +-10 V = full stroke; reconciles 003 text (u = 0.3) with Table 3 (3 V)",
+        open_low=True,
+    )
+    command_max: float = physical(10.0, "V", (0.0, 100.0), "assumed: +-10 V valve command range", open_low=True)
+    valve_natural_frequency: float = physical(625.0, "rad/s", (10.0, 2e4), "003 Table 1: w_0 = 625 rad/s")
+    valve_damping: float = physical(0.73, "1", (0.05, 5.0), "003 Table 1: zeta = 0.73")
+    internal_leakage: float = physical(
+        4.343e-13, "m^3/(s Pa)", (0.0, 1e-9), "003 Table 2: C_il (both columns)"
+    )
+    external_leakage: float = physical(
+        4.05e-14, "m^3/(s Pa)", (0.0, 1e-9), "003 Table 2: C_el (both columns)"
+    )
+    coulomb_friction: float = physical(573.72, "N", (0.0, 1e5), "003 Table 2 (modified IFAS): F_c")
+    static_friction: float = physical(1254.16, "N", (0.0, 1e5), "003 Table 2 (modified IFAS): F_s")
+    viscous_friction: float = physical(429.4, "N s/m", (0.0, 1e6), "003 Table 2 (modified IFAS): F_v")
+    stribeck_velocity: float = physical(
+        0.014, "m/s", (1e-5, 10.0), "003 Table 2 (modified IFAS): v_s"
+    )
+    tanh_gain: float = physical(
+        7.33, "s/m", (0.0, 1e6), "003 Table 2 (modified IFAS): beta of tanh(beta v), eq (12)", open_low=True
+    )
+    bulk_modulus_model: float = physical(
+        2.0, "1", (0.0, 2.0), "003 sec. 3.3: 0 constant E_0, 1 IFAS eq (13), 2 modified IFAS eqs (15)-(19)"
+    )
+    e0: float = physical(4.73e8, "Pa", (1e7, 3e9), "003 Table 2 (modified IFAS): E_0")
+    p0: float = physical(
+        36.85 * _BAR, "Pa", (1e3, 1e8), "003 Table 2 (modified IFAS): P_0 = 36.85, read as bar (unit not printed)"
+    )
+    oil_exponent: float = physical(9.02, "1", (0.1, 50.0), "003 Table 2 (modified IFAS): m")
+    air_content: float = physical(7.9e-7, "1", (0.0, 0.5), "003 Table 2 (modified IFAS): alpha")
+    polytropic_exponent: float = physical(0.49, "1", (0.1, 2.0), "003 Table 2 (modified IFAS): kappa")
+    lambda_1: float = physical(1.08, "1", (0.0, 10.0), "003 Table 2: lambda_1", open_low=True)
+    lambda_2: float = physical(
+        0.32, "1", (-10.0, 10.0),
+        "003 Table 2 prints 0.64 (h(0) = -0.20 < 0); 0.32 keeps the notch depth 0.64, hydro_envs.laws.bulk_modulus",
+    )
+    mu: float = physical(8.80e-6, "1/Pa", (0.0, 1.0), "003 Table 2: mu (read as 1/Pa)")
+    threshold_pressure: float = physical(9.177e5, "Pa", (0.0, 1e8), "003 Table 2: P_Lt (read as Pa)")
+    stop_stiffness: float = physical(
+        1e8, "N/m", (1e5, 1e11), "assumed: steel end-stroke (H), 0.2 mm penetration at full thrust A P_s"
+    )
+    stop_damping: float = physical(
+        2.0, "s/m", (0.0, 100.0), "assumed: Hunt-Crossley alpha, restitution about 0.3 at 0.5 m/s"
+    )
+    orifice_transition_pressure: float = physical(
+        1e5, "Pa", (1.0, 1e7), "assumed: laminar core of the regularised root (0.5 % of P_s; NOTES.md)"
+    )
+    pressure_floor: float = physical(
+        1e3, "Pa", (1.0, 1e5), "assumed: cavitation floor; IFAS evaluated at max(P, floor)"
+    )
+    min_chamber_volume: float = physical(
+        1e-7, "m^3", (0.0, 1.0), "assumed: guard only; V_0 keeps chambers >= 25 cm^3", open_low=True
+    )
+
+    # ------------------------------------------------------------------ checks
+    def _check_relations(self) -> None:
+        name = type(self).__name__
+        if self.static_friction < self.coulomb_friction:
+            raise ParameterError(
+                f"{name}.static_friction = {self.static_friction} must be >= coulomb_friction = "
+                f"{self.coulomb_friction} (Stribeck: F_s >= F_c)"
+            )
+        if not (self.pressure_floor < self.tank_pressure < self.supply_pressure):
+            raise ParameterError(
+                f"{name}: need pressure_floor < tank_pressure < supply_pressure, got "
+                f"{self.pressure_floor}, {self.tank_pressure}, {self.supply_pressure} Pa"
+            )
+        if self.bulk_modulus_model not in (0.0, 1.0, 2.0):
+            raise ParameterError(
+                f"{name}.bulk_modulus_model = {self.bulk_modulus_model} must be 0 (constant), "
+                "1 (IFAS) or 2 (modified IFAS)"
+            )
+        if not modified_ifas_shape_is_valid(self.lambda_1, self.lambda_2, self.mu, self.threshold_pressure):
+            h0 = self.lambda_1 - 2.0 * self.lambda_2 * math.tanh(self.mu * self.threshold_pressure)
+            raise ParameterError(
+                f"{name}: modified-IFAS shape (lambda_1, lambda_2, mu, threshold_pressure) = "
+                f"({self.lambda_1}, {self.lambda_2}, {self.mu}, {self.threshold_pressure}) gives "
+                f"inf h = {min(h0, self.lambda_1):.4g} <= 0: a negative bulk modulus near P_a = P_b "
+                "(003 eq (19); need lambda_1 - 2 lambda_2 tanh(mu P_Lt) > 0)"
+            )
+        if 1.0 + self.oil_exponent * (self.pressure_floor - self.p0) / self.e0 <= 0.0:
+            raise ParameterError(
+                f"{name}: 1 + m (p_floor - P_0) / E_0 <= 0: the IFAS oil term of eq (13) is undefined "
+                f"(m = oil_exponent = {self.oil_exponent}, p_floor = pressure_floor = {self.pressure_floor}, "
+                f"P_0 = p0 = {self.p0}, E_0 = e0 = {self.e0})"
+            )
+        if self.min_chamber_volume >= self.dead_volume:
+            raise ParameterError(
+                f"{name}.min_chamber_volume = {self.min_chamber_volume} must be below dead_volume = "
+                f"{self.dead_volume} m^3"
+            )
+
+    # ------------------------------------------------------------------ presets
+    @property
+    def mass(self) -> float:
+        """Moving mass M = M_b + M_s [kg] (003 eq (10))."""
+        return self.platform_mass + self.specimen_mass
+
+    @classmethod
+    def preset(cls, name: str = "modified_ifas", specimen: str | float = "200kg", **overrides: Any) -> "ShakingTableParams":
+        """A named parameter set: ``name`` in :data:`PRESETS`, ``specimen`` in :data:`SPECIMENS`
+        (or a mass in kg); ``overrides`` replace single fields afterwards."""
+        if name not in PRESETS:
+            raise ParameterError(f"unknown shaking-table preset {name!r}; known: {sorted(PRESETS)}")
+        if isinstance(specimen, str):
+            if specimen not in SPECIMENS:
+                raise ParameterError(f"unknown specimen {specimen!r}; known: {sorted(SPECIMENS)} or a mass in kg")
+            ms = SPECIMENS[specimen]
+        else:
+            ms = float(specimen)
+        values = {**PRESETS[name], "specimen_mass": ms, **overrides}
+        return cls.from_mapping(values)
+
+
+#: Named parameter sets (fields that differ from the dataclass defaults).
+PRESETS: dict[str, dict[str, float]] = {
+    # 003 Table 2, first column, with the valid lambda_2 (= the defaults)
+    "modified_ifas": {"bulk_modulus_model": 2.0},
+    # 003 Table 2, second column (IFAS E-modulus eq (13), its own friction fit)
+    "ifas": {
+        "bulk_modulus_model": 1.0,
+        "coulomb_friction": 531.85,
+        "static_friction": 952.6,
+        "viscous_friction": 153.4,
+        "stribeck_velocity": 0.08,
+        "tanh_gain": 5.8,
+        "e0": 4.7e8,
+        "p0": 8.7 * _BAR,
+        "oil_exponent": 7.88,
+        "air_content": 6.8e-7,
+        "polytropic_exponent": 0.7224,
+    },
+    # constant modulus E = E_0 (modified-IFAS column's E_0 and friction), for comparison
+    "constant": {"bulk_modulus_model": 0.0},
+}
+
+#: Specimen masses of 003 sec. 4 [kg].
+SPECIMENS: dict[str, float] = {"none": 0.0, "200kg": 200.0, "500kg": 500.0}
+
+
+# Column indices of the packed parameter array (declaration order of the dataclass).
+(
+    I_PS, I_PT, I_MB, I_MS, I_A, I_L, I_V0, I_R, I_U, I_KU, I_UMAX, I_W0, I_ZETA, I_CIL, I_CEL,
+    I_FC, I_FS, I_FV, I_VS, I_BETA, I_MODEL, I_E0, I_P0, I_M, I_ALPHA, I_KAPPA, I_L1, I_L2, I_MU,
+    I_PLT, I_KSTOP, I_ASTOP, I_DPTR, I_PFLOOR, I_VMIN,
+) = range(35)
+N_PARAMS = 35
+assert ShakingTableParams.names()[I_VMIN] == "min_chamber_volume"
+assert ShakingTableParams.names()[I_MODEL] == "bulk_modulus_model"
+assert len(ShakingTableParams.names()) == N_PARAMS

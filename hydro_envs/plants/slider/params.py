@@ -1,0 +1,67 @@
+"""Parameters of the generic force-driven slider: value, unit, allowed range and source."""
+
+from __future__ import annotations
+
+import dataclasses
+
+from hydro_envs.params import ParameterError, PhysicalParams, physical
+
+__all__ = ["PLANT", "SliderParams", "N_PARAMS"]
+
+PLANT = "slider"
+_GENERIC = "assumed: generic stage"
+
+
+@dataclasses.dataclass(frozen=True)
+class SliderParams(PhysicalParams):
+    """Parameters of the generic force-driven slider (SI)."""
+
+    plant = PLANT
+
+    mass: float = physical(1.0, "kg", (0.0, 1e5), f"{_GENERIC} (1 kg carriage)", open_low=True)
+    coulomb_friction: float = physical(
+        10.0, "N", (0.0, 1e6), f"{_GENERIC}; cf. 004 Table 2 F_c = 15.31 N (pneumatic cylinder)"
+    )
+    static_friction: float = physical(
+        15.0, "N", (0.0, 1e6), f"{_GENERIC}: F_S/F_C = 1.5; cf. 004 Table 2 F_s = 35.48 N"
+    )
+    stribeck_velocity: float = physical(
+        5e-3, "m/s", (1e-6, 10.0), f"{_GENERIC}: 5 mm/s; cf. 004 Table 2 v_s = 3.27 mm/s"
+    )
+    viscous_friction: float = physical(
+        20.0, "N s/m", (0.0, 1e7), f"{_GENERIC}: lubricated guide, 002 eq (1) F_V term"
+    )
+    force_offset: float = physical(
+        0.0, "N", (-1e6, 1e6),
+        "assumed: level stage, no cable drag, unbiased force sensor (F_0 opposes +x)",
+    )
+    friction_sign_velocity: float = physical(
+        5e-4, "m/s", (1e-7, 1.0),
+        "assumed: tanh regularisation v_eps = v_S / 10 (Simscape's v_C/v_St ratio, NOTES.md); "
+        "sets the stiffest mode",
+    )
+    stroke: float = physical(0.2, "m", (0.0, 100.0), f"{_GENERIC}: 200 mm travel", open_low=True)
+    force_max: float = physical(
+        100.0, "N", (0.0, 1e8),
+        f"{_GENERIC}: actuator force range; bounds the stop-contact stiffness estimate",
+        open_low=True,
+    )
+    stop_stiffness: float = physical(
+        1e6, "N/m", (1e2, 1e11), "assumed: elastomer-padded stop, 0.1 mm penetration at force_max"
+    )
+    stop_damping: float = physical(
+        2.0, "s/m", (0.0, 100.0), "assumed: Hunt-Crossley alpha, restitution ~0.3 at 0.5 m/s"
+    )
+
+    def _check_relations(self) -> None:
+        if self.static_friction < self.coulomb_friction:
+            raise ParameterError(
+                f"SliderParams.static_friction = {self.static_friction} must be >= "
+                f"coulomb_friction = {self.coulomb_friction} (Stribeck: F_S >= F_C)"
+            )
+
+
+(I_M, I_FC, I_FS, I_VS, I_B, I_F0, I_VEPS, I_L, I_FMAX, I_KSTOP, I_ASTOP) = range(11)
+N_PARAMS = 11
+assert SliderParams.names()[I_ASTOP] == "stop_damping"
+assert len(SliderParams.names()) == N_PARAMS

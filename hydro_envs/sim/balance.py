@@ -1,0 +1,119 @@
+r"""Energy bookkeeping of the fixed-step integrator, for the soak test's balance checks.
+
+Each plant's ``energy.py`` gives ``mech_terms(y, p) -> (E, P_in, D, D_scale, U_stop)``: the
+mechanical energy of its moving bodies [J], the power its ports deliver [W] (pressure forces
+and other sign-indefinite sources), the power its dissipative elements take [W] (>= 0 by
+construction), the magnitude of D's parts (the round-off scale of the passivity check) and the
+elastic energy in engaged end stops [J]. Along the exact solution ``dE/dt = P_in - D``.
+
+:func:`replay_step` re-integrates one copy over one env step exactly as
+:func:`hydro_envs.sim.rk4.rk4_advance` does (same stages, weights and guards) and integrates
+``W = int P_in dt`` and ``Q = int D dt`` with the RK4 weights on the same stages (RK4 applied to
+the augmented system). The checks built on it are described in :mod:`hydro_envs.soak`.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba as nb
+
+from hydro_envs.laws.contact import end_stop_force
+
+__all__ = ["stop_split", "stroke_check", "replay_step"]
+
+
+@nb.njit(cache=True, error_model="numpy", inline="always")
+def stop_split(x, v, lo, hi, k, alpha):
+    """End stops at ``lo``/``hi``: (elastic potential k delta^2/2 [J], damping power >= 0 [W])."""
+    if x < lo:
+        d = lo - x
+    elif x > hi:
+        d = x - hi
+    else:
+        return 0.0, 0.0
+    f = end_stop_force(x, v, lo, hi, k, alpha)
+    f_el = end_stop_force(x, 0.0, lo, hi, k, alpha)  # k delta: the elastic part
+    return 0.5 * k * d * d, -(f - f_el) * v
+
+
+@nb.njit(cache=True, error_model="numpy", inline="always")
+def stroke_check(x, lo, hi, speed, force, mass, k, run, j):
+    """Penetration of a body into its end stops against the energy bound.
+
+    A body of mass ``M`` that reaches a Hunt-Crossley stop (stiffness ``k``) at speed ``v``
+    while a force ``F`` pushes it in penetrates ``delta <= 2 F/k + v sqrt(M/k)``; with ``v``
+    and ``F`` the running maxima ``run[j], run[j+1]`` (updated here) the tolerance is twice
+    that. Returns (penetration beyond the tolerance, penetration [m], tolerance [m]).
+    """
+    if speed > run[j]:
+        run[j] = speed
+    if force > run[j + 1]:
+        run[j + 1] = force
+    pen = 0.0
+    if x < lo:
+        pen = lo - x
+    elif x > hi:
+        pen = x - hi
+    tol = 2.0 * (2.0 * run[j + 1] / k + run[j] * math.sqrt(mass / k))
+    return pen > tol, pen, tol
+
+
+@nb.njit(cache=True, error_model="numpy", inline="always")
+def replay_step(rhs, guard, mech, y0, u, p, dt, n_sub, w, y, o):
+    """Re-integrate ``y0`` -> ``y`` over ``dt`` in ``n_sub`` RK4 sub-steps, with the energy terms.
+
+    ``o`` = (E_0, E_1, W = int P_in dt, Q = int D dt, int(|P_in| + D) dt, number of sub-steps
+    with a stage at which D < 0, 1 if an end stop was engaged at any stage else 0).
+    """
+    ny = y.shape[0]
+    for j in range(ny):
+        y[j] = y0[j]
+    h = dt / n_sub
+    k1 = w[0]
+    k2 = w[1]
+    k3 = w[2]
+    k4 = w[3]
+    stage = w[4]
+    half = 0.5 * h
+    sixth = h / 6.0
+    e0, _, _, _, c0 = mech(y, p)
+    contact = c0 > 0.0
+    w_in = 0.0
+    q_d = 0.0
+    turnover = 0.0
+    bad = 0.0
+    for _ in range(n_sub):
+        rhs(y, u, p, k1)
+        _, a1, d1, s1, c1 = mech(y, p)
+        for j in range(ny):
+            stage[j] = y[j] + half * k1[j]
+        rhs(stage, u, p, k2)
+        _, a2, d2, s2, c2 = mech(stage, p)
+        for j in range(ny):
+            stage[j] = y[j] + half * k2[j]
+        rhs(stage, u, p, k3)
+        _, a3, d3, s3, c3 = mech(stage, p)
+        for j in range(ny):
+            stage[j] = y[j] + h * k3[j]
+        rhs(stage, u, p, k4)
+        _, a4, d4, s4, c4 = mech(stage, p)
+        for j in range(ny):
+            y[j] += sixth * (k1[j] + 2.0 * k2[j] + 2.0 * k3[j] + k4[j])
+        guard(y, p)
+        w_in += sixth * (a1 + 2.0 * a2 + 2.0 * a3 + a4)
+        q_d += sixth * (d1 + 2.0 * d2 + 2.0 * d3 + d4)
+        turnover += sixth * (abs(a1) + d1 + 2.0 * (abs(a2) + d2 + abs(a3) + d3) + abs(a4) + d4)
+        if c1 > 0.0 or c2 > 0.0 or c3 > 0.0 or c4 > 0.0:
+            contact = True
+        if d1 < -1e-12 * s1 or d2 < -1e-12 * s2 or d3 < -1e-12 * s3 or d4 < -1e-12 * s4:
+            bad += 1.0
+    e1, _, _, _, c1 = mech(y, p)
+    contact = contact or c1 > 0.0
+    o[0] = e0
+    o[1] = e1
+    o[2] = w_in
+    o[3] = q_d
+    o[4] = turnover
+    o[5] = bad
+    o[6] = 1.0 if contact else 0.0

@@ -1,0 +1,94 @@
+"""The fixed-step integrator: classical RK4 sub-steps with a guard after each, compiled.
+
+``rk4_advance(rhs, guard, y, u, p, h, n_sub, work)`` advances one copy by ``n_sub`` sub-steps
+of ``h`` seconds under the held input ``u`` (zero-order hold, as a DAC does) and returns how
+often the guard had to project the state back onto the physical set (pressure floor, ...).
+``rhs(y, u, p, dy)`` and ``guard(y, p) -> int`` are a plant's compiled functions.
+
+numba caches a compiled function only when its signature holds no function objects (and,
+for a callee that receives one, only when the callee is inlined into it), so these loops are
+inlined (``inline="always"``) into a few lines of each plant's ``kernels.py`` that bind its
+right-hand side (``step_serial``, ``step_parallel``, ``trajectories``, ``derivatives``): the
+loops exist once, each plant compiles only its own model, and every binding is cached on disk.
+``rhs_along`` evaluates the right-hand side along a recorded trajectory (derivative outputs
+such as an acceleration).
+
+Batch layout: states ``Y (n, n_states)``, inputs ``U (n, n_inputs)``, parameters
+``P (n, n_params)``, sub-steps ``NSUB (n,)``, workspace ``W (n, 5, n_states)`` (k1..k4 and the
+stage state), guard counters ``clamps (n,)``. Trajectories: ``U (n, T, n_inputs)`` with row
+``k`` held over ``[t_k, t_k+1)``, states out ``(n, T + 1, n_states)`` with row ``k`` at ``t_k``.
+"""
+
+from __future__ import annotations
+
+import numba as nb
+import numpy as np
+
+__all__ = ["rk4_advance", "rk4_trajectory", "rhs_along"]
+
+
+@nb.njit(cache=True, error_model="numpy", inline="always")
+def rk4_advance(rhs, guard, y, u, p, h, n_sub, work):
+    """Advance ``y`` in place by ``n_sub`` RK4 steps of ``h`` seconds; return guard clamps.
+
+    The four stages run in one loop with a single call of ``rhs`` (stage state ``y``, then
+    ``y + h/2 k1``, ``y + h/2 k2``, ``y + h k3``), so a plant's right-hand side is compiled
+    into the kernel once rather than four times (compile time; the arithmetic is classical
+    RK4's).
+    """
+    ny = y.shape[0]
+    stage = work[4]
+    half = 0.5 * h
+    sixth = h / 6.0
+    clamps = 0
+    for _ in range(n_sub):
+        for s in range(4):
+            if s == 0:
+                for j in range(ny):
+                    stage[j] = y[j]
+            else:
+                c = h if s == 3 else half
+                prev = work[s - 1]
+                for j in range(ny):
+                    stage[j] = y[j] + c * prev[j]
+            rhs(stage, u, p, work[s])
+        k1 = work[0]
+        k2 = work[1]
+        k3 = work[2]
+        k4 = work[3]
+        for j in range(ny):
+            y[j] += sixth * (k1[j] + 2.0 * k2[j] + 2.0 * k3[j] + k4[j])
+        clamps += guard(y, p)
+    return clamps
+
+
+@nb.njit(cache=True, error_model="numpy", inline="always")
+def rk4_trajectory(rhs, guard, y0, u, p, dt, n_sub, work, out):
+    """States at ``t_0 .. t_T`` into ``out (T + 1, n_states)`` under inputs ``u (T, n_in)``,
+    each held for ``dt`` seconds and integrated in ``n_sub`` sub-steps; returns guard clamps."""
+    ny = y0.shape[0]
+    for j in range(ny):
+        out[0, j] = y0[j]
+    h = dt / n_sub
+    clamps = 0
+    for k in range(u.shape[0]):
+        y = out[k + 1]
+        for j in range(ny):
+            y[j] = out[k, j]
+        clamps += rk4_advance(rhs, guard, y, u[k], p, h, n_sub, work)
+    return clamps
+
+
+@nb.njit(cache=True, error_model="numpy", inline="always")
+def rhs_along(rhs, x, u, p, out):
+    """``out[k] = rhs(x[k], u[min(k, T - 1)], p)`` for the states ``x (K, n_states)`` of a
+    trajectory under inputs ``u (T, n_in)`` (the last state sees the last input)."""
+    ns = x.shape[1]
+    y = np.empty(ns)
+    dy = np.empty(ns)
+    for k in range(x.shape[0]):
+        for j in range(ns):
+            y[j] = x[k, j]
+        rhs(y, u[min(k, u.shape[0] - 1)], p, dy)
+        for j in range(ns):
+            out[k, j] = dy[j]

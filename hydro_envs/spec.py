@@ -1,0 +1,194 @@
+"""What a plant is to the rest of the package: its :class:`PlantSpec`.
+
+A plant lives in one folder, ``hydro_envs/plants/<name>/``, with modules of fixed names:
+
+=================  ==========================================================================
+``params.py``      the validated parameter dataclass (value, unit, range, source per field)
+``model.py``       state layout, numba right-hand side and guard, stiffness bound, outputs
+``kernels.py``     the right-hand side bound to the shared RK4 integrator (compiled, cached)
+``energy.py``      energy/mass-balance terms and guard checks of the soak test
+``validation.py``  rows comparing the model with numbers printed in its seed paper
+``experiments.py`` virtual experiments of the rig (optional)
+``randomization.yaml``  default domain randomisation (package data)
+``spec.py``        its ``SPEC``: the entry :mod:`hydro_envs.registry` lists
+=================  ==========================================================================
+
+A spec is plain data: importing it does not import numba or the model. Everything heavy is
+loaded on first use through :meth:`PlantSpec.module`, the way gymnasium resolves an env's
+``entry_point`` string.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import importlib
+import re
+from importlib import resources
+from types import ModuleType
+from typing import Any
+
+__all__ = ["Channel", "TIME_CHANNEL", "EnvEntry", "PlantSpec"]
+
+_NAME_RE = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
+_UNIT_RE = re.compile(r"[^\[\],\r\n]*")
+
+
+@dataclasses.dataclass(frozen=True)
+class Channel:
+    """One measured signal: its column name, SI unit and a one-line meaning."""
+
+    name: str
+    unit: str
+    meaning: str
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.name, str) or not _NAME_RE.fullmatch(self.name):
+            raise ValueError(
+                f"channel name {self.name!r} is invalid: use letters, digits and '_' (not starting with a digit)"
+            )
+        if not isinstance(self.unit, str) or not _UNIT_RE.fullmatch(self.unit):
+            raise ValueError(f"channel {self.name!r}: unit {self.unit!r} must not contain brackets, commas or line breaks")
+
+
+#: The time column, first column of every measured-data file.
+TIME_CHANNEL = Channel("t", "s", "time since start of record")
+
+
+@dataclasses.dataclass(frozen=True)
+class EnvEntry:
+    """One Gymnasium registration of a task on this plant."""
+
+    id: str
+    entry_point: str
+    vector_entry_point: str
+    max_episode_steps: int
+
+
+@dataclasses.dataclass(frozen=True)
+class PlantSpec:
+    """Everything a consumer asks of one plant (see the module docstring).
+
+    ``package`` is the plant's folder as a module path; ``params_class`` the name of its
+    parameter dataclass in ``<package>.params``. A spec without a package describes measured
+    data only (channels, no model).
+    """
+
+    name: str
+    title: str
+    source: str
+    channels: tuple[Channel, ...]
+    inputs: tuple[str, ...] = ()
+    package: str = ""
+    params_class: str = ""
+    envs: tuple[EnvEntry, ...] = ()
+    experiments: tuple[str, ...] = ()
+    #: the parameter that bounds the position channels (stroke) and the pressure ceiling, for
+    #: plausibility checks of measured records (names of ``params_class`` fields)
+    stroke_parameter: str | None = None
+    pressure_parameter: str | None = None
+
+    def __post_init__(self) -> None:
+        if not _NAME_RE.fullmatch(self.name):
+            raise ValueError(f"plant name {self.name!r} is invalid: use letters, digits and '_'")
+        names = [c.name for c in self.channels]
+        if len(set(names)) != len(names):
+            raise ValueError(f"plant {self.name!r}: duplicate channel names in {names}")
+        if TIME_CHANNEL.name in names:
+            raise ValueError(f"plant {self.name!r}: channel name 't' is reserved for the time column")
+        missing = [i for i in self.inputs if i not in names]
+        if missing:
+            raise ValueError(f"plant {self.name!r}: inputs {missing} are not channels {names}")
+
+    # ------------------------------------------------------------------ lazy parts
+    @property
+    def has_model(self) -> bool:
+        return bool(self.package)
+
+    def module(self, part: str) -> ModuleType:
+        """``<package>.<part>`` (``params``, ``model``, ``kernels``, ``energy``, ...)."""
+        if not self.package:
+            raise LookupError(f"plant {self.name!r} has measured channels only, no {part!r} module")
+        return _import(f"{self.package}.{part}")
+
+    def has_module(self, part: str) -> bool:
+        if not self.package:
+            return False
+        try:
+            return resources.files(self.package).joinpath(f"{part}.py").is_file()
+        except (ModuleNotFoundError, TypeError):
+            return False
+
+    @property
+    def params_cls(self) -> type:
+        """The parameter dataclass (a :class:`hydro_envs.params.PhysicalParams`)."""
+        return getattr(self.module("params"), self.params_class)
+
+    @property
+    def model(self) -> ModuleType:
+        return self.module("model")
+
+    @property
+    def kernels(self) -> ModuleType:
+        return self.module("kernels")
+
+    @property
+    def state_names(self) -> tuple[str, ...]:
+        return tuple(self.model.STATE_NAMES)
+
+    @property
+    def state_units(self) -> tuple[str, ...]:
+        return tuple(self.model.STATE_UNITS)
+
+    @property
+    def n_states(self) -> int:
+        return len(self.model.STATE_NAMES)
+
+    @property
+    def env_ids(self) -> tuple[str, ...]:
+        return tuple(e.id for e in self.envs)
+
+    def channel(self, name: str) -> Channel:
+        for c in self.channels:
+            if c.name == name:
+                return c
+        raise KeyError(f"plant {self.name!r} has no channel {name!r}; channels: {[c.name for c in self.channels]}")
+
+    def stiffness_modes(self, params: Any) -> dict[str, float]:
+        """Upper estimates of the Jacobian eigenvalue magnitudes [1/s] of ``params``."""
+        return self.model.stiffness_modes(params)
+
+    def randomization_file(self) -> Any:
+        """The default randomisation spec shipped with the plant (a Traversable), or None."""
+        if not self.package:
+            return None
+        path = resources.files(self.package).joinpath("randomization.yaml")
+        return path if path.is_file() else None
+
+    def validation_rows(self) -> list[Any]:
+        """Rows of the plant's ``validation.py`` (``rows()``), or [] without one."""
+        if not self.has_module("validation"):
+            return []
+        return list(self.module("validation").rows())
+
+    def as_dict(self) -> dict[str, Any]:
+        """JSON-ready description (channels with units, inputs, states, envs, experiments)."""
+        d: dict[str, Any] = {
+            "name": self.name,
+            "title": self.title,
+            "source": self.source,
+            "channels": [dataclasses.asdict(TIME_CHANNEL)] + [dataclasses.asdict(c) for c in self.channels],
+            "inputs": list(self.inputs),
+            "envs": [e.id for e in self.envs],
+            "experiments": list(self.experiments),
+            "model": self.has_model,
+        }
+        if self.has_model:
+            d["parameters_class"] = self.params_class
+            d["states"] = [{"name": n, "unit": u} for n, u in zip(self.state_names, self.state_units)]
+        return d
+
+
+@functools.lru_cache(maxsize=None)
+def _import(name: str) -> ModuleType:
+    return importlib.import_module(name)
