@@ -161,13 +161,13 @@ def _force_output(b):
 
 
 def _ls_output(b):
-    from hydro_envs.plants.ls_circuit import model as ls
+    from hydro_envs.plants.load_sensing import model as ls
 
     return b.Y[:, ls.VA].copy(), _ref_now(b)
 
 
 def _ls_pressures(b):
-    from hydro_envs.plants.ls_circuit import model as ls
+    from hydro_envs.plants.load_sensing import model as ls
 
     names = b.params_cls.names()
     floor = b.P[:, names.index("pressure_floor")]
@@ -176,7 +176,7 @@ def _ls_pressures(b):
 
 
 def _ls_stroke(b):
-    from hydro_envs.plants.ls_circuit import model as ls
+    from hydro_envs.plants.load_sensing import model as ls
 
     names = b.params_cls.names()
     x = b.Y[:, ls.XA]

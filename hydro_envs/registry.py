@@ -24,7 +24,7 @@ PLANT_NAMES: tuple[str, ...] = (
     "shaking_table",
     "force_actuator",
     "ls_compensator",
-    "ls_circuit",
+    "load_sensing",
     "rodless_cylinder",
     "slider",
     "seal_friction",

@@ -16,7 +16,7 @@ from agents.controllers import (
 from agents.controllers.friction_models import identified_friction
 from agents.controllers.servo import ProportionalPositionController
 from hydro_envs.envs.references import generate_reference
-from hydro_envs.envs.shaking_table_references import generate_table_reference, reference_limits
+from hydro_envs.envs.shaking_table.references import generate_table_reference, reference_limits
 from hydro_envs.plants.force_actuator import model as fa
 from hydro_envs.plants.shaking_table import model as st
 from hydro_envs.plants.rodless_cylinder.params import RodlessCylinderParams

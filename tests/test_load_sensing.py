@@ -18,22 +18,22 @@ from gymnasium.utils.env_checker import check_env
 
 import hydro_envs  # noqa: F401
 from hydro_envs.params import ParameterError
-from hydro_envs.plants.ls_circuit import model as cc
-from hydro_envs.plants.ls_circuit.params import LSCircuitParams
+from hydro_envs.plants.load_sensing import model as cc
+from hydro_envs.plants.load_sensing.params import LoadSensingParams
 from hydro_envs.randomization import load_randomization
 from hydro_envs import registry
 from hydro_envs.sim.reference import reference_rollout
 from hydro_envs.sim.stiffness import substeps_from_stiffness
 
 ENV_ID = "hydro_envs/LoadSensing-v0"
-NOMINAL = LSCircuitParams()
+NOMINAL = LoadSensingParams()
 OBS_DIM = 12
 BAR = 1e5
 
 
 @pytest.fixture(scope="module")
 def spec():
-    return load_randomization("ls_circuit", LSCircuitParams)
+    return load_randomization("load_sensing", LoadSensingParams)
 
 
 def _ramp(v=0.1, n=2100, t_start=0.2, t_ramp=0.1):
@@ -63,12 +63,12 @@ def test_margin_is_the_seed_20_bar():
 
 def test_parameters_validated():
     with pytest.raises(ParameterError, match="control_area_small"):
-        LSCircuitParams(control_area_small=1e-3, control_area_large=5e-4)
+        LoadSensingParams(control_area_small=1e-3, control_area_large=5e-4)
     with pytest.raises(ParameterError, match="load_mass"):
-        LSCircuitParams(load_mass=-1.0)
+        LoadSensingParams(load_mass=-1.0)
     arr = NOMINAL.to_array()
     assert arr.shape == (cc.N_PARAMS,)
-    assert LSCircuitParams.from_array(arr) == NOMINAL
+    assert LoadSensingParams.from_array(arr) == NOMINAL
 
 
 def _run(p, u_seq, y0, dt=1e-3):
@@ -77,7 +77,7 @@ def _run(p, u_seq, y0, dt=1e-3):
     W, c = np.zeros((1, 5, cc.N_STATES)), np.zeros(1, dtype=np.int64)
     out = [Y[0].copy()]
     for u in u_seq:
-        registry.get("ls_circuit").kernels.step_serial(Y, np.asarray(u, float)[None], P, dt, np.array([n_sub]), W, c)
+        registry.get("load_sensing").kernels.step_serial(Y, np.asarray(u, float)[None], P, dt, np.array([n_sub]), W, c)
         out.append(Y[0].copy())
     return np.array(out), int(c[0])
 
@@ -113,7 +113,7 @@ def test_solenoid_force_shifts_the_margin_by_f_over_a():
 
 
 def test_fixed_step_matches_radau():
-    spec = load_randomization("ls_circuit", LSCircuitParams)
+    spec = load_randomization("load_sensing", LoadSensingParams)
     p = spec.corner([False, True, True, False, False])  # cold oil, heavy, high force, soft oil
     n = 400
     rng = np.random.default_rng(0)
@@ -122,7 +122,7 @@ def test_fixed_step_matches_radau():
     y0 = cc.standby_state(p, 0.05)
     fixed, _ = _run(p, u, y0)
     atol = np.array([1e-12, 1e-9, 1.0, 1.0, 1e-12, 1e-9, 1.0, 1e-12, 1e-9, 1e-14, 1.0, 1e-6])
-    ref = reference_rollout(registry.get("ls_circuit"), y0, u, p.to_array(), 1e-3, rtol=1e-9, atol=atol)
+    ref = reference_rollout(registry.get("load_sensing"), y0, u, p.to_array(), 1e-3, rtol=1e-9, atol=atol)
     # NRMSE at the default 5 sub-steps; the +-20 N solenoid steps throw the FC spool onto its
     # seat (a stiff contact: RK4 drops to first order there), hence the looser spool bound
     for idx, tol in ((cc.VA, 2e-3), (cc.PS, 2e-3), (cc.PL, 2e-3), (cc.Y, 2e-3), (cc.X, 1e-2)):
@@ -154,8 +154,8 @@ def test_stiffness_bound_covers_the_numerical_jacobian(spec):
                         yp, ym = y.copy(), y.copy()
                         yp[j] += h
                         ym[j] -= h
-                        registry.get("ls_circuit").kernels.rhs(yp, u, pa, f0)
-                        registry.get("ls_circuit").kernels.rhs(ym, u, pa, f1)
+                        registry.get("load_sensing").kernels.rhs(yp, u, pa, f0)
+                        registry.get("load_sensing").kernels.rhs(ym, u, pa, f1)
                         J[:, j] = (f0 - f1) / (2 * h)
                     worst = max(worst, np.abs(np.linalg.eigvals(J)).max())
         assert worst <= 1.02 * bound, (worst, cc.stiffness_modes(p))
@@ -212,7 +212,7 @@ def test_vector_copy_i_equals_single_env_seeded_s_plus_i():
         np.testing.assert_array_equal(o, VO[0][i])
         for k in range(steps):
             np.testing.assert_array_equal(env.step(acts[k, i])[0], VO[k + 1][i])
-    assert set(info["params"]) == set(LSCircuitParams.names())
+    assert set(info["params"]) == set(LoadSensingParams.names())
     assert info["state"]["p_s"].shape == (n,)
 
 
@@ -238,7 +238,7 @@ def test_info_state_params_render_and_channels():
     frame = env.render()
     assert frame.dtype == np.uint8 and frame.ndim == 3 and frame.shape[2] == 3
     ch = env.unwrapped.channel_values()
-    assert set(ch) == {c.name for c in __import__("hydro_envs.data.channels", fromlist=["x"]).channels_for("ls_circuit")}
+    assert set(ch) == {c.name for c in __import__("hydro_envs.data.channels", fromlist=["x"]).channels_for("load_sensing")}
     assert ch["p_s"] == info["state"]["p_s"]
 
 

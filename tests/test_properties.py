@@ -120,7 +120,7 @@ def test_in_range_value_constructs_or_names_the_field(plant, data):
     ("rodless_cylinder", {"dead_volume_a": 5e-9}),
     ("force_actuator", {"stiction_retract": 10.0}),
     ("force_actuator", {"coulomb_friction": 0.0}),
-    ("ls_circuit", {"spool_diameter": 0.05}),
+    ("load_sensing", {"spool_diameter": 0.05}),
     ("ls_compensator", {"spring_chamber_pressure": 500.0}),
     ("shaking_table", {"oil_exponent": 50.0, "p0": 1e8, "e0": 1e7}),
 ])
@@ -239,7 +239,7 @@ try:
     _HAVE_PYARROW = True
 except ImportError:  # parquet is optional
     _HAVE_PYARROW = False
-LOADER_PLANTS = ("servo_cylinder", "shaking_table", "force_actuator", "ls_circuit", "rodless_cylinder")
+LOADER_PLANTS = ("servo_cylinder", "shaking_table", "force_actuator", "load_sensing", "rodless_cylinder")
 finite = st.floats(-1e12, 1e12, allow_nan=False, allow_infinity=False)
 
 

@@ -25,7 +25,7 @@ from scipy.optimize import fsolve
 import hydro_envs  # noqa: F401  (registers the envs)
 from hydro_envs.data.channels import channels_for
 from hydro_envs.envs.shaking_table import ACCELEROMETER_RANGE, ShakingTableEnv
-from hydro_envs.envs.shaking_table_references import (
+from hydro_envs.envs.shaking_table.references import (
     KANAI_TAJIMI,
     TABLE_REFERENCE_KINDS,
     generate_table_reference,

@@ -38,8 +38,8 @@ from typing import Any
 import numpy as np
 
 from agents.controllers.core import BaseController, PIDCore
-from hydro_envs.plants.ls_circuit import model as plant
-from hydro_envs.plants.ls_circuit.params import LSCircuitParams
+from hydro_envs.plants.load_sensing import model as plant
+from hydro_envs.plants.load_sensing.params import LoadSensingParams
 
 __all__ = ["LoadSensingPIDController", "PassiveCompensatorBaseline", "ls_tuning"]
 
@@ -51,8 +51,8 @@ TD_VELOCITY = 0.7e-3  # s, K_cv K_p T_d
 TF = 1e-3  # s
 
 
-def ls_tuning(params: LSCircuitParams | None = None, omega_c: float = OMEGA_C) -> dict[str, float]:
-    p = params if params is not None else LSCircuitParams()
+def ls_tuning(params: LoadSensingParams | None = None, omega_c: float = OMEGA_C) -> dict[str, float]:
+    p = params if params is not None else LoadSensingParams()
     dpm = plant.margin(p)
     k_cv = 0.5 * p.cv_area_max * p.discharge_coefficient * math.sqrt(2.0 * dpm / p.oil_density) / p.piston_area
     kp = KP_STATIC / k_cv
@@ -84,7 +84,7 @@ class LoadSensingPIDController(BaseController):
         self.reset()
 
     @classmethod
-    def from_params(cls, params: LSCircuitParams | None = None, **kw: Any) -> LoadSensingPIDController:
+    def from_params(cls, params: LoadSensingParams | None = None, **kw: Any) -> LoadSensingPIDController:
         t = ls_tuning(params)
         return cls(t["kp"], t["ti"], t["td"], t["tf"], **kw)
 

@@ -3,7 +3,7 @@ r"""Velocity delivery with a load-sensing pump and the seed-000 flow compensator
 ``hydro_envs/LoadSensing-v0``: an axial piston pump controlled by the hydro-mechanical flow
 compensator of 000 (margin about 20 bar, 000 sec. 2 and Fig. 1) feeds one cylinder with a
 heavy inertial load through a meter-in control valve CV. Plant physics:
-:mod:`hydro_envs.plants.ls_circuit` (every assumed pump, valve and load number is stated
+:mod:`hydro_envs.plants.load_sensing` (every assumed pump, valve and load number is stated
 there with its reason). The agent adds an electro-proportional force on the compensator spool
 and corrects the CV opening so the cylinder delivers the demanded velocity while the margin
 is kept and the load oscillations that heavy masses excite (000 sec. 2: LS systems "feature
@@ -51,7 +51,7 @@ demanded velocities [m/s], one per step, in [0, 0.2]).
 ``params``.
 
 **Numerics**: 5 RK4 sub-steps per 1 ms step for the nominal plant and at every randomisation
-corner (0.2 ms; :func:`hydro_envs.plants.ls_circuit.stiffness_modes`: the FC spool's seat
+corner (0.2 ms; :func:`hydro_envs.plants.load_sensing.stiffness_modes`: the FC spool's seat
 contact, 9.9e3 1/s, sets the bound, then the delivery node 7.5e3 and the control chamber
 6.4e3). Each reset settles the circuit for 0.1 s in one kernel call (about 0.6 ms).
 """
@@ -66,9 +66,9 @@ import numpy as np
 from gymnasium import spaces
 
 from hydro_envs.envs.base import BatchedEnv, BatchedVectorEnv, PlantBatch, check_nonnegative
-from hydro_envs.plants.ls_circuit import model as plant
-from hydro_envs.plants.ls_circuit.params import LSCircuitParams
-from hydro_envs.plants.ls_circuit.spec import SPEC
+from hydro_envs.plants.load_sensing import model as plant
+from hydro_envs.plants.load_sensing.params import LoadSensingParams
+from hydro_envs.plants.load_sensing.spec import SPEC
 
 __all__ = ["LoadSensingEnv", "LoadSensingVectorEnv", "LoadSensingBatch", "REFERENCE_KINDS", "generate_demand"]
 
@@ -180,7 +180,7 @@ class LoadSensingBatch(PlantBatch):
 
     plant_spec = SPEC
     plant = plant
-    params_cls = LSCircuitParams
+    params_cls = LoadSensingParams
     dt = DT
     episode_steps_default = EPISODE_STEPS
     action_dim = 2
@@ -226,7 +226,7 @@ class LoadSensingBatch(PlantBatch):
     def observation_space(self) -> spaces.Box:
         return observation_space()
 
-    def reset_task(self, i: int, rng: np.random.Generator, p: LSCircuitParams, options: Mapping[str, Any]) -> None:
+    def reset_task(self, i: int, rng: np.random.Generator, p: LoadSensingParams, options: Mapping[str, Any]) -> None:
         xa0 = rng.uniform(0.02, 0.10)
         self.Y[i] = plant.standby_state(p, xa0)
         # settle at standby (CV closed, no force) so the episode starts from rest

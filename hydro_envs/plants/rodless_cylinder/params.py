@@ -155,7 +155,7 @@ class RodlessCylinderParams(PhysicalParams):
         if self.bristle_stiffness > 0.0 and not self.coulomb_friction > 0.0:
             raise ParameterError(
                 f"{name}.coulomb_friction must be > 0 when bristle_stiffness > 0 (LuGre needs g(v) > 0); "
-                "use bristle_stiffness = 0 for a friction-free slider"
+                "use bristle_stiffness = 0 for a friction-free carriage"
             )
         if not (self.pressure_floor < self.exhaust_pressure < self.supply_pressure):
             raise ParameterError(

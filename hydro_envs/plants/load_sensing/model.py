@@ -62,21 +62,21 @@ import numpy as np
 from hydro_envs.laws.contact import end_stop_force
 from hydro_envs.laws.friction import tanh_sign
 from hydro_envs.laws.orifice import regularized_signed_sqrt
-from hydro_envs.plants.ls_circuit.params import (  # noqa: F401  (re-exported)
+from hydro_envs.plants.load_sensing.params import (  # noqa: F401  (re-exported)
     D_A, D_C, D_KFF, D_KM, D_LLS, D_RLS, D_VLINE, I_A1, I_A2, I_AC, I_ACVMAX, I_ASS, I_BA,
     I_BETA, I_BY, I_C40, I_CD, I_DLS, I_DP, I_DPTR, I_DS, I_F0, I_FB0, I_FCA, I_FL, I_FSMAX,
     I_GP, I_GRV, I_GX, I_K, I_KAS, I_KB, I_KSS, I_KYS, I_LLS, I_LPORT, I_M, I_MS, I_MY,
     I_PFLOOR, I_PRV, I_PT, I_RD, I_RHO, I_STROKE, I_T, I_THETA, I_TSOL, I_VEPS, I_VG, I_VL0,
-    I_VS, I_VSC, I_VX0, I_W, I_WP, I_XLAP, I_XMAX, I_YMAX, LSCircuitParams, N_FIELDS, N_PARAMS,
+    I_VS, I_VSC, I_VX0, I_W, I_WP, I_XLAP, I_XMAX, I_YMAX, LoadSensingParams, N_FIELDS, N_PARAMS,
     PLANT, _ATM, _BAR, _DERIVED, derived,
 )
 
 __all__ = [
-    "LSCircuitParams",
+    "LoadSensingParams",
     "STATE_NAMES",
     "N_STATES",
-    "ls_circuit_rhs",
-    "ls_circuit_guard",
+    "load_sensing_rhs",
+    "load_sensing_guard",
     "stiffness_modes",
     "derived",
     "margin",
@@ -91,7 +91,7 @@ X, V, PS, PX, Y, VY, PL, XA, VA, QLS, PLS, FSOL = range(N_STATES)
 
 
 @nb.njit(cache=True, error_model="numpy")
-def ls_circuit_rhs(y, u, p, dy):
+def load_sensing_rhs(y, u, p, dy):
     """Time derivative of the LS circuit state (module docstring equations)."""
     x = y[X]
     v = y[V]
@@ -171,7 +171,7 @@ def ls_circuit_rhs(y, u, p, dy):
 
 
 @nb.njit(cache=True, error_model="numpy")
-def ls_circuit_guard(y, p):
+def load_sensing_guard(y, p):
     """Clamp the four pressures at the cavitation floor; return the number of clamps."""
     n = 0
     floor = p[I_PFLOOR]
@@ -183,13 +183,13 @@ def ls_circuit_guard(y, p):
 
 
 # ---------------------------------------------------------------------------- analysis
-def margin(params: LSCircuitParams, f_sol: float = 0.0) -> float:
+def margin(params: LoadSensingParams, f_sol: float = 0.0) -> float:
     """Steady LS margin ``p_s - p_ls = (F0 + k x_lap + f_sol)/A`` [Pa] (000 sec. 2: ~20 bar),
     neglecting the flow force of the tiny steady opening."""
     return (params.spring_preload + params.spring_stiffness * params.metering_lap + f_sol) / derived(params)["spool_area"]
 
 
-def cv_area_for_velocity(params: LSCircuitParams, velocity: float, dp: float | None = None) -> float:
+def cv_area_for_velocity(params: LoadSensingParams, velocity: float, dp: float | None = None) -> float:
     """CV area that passes ``A_c * velocity`` at the drop ``dp`` (default: the nominal margin),
     the operator's lever of a load-sensing valve (orifice law)."""
     dp = margin(params) if dp is None else dp
@@ -197,7 +197,7 @@ def cv_area_for_velocity(params: LSCircuitParams, velocity: float, dp: float | N
     return min(q / (params.discharge_coefficient * math.sqrt(2.0 * dp / params.oil_density)), params.cv_area_max)
 
 
-def standby_state(params: LSCircuitParams, xa: float) -> np.ndarray:
+def standby_state(params: LoadSensingParams, xa: float) -> np.ndarray:
     """Approximate rest state with the CV closed: load held at ``F_L / A_c``, the LS line at the
     load pressure, delivery at load + margin, the pump destroked to its leakage flow."""
     p = params
@@ -225,7 +225,7 @@ def standby_state(params: LSCircuitParams, xa: float) -> np.ndarray:
     return y
 
 
-def stiffness_modes(params: LSCircuitParams) -> dict[str, float]:
+def stiffness_modes(params: LoadSensingParams) -> dict[str, float]:
     """Upper estimates of the Jacobian eigenvalue magnitudes [1/s] (worst case over states).
 
     * ``spool``: FC spool on spring + flow-force stiffness at the relief pressure, plus c/m;

@@ -3,7 +3,7 @@ r"""Acceleration tracking with the servo-hydraulic shaking table (seed 003).
 ``hydro_envs/ShakingTable-v0``: the agent drives the proportional valve (Bosch-Rexroth 4WS.2E)
 of a 650 kg uni-axial table with a 0-500 kg specimen so that the *table acceleration* follows
 a reference -- sines 0.5-15 Hz, pulses, amplitude transitions (003 eq (23)) and synthetic
-earthquakes (:mod:`hydro_envs.envs.shaking_table_references`) -- while keeping the table inside its
+earthquakes (:mod:`hydro_envs.envs.shaking_table.references`) -- while keeping the table inside its
 260 mm stroke. It observes only what the rig measures (sec. 2): the potentiometer position,
 the accelerometer, the velocity the paper derived from the position (sec. 4: differentiated,
 8th-order Butterworth at 40 Hz), plus the reference. Plant physics:
@@ -65,7 +65,7 @@ from gymnasium import spaces
 
 from hydro_envs.envs.base import BatchedEnv, BatchedVectorEnv, PlantBatch, check_nonnegative
 from hydro_envs.envs.render import render_cylinder
-from hydro_envs.envs.shaking_table_references import (
+from hydro_envs.envs.shaking_table.references import (
     TABLE_REFERENCE_KINDS,
     generate_table_reference,
     reference_limits,

@@ -3,7 +3,7 @@
 The flow compensator's spool, spring and damping are those of the seed-000 compensator
 (:mod:`hydro_envs.plants.ls_compensator.params`, method-2 configuration); pressures absolute.
 The index constants ``I_*`` are the columns of the packed kernel parameter array; ``D_*`` the
-derived columns :func:`derived` computes and :meth:`LSCircuitParams.to_array` appends.
+derived columns :func:`derived` computes and :meth:`LoadSensingParams.to_array` appends.
 """
 
 from __future__ import annotations
@@ -18,9 +18,9 @@ from hydro_envs.laws.viscosity import iso_vg_kinematic_viscosity
 from hydro_envs.params import ParameterError, PhysicalParams, physical
 from hydro_envs.plants.ls_compensator.params import ORIGINAL_SPRING_STIFFNESS, LSCompensatorParams
 
-__all__ = ["PLANT", "LSCircuitParams", "N_PARAMS", "N_FIELDS", "derived"]
+__all__ = ["PLANT", "LoadSensingParams", "N_PARAMS", "N_FIELDS", "derived"]
 
-PLANT = "ls_circuit"
+PLANT = "load_sensing"
 
 _ATM = 1.0e5
 _BAR = 1.0e5
@@ -33,7 +33,7 @@ _PRELOAD = _MARGIN * _A_SPOOL - ORIGINAL_SPRING_STIFFNESS * _X_LAP  # 42.1 N
 
 
 @dataclasses.dataclass(frozen=True)
-class LSCircuitParams(PhysicalParams):
+class LoadSensingParams(PhysicalParams):
     """Parameters of the load-sensing circuit of 000 Fig. 1 (SI, absolute pressures)."""
 
     plant = PLANT
@@ -168,18 +168,18 @@ class LSCircuitParams(PhysicalParams):
     def _check_relations(self) -> None:
         if not (self.pressure_floor < self.tank_pressure < self.relief_pressure):
             raise ParameterError(
-                "LSCircuitParams: need pressure_floor < tank_pressure < relief_pressure, got "
+                "LoadSensingParams: need pressure_floor < tank_pressure < relief_pressure, got "
                 f"{self.pressure_floor}, {self.tank_pressure}, {self.relief_pressure} Pa"
             )
         if self.control_area_small >= self.control_area_large:
             raise ParameterError(
-                "LSCircuitParams.control_area_small must be below control_area_large (000 sec. 2: "
+                "LoadSensingParams.control_area_small must be below control_area_large (000 sec. 2: "
                 f"piston 2 is the smaller), got {self.control_area_small} >= {self.control_area_large}"
             )
         a = 0.25 * math.pi * self.spool_diameter**2
         if self.spring_chamber_volume <= a * (self.spool_stroke + 1e-4):
             raise ParameterError(
-                "LSCircuitParams.spring_chamber_volume must exceed the spool's swept volume "
+                "LoadSensingParams.spring_chamber_volume must exceed the spool's swept volume "
                 f"A * stroke + 0.1 mm of travel (A from spool_diameter, stroke = spool_stroke) = "
                 f"{a * (self.spool_stroke + 1e-4)} m^3, got {self.spring_chamber_volume} m^3"
             )
@@ -189,7 +189,7 @@ class LSCircuitParams(PhysicalParams):
         return np.concatenate([super().to_array(), np.array([d[k] for k in _DERIVED], dtype=np.float64)])
 
     @classmethod
-    def from_array(cls, values: np.ndarray) -> "LSCircuitParams":
+    def from_array(cls, values: np.ndarray) -> "LoadSensingParams":
         values = np.asarray(values, dtype=np.float64)
         n = len(cls.names())
         if values.shape not in ((n,), (n + len(_DERIVED),)):
@@ -197,7 +197,7 @@ class LSCircuitParams(PhysicalParams):
         return cls(**{k: float(v) for k, v in zip(cls.names(), values[:n])})
 
 
-_FIELDS = LSCircuitParams.names()
+_FIELDS = LoadSensingParams.names()
 N_FIELDS = len(_FIELDS)
 (
     I_VG, I_T, I_RHO, I_BETA, I_DS, I_MS, I_K, I_F0, I_C40, I_XMAX, I_KSS, I_ASS, I_W, I_XLAP,
@@ -211,7 +211,7 @@ _DERIVED = ("spool_area", "viscous", "ls_inductance", "ls_resistance", "ls_line_
 N_PARAMS = N_FIELDS + len(_DERIVED)
 
 
-def derived(params: LSCircuitParams) -> dict[str, float]:
+def derived(params: LoadSensingParams) -> dict[str, float]:
     """Kernel quantities computed once per parameter set (viscosity-dependent c and R)."""
     p = params
     nu = iso_vg_kinematic_viscosity(p.oil_grade, p.oil_temperature)

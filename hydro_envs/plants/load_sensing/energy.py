@@ -10,9 +10,9 @@ from __future__ import annotations
 import numba as nb
 
 from hydro_envs.laws.friction import tanh_sign
-from hydro_envs.plants.ls_circuit import model as ls
-from hydro_envs.plants.ls_circuit.model import ls_circuit_guard as guard
-from hydro_envs.plants.ls_circuit.model import ls_circuit_rhs as rhs
+from hydro_envs.plants.load_sensing import model as ls
+from hydro_envs.plants.load_sensing.model import load_sensing_guard as guard
+from hydro_envs.plants.load_sensing.model import load_sensing_rhs as rhs
 from hydro_envs.sim.balance import replay_step, stop_split, stroke_check
 
 __all__ = ["mech_terms", "state_breaches", "energy_replay", "N_BODIES"]

@@ -3,7 +3,7 @@
 from hydro_envs.spec import Channel, EnvEntry, PlantSpec
 
 SPEC = PlantSpec(
-    name="ls_circuit",
+    name="load_sensing",
     title="load-sensing pump circuit: variable pump, seed-000 flow compensator, control valve, actuator",
     source="000_d7d5fd9bd6b165a2.txt: sec. 2, Fig. 1; compensator eqs (1)-(6)",
     channels=(
@@ -16,8 +16,8 @@ SPEC = PlantSpec(
         Channel("va", "m/s", "actuator velocity"),
     ),
     inputs=("f_sol", "a_cv"),
-    package="hydro_envs.plants.ls_circuit",
-    params_class="LSCircuitParams",
+    package="hydro_envs.plants.load_sensing",
+    params_class="LoadSensingParams",
     envs=(
         EnvEntry(
             "hydro_envs/LoadSensing-v0",

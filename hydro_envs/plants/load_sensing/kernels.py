@@ -10,8 +10,8 @@ from __future__ import annotations
 
 import numba as nb
 
-from hydro_envs.plants.ls_circuit.model import ls_circuit_rhs as rhs
-from hydro_envs.plants.ls_circuit.model import ls_circuit_guard as guard
+from hydro_envs.plants.load_sensing.model import load_sensing_rhs as rhs
+from hydro_envs.plants.load_sensing.model import load_sensing_guard as guard
 from hydro_envs.sim.rk4 import rhs_along, rk4_advance, rk4_trajectory
 
 __all__ = ["step_serial", "step_parallel", "trajectories", "derivatives", "rhs", "guard"]
