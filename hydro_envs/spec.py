@@ -148,6 +148,35 @@ class PlantSpec:
     def env_ids(self) -> tuple[str, ...]:
         return tuple(e.id for e in self.envs)
 
+    @property
+    def state_outputs(self) -> dict[str, int]:
+        """Measured channel -> the state index its sensor reads (``model.STATE_OUTPUTS``)."""
+        return dict(getattr(self.model, "STATE_OUTPUTS", {}))
+
+    @property
+    def derivative_outputs(self) -> dict[str, int]:
+        """Measured channel -> the state whose derivative its sensor reads (an accelerometer)."""
+        return dict(getattr(self.model, "DERIVATIVE_OUTPUTS", {}))
+
+    def sensor_outputs(self, states: Any, params_rows: Any, inputs: Any = None) -> dict[str, Any]:
+        """Noise-free sensor outputs of trajectories ``states (c, T, n_states)`` under kernel
+        parameter rows ``(c, n_params)``: state readings, computed outputs
+        (``model.computed_outputs``) and, when ``inputs (c, T', n_in)`` are given, derivative
+        readings (the right-hand side along the trajectory)."""
+        import numpy as np
+
+        states = np.asarray(states, dtype=np.float64)
+        out = {c: states[:, :, j] for c, j in self.state_outputs.items()}
+        computed = getattr(self.model, "computed_outputs", None)
+        if computed is not None:
+            out.update(computed(states, np.asarray(params_rows)))
+        if inputs is not None and self.derivative_outputs:
+            d = np.zeros_like(states)
+            self.kernels.derivatives(np.ascontiguousarray(states), np.ascontiguousarray(inputs, dtype=np.float64),
+                                     np.ascontiguousarray(params_rows, dtype=np.float64), d)
+            out.update({c: d[:, :, j] for c, j in self.derivative_outputs.items()})
+        return out
+
     def channel(self, name: str) -> Channel:
         for c in self.channels:
             if c.name == name:

@@ -151,6 +151,17 @@ GW = H0 + N_PLAY
 FA, FB, FC = GW + 1, GW + 2, GW + 3
 R0 = FC + 1
 XS, VS, XP, VP, FF, VF = range(R0 + 6, R0 + 12)
+
+#: sensor outputs (noise-free): measured channel -> the state index it reads, and measured
+#: channel -> the state index whose time derivative it reads
+STATE_OUTPUTS: dict[str, int] = {}
+DERIVATIVE_OUTPUTS: dict[str, int] = {}
+
+
+def computed_outputs(states, params_rows):
+    """Outputs that are functions of the state: the sensed force ``f = k_s x_s`` [N] (001 eq
+    (3)) of trajectories ``states (c, T, n_states)`` with kernel parameter rows ``(c, n_params)``."""
+    return {"f": params_rows[:, I_KS, None] * states[:, :, XS]}
 assert N_STATES == VF + 1 == 23
 
 # ----------------------------------------------------------------------------- seed data

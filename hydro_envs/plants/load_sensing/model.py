@@ -89,6 +89,11 @@ STATE_UNITS = ("m", "m/s", "Pa", "Pa", "m", "m/s", "Pa", "m", "m/s", "m^3/s", "P
 N_STATES = 12
 X, V, PS, PX, Y, VY, PL, XA, VA, QLS, PLS, FSOL = range(N_STATES)
 
+#: sensor outputs (noise-free): measured channel -> the state index it reads, and measured
+#: channel -> the state index whose time derivative it reads
+STATE_OUTPUTS: dict[str, int] = {"p_s": PS, "p_l": PL, "p_ls": PLS, "xa": XA, "va": VA}
+DERIVATIVE_OUTPUTS: dict[str, int] = {}
+
 
 @nb.njit(cache=True, error_model="numpy")
 def load_sensing_rhs(y, u, p, dy):

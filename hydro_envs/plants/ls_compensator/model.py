@@ -140,6 +140,11 @@ STATE_UNITS = ("m", "m/s", "Pa", "Pa", "s") + tuple(
 )
 N_STATES = len(STATE_NAMES)  # 28
 X, V, P2, PO, TAU = range(5)
+
+#: sensor outputs (noise-free): measured channel -> the state index it reads, and measured
+#: channel -> the state index whose time derivative it reads
+STATE_OUTPUTS: dict[str, int] = {"x": X, "p2": P2, "p_out": PO}
+DERIVATIVE_OUTPUTS: dict[str, int] = {}
 Q0 = 5  # index of q1; q_j at Q0 + 2 (j - 1), pn_j at Q0 + 2 (j - 1) + 1
 assert N_STATES == 4 + 2 * N_SEG_MAX
 

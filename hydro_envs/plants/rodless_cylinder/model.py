@@ -126,6 +126,11 @@ STATE_UNITS = ("m", "m/s", "Pa", "Pa", "kg", "kg", "m", "m/s", "m")
 N_STATES = 9
 Y, V, PA, PB, MA, MB, XV, VV, Z = range(N_STATES)
 
+#: sensor outputs (noise-free): measured channel -> the state index it reads, and measured
+#: channel -> the state index whose time derivative it reads
+STATE_OUTPUTS: dict[str, int] = {"y": Y, "pa": PA, "pb": PB}
+DERIVATIVE_OUTPUTS: dict[str, int] = {}
+
 
 @nb.njit(cache=True, error_model="numpy")
 def _edge_flow(p, area, p_up, p_down, t_up, sqrt_rt_up):

@@ -92,6 +92,11 @@ STATE_UNITS = ("m", "m/s", "Pa", "Pa", "m", "m/s")
 N_STATES = 6
 X, V, P1, P2, XV, VV = range(N_STATES)
 
+#: sensor outputs (noise-free): measured channel -> the state index it reads, and measured
+#: channel -> the state index whose time derivative it reads
+STATE_OUTPUTS: dict[str, int] = {"x": X, "p1": P1, "p2": P2}
+DERIVATIVE_OUTPUTS: dict[str, int] = {}
+
 
 @nb.njit(cache=True, error_model="numpy")
 def servo_cylinder_rhs(y, u, p, dy):

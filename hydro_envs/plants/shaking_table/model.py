@@ -123,6 +123,11 @@ STATE_UNITS = ("m", "m/s", "Pa", "Pa", "1", "1/s")
 N_STATES = 6
 X, V, PA, PB, XV, VV = range(N_STATES)
 
+#: sensor outputs (noise-free): measured channel -> the state index it reads, and measured
+#: channel -> the state index whose time derivative it reads
+STATE_OUTPUTS: dict[str, int] = {"x": X, "pa": PA, "pb": PB}
+DERIVATIVE_OUTPUTS: dict[str, int] = {"a": V}
+
 
 
 # ---------------------------------------------------------------------------- kernels

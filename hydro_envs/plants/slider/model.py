@@ -84,6 +84,11 @@ STATE_UNITS = ("m", "m/s")
 N_STATES = 2
 X, V = range(N_STATES)
 
+#: sensor outputs (noise-free): measured channel -> the state index it reads, and measured
+#: channel -> the state index whose time derivative it reads
+STATE_OUTPUTS: dict[str, int] = {"x": X}
+DERIVATIVE_OUTPUTS: dict[str, int] = {}
+
 #: Sub-step safety of :func:`simulate_slider`. The kernel's stability default (0.8 of RK4's
 #: real-axis limit, 14 sub-steps per 1 ms for the nominal stage) keeps the stiff tanh mode
 #: stable but resolves it coarsely: over 1 s of random +-30 N steps with 40 stick-slip
