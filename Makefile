@@ -3,7 +3,7 @@
 #   make test      - default test suite (excludes tests marked slow)
 #   make test-all  - everything, including slow tests
 #   make bench     - performance and accuracy benchmarks (print numbers)
-#   make demo-diagnose - the diagnosis workflow finding hidden effects (issue 6)
+#   make demo-diagnose - the diagnosis workflow finding hidden effects
 PYTHON ?= python3
 VENV ?= .venv
 PY := $(VENV)/bin/python
@@ -24,7 +24,7 @@ install: $(STAMP)
 demo: $(STAMP)
 	$(VENV)/bin/hydro demo
 
-# issue 6: hide Stribeck friction (servo) and the modified-IFAS dip (shaking table), find them
+# hide Stribeck friction (servo) and the modified-IFAS dip (shaking table), find them
 demo-diagnose: $(STAMP)
 	$(PY) -m identification.diagnosis.demo --out runs/diagnosis-demo
 

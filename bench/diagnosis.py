@@ -1,5 +1,5 @@
 """Diagnosis bench: hidden-effect confusion matrix, top-1 / none / shrink rates, and the time of
-the whole catalogue on one 20 s record (issue 6).
+the whole catalogue on one 20 s record.
 
     python bench/diagnosis.py [--plants slider,servo_cylinder,...] [--seeds 3]
                               [--duration 8] [--max-effects 1] [--speed]

@@ -1,5 +1,5 @@
 """Ray backend vs serial: wall time and identical results for the benchmark and the diagnosis
-sweep on this machine (issue 8).
+sweep on this machine.
 
     python bench/ray_backend.py [--num-cpus N] [--n 20] [--plants slider] [--seeds 1]
                                 [--skip-benchmark] [--skip-diagnosis]

@@ -1,4 +1,4 @@
-"""SB3 training throughput and time-to-PID on the servo cylinder (issue 7, item 5).
+"""SB3 training throughput and time-to-PID on the servo cylinder.
 
 Prints (no pass/fail):
 

@@ -93,11 +93,15 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser(
         "validate",
         help="reproduce published results and compare within tolerance",
-        description="Run hydro_envs.validation.run_validation() and print one row per "
-        "check. Exit code 0 if every check passed, 1 otherwise.",
+        description="Compute every validation row (independent: a printed or measured number "
+        "reproduced by another route; consistency: the model against its own linearisation or "
+        "inputs) and print them grouped by kind. Exit code 0 if every row passed, 1 otherwise.",
     )
     p.add_argument("--json", action="store_true",
-                   help='print one JSON object {"rows": [...], "passed": bool}')
+                   help='print one JSON object {"rows": [...], "passed": bool, "independent": n}; '
+                   "passed is the AND of every row")
+    p.add_argument("--markdown", metavar="FILE",
+                   help="write the documentation page (every row with its kind and source) to FILE")
     p.set_defaults(func=_cmd_validate)
 
     _add_plugin_commands(sub)
@@ -290,99 +294,26 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
 # --- validate --------------------------------------------------------------------------
 
 
-def _jsonable(v: Any) -> Any:
-    import math
-
-    try:
-        import numpy as np
-    except ImportError:  # pragma: no cover
-        np = None  # type: ignore[assignment]
-    if np is not None:
-        if isinstance(v, np.ndarray):
-            return [_jsonable(x) for x in v.tolist()]
-        if isinstance(v, np.generic):
-            v = v.item()
-    if isinstance(v, bool) or v is None or isinstance(v, (int, str)):
-        return v
-    if isinstance(v, float):
-        return v if math.isfinite(v) else None
-    if isinstance(v, (list, tuple)):
-        return [_jsonable(x) for x in v]
-    if isinstance(v, dict):
-        return {str(k): _jsonable(x) for k, x in v.items()}
-    return str(v)
-
-
-def _fmt(v: Any) -> str:
-    try:
-        import numpy as np
-
-        if isinstance(v, np.generic):
-            v = v.item()
-    except ImportError:  # pragma: no cover
-        pass
-    if isinstance(v, bool) or v is None:
-        return str(v)
-    if isinstance(v, float):
-        return f"{v:.6g}"
-    return str(v)
-
-
-_FIELDS = ("name", "published", "reproduced", "tolerance", "unit", "source", "passed")
-
-
 def _cmd_validate(args: argparse.Namespace) -> int:
-    import importlib
     import json
+    from pathlib import Path
 
-    try:
-        validation = importlib.import_module("hydro_envs.validation")
-    except ModuleNotFoundError as e:
-        if e.name != "hydro_envs.validation":
-            raise
-        _err("hydro_envs.validation is not available in this installation")
-        return EXIT_FAIL
-    results = list(validation.run_validation())
-    rows = []
-    for r in results:
-        missing = [f for f in _FIELDS if not hasattr(r, f)]
-        if missing:
-            _err(f"validation result {r!r} lacks attribute(s) {', '.join(missing)}")
-            return EXIT_FAIL
-        rows.append({f: getattr(r, f) for f in _FIELDS})
-    # passed is True/False for checks and None for report-only rows (known deviations)
-    n_pass = sum(1 for r in rows if r["passed"] is True or (r["passed"] is not None and bool(r["passed"])))
-    n_report = sum(1 for r in rows if r["passed"] is None)
-    n_fail = len(rows) - n_pass - n_report
-    all_ok = n_fail == 0 and len(rows) > 0
+    from hydro_envs.jsonutil import to_jsonable
+    from hydro_envs.validation import format_markdown, format_table, run_validation
 
+    rows = list(run_validation())
+    all_ok = bool(rows) and all(r.passed for r in rows)
+    if args.markdown:
+        out = Path(args.markdown)
+        out.parent.mkdir(parents=True, exist_ok=True)
+        out.write_text(format_markdown(rows) + "\n", encoding="utf-8")
+        print(f"wrote {out} ({len(rows)} rows)", file=sys.stderr)
     if args.json:
-        payload = {
-            "rows": [{k: _jsonable(v) for k, v in r.items()} for r in rows],
-            "passed": all_ok,
-        }
-        for jr, r in zip(payload["rows"], rows):
-            jr["passed"] = None if r["passed"] is None else bool(r["passed"])
+        payload = {"rows": [to_jsonable(r.as_dict()) for r in rows], "passed": all_ok,
+                   "independent": sum(r.kind == "independent" for r in rows)}
         print(json.dumps(payload, allow_nan=False))
-    else:
-        table = [
-            [
-                str(r["name"]),
-                _fmt(r["published"]),
-                _fmt(r["reproduced"]),
-                _fmt(r["tolerance"]),
-                str(r["unit"]),
-                "REPORT" if r["passed"] is None else ("PASS" if r["passed"] else "FAIL"),
-                str(r["source"]),
-            ]
-            for r in rows
-        ]
-        if table:
-            print(_table(table, ["check", "published", "reproduced", "tolerance", "unit",
-                                 "result", "source"]))
-        else:
-            print("no validation checks were returned")
-        print(f"{n_pass} passed, {n_fail} failed" + (f", {n_report} reported" if n_report else ""))
+    elif not args.markdown:
+        print(format_table(rows) if rows else "no validation checks were returned")
     return EXIT_OK if all_ok else EXIT_FAIL
 
 

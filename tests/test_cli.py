@@ -89,73 +89,94 @@ def test_channels_without_plant_lists_plants(capsys):
 # --- validate -------------------------------------------------------------------------
 
 
-@dataclass
-class _Row:
-    name: str
-    published: float
-    reproduced: float
-    tolerance: float
-    unit: str
-    source: str
-    passed: bool
-
-
 @pytest.fixture
 def fake_validation(monkeypatch):
-    mod = types.ModuleType("hydro_envs.validation")
-    mod.rows = []
-    mod.run_validation = lambda: list(mod.rows)
-    monkeypatch.setitem(sys.modules, "hydro_envs.validation", mod)
-    return mod
+    import hydro_envs.validation as validation
+
+    holder = types.SimpleNamespace(rows=[])
+    monkeypatch.setattr(validation, "run_validation", lambda: list(holder.rows))
+    return holder
 
 
-ROWS_OK = [
-    _Row("natural frequency", 104.2, 104.9, 2.0, "rad/s", "seed 002, Table 1", True),
-    _Row("Coulomb friction", 310.0, np.float64(305.5), 15.0, "N", "seed 002, Fig. 4",
-         np.bool_(True)),
-]
+def _row(name, published, reproduced, tolerance, unit, source, kind="independent", **kw):
+    from hydro_envs.validation import ValidationRow
+
+    return ValidationRow(name, published, reproduced, tolerance, unit, source, kind=kind, **kw)
+
+
+def _rows_ok():
+    return [
+        _row("natural frequency", 104.2, 104.9, 0.02, "rad/s", "seed 002, Table 1"),
+        _row("Coulomb friction", 310.0, float(np.float64(305.5)), 0.05, "N", "seed 002, Fig. 4",
+             kind="consistency"),
+    ]
 
 
 def test_validate_table_all_pass(fake_validation, capsys):
-    fake_validation.rows = ROWS_OK
+    fake_validation.rows = _rows_ok()
     assert main(["validate"]) == 0
     out = capsys.readouterr().out
     assert "natural frequency" in out and "Coulomb friction" in out and "PASS" in out
-    assert "seed 002, Fig. 4" in out
-    assert out.strip().splitlines()[-1] == "2 passed, 0 failed"
+    assert "independent rows (1/1 pass)" in out and "consistency rows (1/1 pass)" in out
+    assert out.index("independent rows") < out.index("consistency rows")
+    assert max(len(line) for line in out.splitlines()) <= 120
+    assert out.strip().splitlines()[-1] == "2/2 rows pass (1 independent); validation passed"
 
 
 def test_validate_table_failure_exit_1(fake_validation, capsys):
-    fake_validation.rows = [*ROWS_OK, _Row("bulk modulus", 1.4e9, 9e8, 1e8, "Pa", "s", False)]
+    fake_validation.rows = [*_rows_ok(), _row("bulk modulus", 1.4e9, 9e8, 0.1, "Pa", "s")]
     assert main(["validate"]) == 1
     out = capsys.readouterr().out
-    assert "FAIL" in out and out.strip().splitlines()[-1] == "2 passed, 1 failed"
+    assert "FAIL" in out and out.strip().splitlines()[-1] == "2/3 rows pass (2 independent); validation FAILED"
+
+
+def test_validate_upper_bound_shown_as_bound(fake_validation, capsys):
+    fake_validation.rows = [_row("ratio", 1.0, 0.4, 0.0, "1", "s", upper_bound=True)]
+    assert main(["validate"]) == 0
+    line = next(ln for ln in capsys.readouterr().out.splitlines() if ln.startswith("ratio"))
+    assert "< 1" in line and "PASS" in line
 
 
 def test_validate_json(fake_validation, capsys):
-    fake_validation.rows = ROWS_OK
+    fake_validation.rows = _rows_ok()
     assert main(["validate", "--json"]) == 0
     payload = json.loads(capsys.readouterr().out)
-    assert payload["passed"] is True
+    assert payload["passed"] is True and payload["independent"] == 1
     assert [r["name"] for r in payload["rows"]] == ["natural frequency", "Coulomb friction"]
     r = payload["rows"][1]
-    assert r["reproduced"] == 305.5 and r["passed"] is True and r["unit"] == "N"
-    assert set(r) == {"name", "published", "reproduced", "tolerance", "unit", "source", "passed"}
+    assert r["reproduced"] == 305.5 and r["passed"] is True and r["unit"] == "N" and r["kind"] == "consistency"
 
 
 def test_validate_json_failure(fake_validation, capsys):
-    fake_validation.rows = [_Row("x", 1.0, float("nan"), 0.1, "m", "s", False)]
+    fake_validation.rows = [_row("x", 1.0, float("nan"), 0.1, "m", "s")]
     assert main(["validate", "--json"]) == 1
     payload = json.loads(capsys.readouterr().out)  # strict JSON: NaN became null
-    assert payload == {"passed": False, "rows": [
-        {"name": "x", "published": 1.0, "reproduced": None, "tolerance": 0.1, "unit": "m",
-         "source": "s", "passed": False}]}
+    assert payload["passed"] is False
+    assert payload["rows"][0]["reproduced"] is None and payload["rows"][0]["passed"] is False
+
+
+def test_validate_markdown(fake_validation, tmp_path, capsys):
+    fake_validation.rows = [*_rows_ok(), _row("bulk | modulus", 1.4e9, 9e8, 0.1, "Pa", "src")]
+    out = tmp_path / "docs" / "validation.md"
+    assert main(["validate", "--markdown", str(out)]) == 1
+    text = out.read_text()
+    assert "## Independent rows" in text and "## Consistency rows" in text
+    assert "bulk \\| modulus" in text and "| FAIL | src |" in text and "seed 002, Fig. 4" in text
 
 
 def test_validate_no_rows_is_failure(fake_validation, capsys):
     fake_validation.rows = []
     assert main(["validate"]) == 1
-    assert "0 passed, 0 failed" in capsys.readouterr().out
+    assert "no validation checks" in capsys.readouterr().out
+
+
+def test_validation_row_needs_a_kind():
+    from hydro_envs.validation import ValidationRow
+
+    with pytest.raises(ValueError, match="kind"):
+        ValidationRow("x", 1.0, 1.0, 0.1, "m", "s")
+    with pytest.raises(ValueError, match="kind"):
+        ValidationRow("x", 1.0, 1.0, 0.1, "m", "s", kind="report")
 
 
 # --- simulate with a test-local env (not part of the package) ---------------------------

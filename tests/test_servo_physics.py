@@ -339,15 +339,3 @@ def test_minimum_chamber_volume_guard_keeps_derivatives_finite():
     # chamber 1 is being compressed (v < 0, valve closed): its pressure must rise at the
     # rate of the guarded volume, beta / V_min * A |v|
     assert dy[sc.P1] == pytest.approx(p.bulk_modulus / p.min_chamber_volume * p.piston_area * 0.01)
-
-
-def test_published_validation_rows_pass():
-    from hydro_envs.validation import run_validation
-
-    rows = run_validation()
-    names = [r.name for r in rows]
-    assert any("no-load velocity" in n for n in names)
-    for r in rows:  # every check passes; report-only rows (known deviations) explain themselves
-        assert r.passed is not False, (r.name, r.published, r.reproduced, r.tolerance)
-        if r.report_only:
-            assert len(r.source) > 80 and math.isfinite(r.reproduced), r.name

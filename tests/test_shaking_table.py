@@ -465,11 +465,12 @@ def test_validation_rows_pass_and_absolute_rows():
         assert r.passed, (r.name, r.published, r.reproduced, r.tolerance)
     assert rows[0].absolute and rows[0].published == 0.0
     # ValidationRow: relative rows unchanged, absolute rows compare |difference|
-    assert ValidationRow("a", 0.0, 5.0, 10.0, "Pa", "s", absolute=True).passed
-    assert not ValidationRow("a", 0.0, 11.0, 10.0, "Pa", "s", absolute=True).passed
-    assert ValidationRow("r", 100.0, 101.0, 0.02, "Hz", "s").error == pytest.approx(0.01)
-    assert not ValidationRow("a", 0.0, float("nan"), 10.0, "Pa", "s", absolute=True).passed
-    d = ValidationRow("a", 0.0, 5.0, 10.0, "Pa", "s", absolute=True).as_dict()
+    k = dict(kind="consistency")
+    assert ValidationRow("a", 0.0, 5.0, 10.0, "Pa", "s", absolute=True, **k).passed
+    assert not ValidationRow("a", 0.0, 11.0, 10.0, "Pa", "s", absolute=True, **k).passed
+    assert ValidationRow("r", 100.0, 101.0, 0.02, "Hz", "s", **k).error == pytest.approx(0.01)
+    assert not ValidationRow("a", 0.0, float("nan"), 10.0, "Pa", "s", absolute=True, **k).passed
+    d = ValidationRow("a", 0.0, 5.0, 10.0, "Pa", "s", absolute=True, **k).as_dict()
     assert d["relative_error"] is None and d["error"] == 5.0 and d["absolute"] is True
 
 

@@ -446,6 +446,7 @@ def rig_validation_rows():
             "000 eq (12) with Table-1 coefficients; tolerance 0.5 %: parabolic peak on a 1 Hz "
             "grid (< 0.1 Hz) plus the 1 % chamber-volume swing A x/V of the nonlinear plant"
         ),
+        kind="consistency",
     ))
     # method 2: resonance of the first-harmonic ratio vs eq (19), with and without the LVDT
     for lvdt, published in ((False, 294.0), (True, 237.0)):
@@ -463,5 +464,6 @@ def rig_validation_rows():
                 "(237 Hz with LVDT); tolerance 5 %: eq (19) ignores flow-force stiffness and the "
                 "outlet volume's coupling, and the grid is 6 Hz"
             ),
+            kind="consistency",
         ))
     return rows

@@ -58,6 +58,7 @@ def rows() -> list[ValidationRow]:
                 "002 Table 1 (K_v, w, x_vm, A) through the orifice law eqs (3)-(5): "
                 "v = K_v w x_vm sqrt((P_s - P_R)/2) / A"
             ),
+            kind="consistency",
         )
     ]
     # 002 sec. 3: "When operated at 20.7 MPa (3000 psi), Moog D765 valve can supply the
@@ -73,6 +74,7 @@ def rows() -> list[ValidationRow]:
             tolerance=0.10,
             unit="L/min",
             source="002 sec. 3 (34 L/min at 20.7 MPa); tolerance: +-10 % rated-flow tolerance of servo-valves",
+            kind="independent",
         )
     )
     return out

@@ -33,6 +33,7 @@ def rows() -> list[ValidationRow]:
                     "modelled by h(P_a - P_b) eqs (15)-(19); valid lambda_2 = 0.32; absolute tolerance 1 kPa; "
                     "NaN if E_a or E_b <= 0 anywhere on [p_floor, 1.2 P_s]^2"),
             absolute=True,
+            kind="consistency",
         )
     )
     rows.append(
@@ -43,6 +44,7 @@ def rows() -> list[ValidationRow]:
             tolerance=1e-3,
             unit="Pa",
             source="003 eqs (17)-(19) in closed form at P_a = P_b = null pressure; Table 2 with lambda_2 = 0.32",
+            kind="consistency",
         )
     )
     for preset, specimen in (("modified_ifas", "200kg"), ("modified_ifas", "500kg"), ("ifas", "200kg")):
@@ -58,6 +60,7 @@ def rows() -> list[ValidationRow]:
                 unit="Hz",
                 source=("linearisation of 003 eqs (6), (7), (10): omega_h^2 = A^2 (E_a/V_a + E_b/V_b)/M, vs a "
                         "least-squares fit of the nonlinear plant's response to a 1 mm/s tap"),
+                kind="consistency",
             )
         )
     return rows

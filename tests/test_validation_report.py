@@ -1,0 +1,45 @@
+"""The whole validation report: every row labelled, enough independent rows, and the rows that
+fail today listed by name (a fixed row must leave this list; a new failure fails the test).
+
+``hydro validate`` exits 1 while any row fails: the failing rows below are open deviations of
+the models from the seeds, not accepted ones.
+"""
+
+import pytest
+
+from hydro_envs.validation import KINDS, run_validation
+
+#: rows outside their tolerance today, each an open deviation named in its row's source
+FAILING_TODAY = {
+    # 001 sec. 4.7: the force loop lacks lag; limit cycle and bandwidth trend off
+    "force_actuator: smallest Kf with a limit cycle",
+    "force_actuator: limit-cycle frequency",
+    "force_actuator: -3 dB bandwidth at 200 N over 10 N, Kf = 2.44 (falls with amplitude)",
+    # 004 eq (32): Table 2's viscous friction on the assumed 0.5 kg slider overdamps the plant
+    "rodless_cylinder: small-signal damping ratio with friction vs ARX eq (32)",
+}
+
+
+@pytest.fixture(scope="module")
+def rows():
+    return run_validation()
+
+
+def test_every_row_has_a_kind_and_a_source(rows):
+    assert rows
+    for r in rows:
+        assert r.kind in KINDS and len(r.source) > 20 and r.unit, r.name
+    assert len({r.name for r in rows}) == len(rows), "row names must be unique"
+
+
+def test_at_least_fifteen_independent_rows_over_the_plants(rows):
+    independent = [r for r in rows if r.kind == "independent"]
+    assert len(independent) >= 15, [r.name for r in independent]
+
+
+def test_failing_rows_are_exactly_the_open_deviations(rows):
+    failing = {r.name.strip() for r in rows if not r.passed}
+    assert failing == FAILING_TODAY, {
+        "newly failing": sorted(failing - FAILING_TODAY),
+        "fixed (remove from FAILING_TODAY)": sorted(FAILING_TODAY - failing),
+    }
