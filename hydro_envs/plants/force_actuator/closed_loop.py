@@ -50,11 +50,16 @@ def _proportional_loop(Y, P, NSUB, REF, KF, dt, OUT, VMAX):
         i_rated = P[i, plant.I_IR]
         i_max = P[i, plant.I_IMAX]
         h = dt / NSUB[i]
+        n_delay = int(round(P[i, plant.I_TDEL] / dt))
+        pending = np.zeros(n_delay + 1)  # commands computed but not yet applied
         for k in range(n_steps):
-            fs = P[i, plant.I_KS] * y[plant.XS]
+            fs = plant.measured_force(y, P[i])
             OUT[i, k] = fs
             c = KF[i] * (REF[i, k] - fs) / fmax * i_rated
-            u[0] = min(max(c, -i_max), i_max)
+            for j in range(n_delay, 0, -1):
+                pending[j] = pending[j - 1]
+            pending[0] = min(max(c, -i_max), i_max)
+            u[0] = pending[n_delay]
             rk4_advance(rhs, guard, y, u, P[i], h, NSUB[i], work)
             v = abs(y[plant.VS] + y[plant.VP])
             if v > VMAX[i]:
@@ -67,11 +72,13 @@ def proportional_loop(
     kf: float | np.ndarray,
     dt: float = SEED_T,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Proportional force control of a batch: returns sensed forces ``(n, steps)`` [N] and each
+    """Proportional force control of a batch: returns measured forces ``(n, steps)`` [N] and each
     copy's peak relative piston speed [m/s].
 
-    ``i = K_f (r - F_s) / F_max * i_rated`` held over each ``dt`` (the env's 5 kHz loop), clipped
-    to the driver range. 001 does not print the unit of ``K_f`` (its on-board analog card);
+    ``i = K_f (r - F_m) / F_max * i_rated`` on the measured force ``F_m``
+    (:func:`~hydro_envs.plants.force_actuator.model.measured_force`), clipped to the driver
+    range, applied ``control_delay`` after the sample it was computed from and held over each
+    ``dt`` (the env's 5 kHz loop). 001 does not print the unit of ``K_f`` (its on-board analog card);
     we read it as the gain between normalised signals: force error as a fraction of the
     maximum thrust, current as a fraction of the rated current. Row ``j`` of ``reference``
     runs with ``kf[j]`` and ``params[j]`` (or one set for all) from the rest state.

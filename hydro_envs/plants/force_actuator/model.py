@@ -27,6 +27,8 @@ State (SI; forces in N; valve quantities normalised, see below)::
     20     vp     m/s   piston velocity (absolute)
     21     ff     N     friction force (eq (1) with stiction, see below)
     22     vf     m/s   band-limited piston velocity (40 Hz pole, sec. 4.4)
+    23     fm     N     measured force: F_s through the feedback conditioning filter
+    24     fmd    N/s   its rate (second state of the filter)
 
 The piston extension (relative position of piston and cylinder) is ``q = xp + xs`` and the
 relative velocity ``v_p = vp + vs``: with the piston locked to the mount (``piston_locked =
@@ -119,7 +121,7 @@ from hydro_envs.laws.hysteresis import pi_threshold_scale, play_operator
 from hydro_envs.plants.force_actuator.params import (  # noqa: F401  (re-exported)
     ForceActuatorParams, I_A1, I_AR, I_ASTOP, I_BS, I_DA, I_DG, I_DK, I_DLIN, I_DV, I_FC, I_FLOAD,
     I_FMOD, I_FSE, I_FSR, I_HR, I_HW, I_IMAX, I_IR, I_KL, I_KS, I_KSTOP, I_L, I_LOCK, I_M, I_ML,
-    I_MP, I_PS, I_SIG, I_VEPS, I_VS, I_WC, I_XOFF, N_PARAMS, PLANT, null_valve_offset,
+    I_MP, I_PS, I_SIG, I_VEPS, I_VS, I_WC, I_XOFF, N_PARAMS, PLANT, null_valve_offset, I_FFILT, I_TDEL,
 )
 
 __all__ = [
@@ -136,21 +138,22 @@ __all__ = [
     "seed_fluid_tf",
     "sensor_natural_frequency",
     "rest_state",
+    "measured_force",
 ]
 
 N_PLAY = 6
 STATE_NAMES = (
     ("ic",) + tuple(f"h{k + 1}" for k in range(N_PLAY)) + ("gw", "fa", "fb", "fc")
-    + tuple(f"r{k + 1}" for k in range(6)) + ("xs", "vs", "xp", "vp", "ff", "vf")
+    + tuple(f"r{k + 1}" for k in range(6)) + ("xs", "vs", "xp", "vp", "ff", "vf", "fm", "fmd")
 )
-STATE_UNITS = ("1",) * (N_PLAY + 2) + ("N",) * 9 + ("m", "m/s", "m", "m/s", "N", "m/s")
+STATE_UNITS = ("1",) * (N_PLAY + 2) + ("N",) * 9 + ("m", "m/s", "m", "m/s", "N", "m/s", "N", "N/s")
 N_STATES = len(STATE_NAMES)
 IC = 0
 H0 = 1
 GW = H0 + N_PLAY
 FA, FB, FC = GW + 1, GW + 2, GW + 3
 R0 = FC + 1
-XS, VS, XP, VP, FF, VF = range(R0 + 6, R0 + 12)
+XS, VS, XP, VP, FF, VF, FM, FMD = range(R0 + 6, R0 + 14)
 
 #: sensor outputs (noise-free): measured channel -> the state index it reads, and measured
 #: channel -> the state index whose time derivative it reads
@@ -159,10 +162,15 @@ DERIVATIVE_OUTPUTS: dict[str, int] = {}
 
 
 def computed_outputs(states, params_rows):
-    """Outputs that are functions of the state: the sensed force ``f = k_s x_s`` [N] (001 eq
-    (3)) of trajectories ``states (c, T, n_states)`` with kernel parameter rows ``(c, n_params)``."""
-    return {"f": params_rows[:, I_KS, None] * states[:, :, XS]}
-assert N_STATES == VF + 1 == 23
+    """Outputs that are functions of the state: the measured force ``f`` [N] (001 eq (3),
+    ``k_s x_s``, through the feedback conditioning filter when it is on; see
+    :func:`measured_force`) of trajectories ``states (c, T, n_states)`` with kernel parameter
+    rows ``(c, n_params)``."""
+    sensed = params_rows[:, I_KS, None] * states[:, :, XS]
+    return {"f": np.where(params_rows[:, I_FFILT, None] > 0.0, states[:, :, FM], sensed)}
+
+
+assert N_STATES == FMD + 1 == 25
 
 # ----------------------------------------------------------------------------- seed data
 SEED_T = 2e-4  # 001 sec. 4.5: sampling frequency 5000 Hz
@@ -347,6 +355,15 @@ def valve_position(y, p):
 
 
 @nb.njit(cache=True, error_model="numpy")
+def measured_force(y, p):
+    """The force the controller reads [N]: ``k_s x_s`` (eq (3)) through the feedback
+    conditioning filter (state ``fm``) when ``feedback_filter_frequency`` > 0."""
+    if p[I_FFILT] > 0.0:
+        return y[FM]
+    return p[I_KS] * y[XS]
+
+
+@nb.njit(cache=True, error_model="numpy")
 def force_actuator_rhs(y, u, p, dy):
     """Time derivative ``dy`` of state ``y`` under valve current ``u[0]`` [A] (001 fig. 2)."""
     # valve: coil (fast pole of G), hysteresis, slow stage (eq (7))
@@ -395,6 +412,14 @@ def force_actuator_rhs(y, u, p, dy):
     else:  # frictionless set: the friction state relaxes to zero
         dy[FF] = -p[I_SIG] * abs(vrel) * y[FF] * 1e-3
     dy[VF] = p[I_WC] * (vrel - y[VF])  # band-limited differentiation, 40 Hz
+    # feedback conditioning: second-order Butterworth low-pass on F_s = k_s x_s (eq (3))
+    wf = 2.0 * math.pi * p[I_FFILT]
+    if wf > 0.0:
+        dy[FM] = y[FMD]
+        dy[FMD] = wf * wf * (p[I_KS] * y[XS] - y[FM]) - math.sqrt(2.0) * wf * y[FMD]
+    else:
+        dy[FM] = 0.0
+        dy[FMD] = 0.0
 
 
 @nb.njit(cache=True, error_model="numpy")
@@ -469,6 +494,7 @@ def stiffness_modes(params: ForceActuatorParams) -> dict[str, float]:
         "fluid": max(w for w, _ in FLUID_RESONANCES),
         "delay": max(DELAY_REAL_POLE, DELAY_OMEGA),
         "valve": VALVE_A,
+        "feedback_filter": 2.0 * math.pi * params.feedback_filter_frequency,
         "sensor": math.sqrt(k_eff / m) + params.sensor_damping / m + params.damping_filter_frequency,
         "friction": (
             # static curve: its slope g_max / v_eps on the relative velocity, which both the

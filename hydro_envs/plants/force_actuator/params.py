@@ -166,6 +166,16 @@ class ForceActuatorParams(PhysicalParams):
         "001 sec. 4.4: a constant external force on the free piston, + pushes it out (the hanging "
         "mass m g of the damping test); 0 for the blocked-piston rig of the seed's model",
     )
+    feedback_filter_frequency: float = physical(
+        0.0, "Hz", (0.0, 1e4),
+        "force-signal conditioning of the controller's feedback path: a second-order Butterworth "
+        "low-pass on F_s = k_s x_s with this cutoff (0 = none, the measured force is k_s x_s)",
+    )
+    control_delay: float = physical(
+        0.0, "s", (0.0, 0.01),
+        "computation delay of the digital force controller: a command computed from the force "
+        "sampled at t_k is applied from t_k + control_delay (a whole number of control periods)",
+    )
 
     def _check_relations(self) -> None:
         if self.rod_area >= self.bore_area:
@@ -210,9 +220,10 @@ class ForceActuatorParams(PhysicalParams):
 (
     I_PS, I_A1, I_AR, I_L, I_IR, I_IMAX, I_XOFF, I_HW, I_HR, I_M, I_KS, I_BS, I_MP, I_ML, I_KL,
     I_LOCK, I_FC, I_FSR, I_FSE, I_VS, I_SIG, I_DG, I_DLIN, I_WC, I_DA, I_DV, I_DK, I_KSTOP, I_ASTOP,
-    I_FMOD, I_VEPS, I_FLOAD,
-) = range(32)
-N_PARAMS = 32
+    I_FMOD, I_VEPS, I_FLOAD, I_FFILT, I_TDEL,
+) = range(34)
+N_PARAMS = 34
 assert ForceActuatorParams.names()[I_ASTOP] == "stop_damping" and len(ForceActuatorParams.names()) == N_PARAMS
 assert ForceActuatorParams.names()[I_VEPS] == "friction_sign_velocity"
 assert ForceActuatorParams.names()[I_FLOAD] == "load_force"
+assert ForceActuatorParams.names()[I_TDEL] == "control_delay"
