@@ -72,20 +72,33 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser(
         "simulate",
-        help="run an environment and record its channels to a measured-data file",
-        description="Make ENV_ID, reset it with --seed, run --steps steps with zero or "
-        "random actions and write t plus the plant's sensor channels (one row per "
-        "step, including the state after reset) to --out (CSV, or parquet by suffix). "
-        "If the episode ends early the run stops there (no auto-reset) and this is "
-        "reported.",
+        help="run an environment's plant under an input signal and record its channels",
+        description="Make ENV_ID, reset it with --seed and drive its plant for --steps control "
+        "periods with the --policy input signal (in the normalised action range), then write t, "
+        "the inputs and the sensor channels to --out (CSV, or parquet by suffix). Sample-and-hold "
+        "convention: row k holds the sensors sampled at t_k and the input applied over "
+        "[t_k, t_k+1); the last row repeats the last input. Runs are not capped at one episode. "
+        "The header records the env, seed, policy and every parameter value used "
+        "('# param.NAME: VALUE [UNIT]').",
     )
     p.add_argument("env_id", metavar="ENV_ID", help="e.g. hydro_envs/ServoCylinderPosition-v0")
     p.add_argument("--steps", type=_positive_int, required=True, metavar="N",
-                   help="number of env steps (rows written = N + 1)")
-    p.add_argument("--policy", choices=("zero", "random"), default="zero",
-                   help="zero actions, or action_space.sample() (default: zero)")
+                   help="number of control periods (rows written = N + 1)")
+    p.add_argument("--policy", choices=POLICIES, default="zero",
+                   help="input signal: zero, random (uniform, held one period), prbs, multisine or "
+                   "chirp (log sweep f0 -> f1) (default: zero)")
+    p.add_argument("--amplitude", type=_fraction, default=0.5, metavar="A",
+                   help="peak of prbs/multisine/chirp/random as a fraction of the action range (default 0.5)")
+    p.add_argument("--f0", type=_positive_float, default=None, metavar="HZ",
+                   help="lowest frequency of multisine/chirp [Hz] (default: 2 cycles in the record)")
+    p.add_argument("--f1", type=_positive_float, default=None, metavar="HZ",
+                   help="highest frequency of multisine/chirp [Hz] (default: a tenth of the sample rate)")
+    p.add_argument("--hold", type=_positive_int, default=20, metavar="K",
+                   help="prbs clock: control periods per bit (default 20)")
+    p.add_argument("--nominal", action="store_true",
+                   help="nominal parameters (no domain randomisation)")
     p.add_argument("--seed", type=int, default=0, metavar="S",
-                   help="seed for reset() and the action space (default: 0)")
+                   help="seed for reset() and the input signal (default: 0)")
     p.add_argument("--out", required=True, metavar="FILE",
                    help="output file (.csv, or .parquet with pyarrow)")
     p.set_defaults(func=_cmd_simulate)
@@ -187,19 +200,53 @@ def _cmd_channels(args: argparse.Namespace) -> int:
 # --- simulate --------------------------------------------------------------------------
 
 
-def _zero_action(space: Any) -> Any:
-    import numpy as np
-    from gymnasium import spaces
+POLICIES = ("zero", "random", "prbs", "multisine", "chirp")
 
-    if isinstance(space, spaces.Box):
-        return np.clip(np.zeros(space.shape, dtype=space.dtype), space.low, space.high)
-    if isinstance(space, spaces.Discrete):
-        return space.start
-    if isinstance(space, spaces.MultiDiscrete):
-        return np.asarray(space.start, dtype=space.dtype).copy()
-    if isinstance(space, spaces.MultiBinary):
-        return np.zeros(space.shape, dtype=space.dtype)
-    raise TypeError(f"no zero action defined for action space {space}")
+
+def _fraction(text: str) -> float:
+    v = float(text)
+    if not (0.0 < v <= 1.0):
+        raise argparse.ArgumentTypeError(f"must be in (0, 1], got {text}")
+    return v
+
+
+def _positive_float(text: str) -> float:
+    v = float(text)
+    if not (v > 0.0 and v < float("inf")):
+        raise argparse.ArgumentTypeError(f"must be a finite number > 0, got {text}")
+    return v
+
+
+def simulation_actions(policy: str, n: int, dim: int, dt: float, amplitude: float = 0.5,
+                       f0: float | None = None, f1: float | None = None, hold: int = 20,
+                       seed: int = 0) -> Any:
+    """``(n, dim)`` normalised actions in [-1, 1] of one of :data:`POLICIES` (see ``hydro
+    simulate --help``); every action dimension gets its own draw."""
+    import numpy as np
+
+    from hydro_envs import excitation
+
+    rng = np.random.default_rng(seed)
+    if policy == "zero":
+        return np.zeros((n, dim))
+    if policy == "random":
+        return rng.uniform(-amplitude, amplitude, (n, dim))
+    if policy == "prbs":
+        cols = [excitation.prbs(n * dt, dt, clock_period=hold * dt, amplitude=amplitude,
+                                seed=int(rng.integers(1, 2**31)))[1] for _ in range(dim)]
+        return np.stack([np.resize(c, n) for c in cols], axis=1)
+    nyquist = 0.5 / dt
+    lo = f0 if f0 is not None else 2.0 / (n * dt)
+    hi = f1 if f1 is not None else 0.1 / dt
+    if not (0.0 < lo < hi < nyquist):
+        raise ValueError(f"--f0 = {lo:g} Hz and --f1 = {hi:g} Hz: need 0 < f0 < f1 < Nyquist {nyquist:g} Hz")
+    if policy == "multisine":
+        return np.stack([excitation.multisine(n, dt, lo, hi, amplitude=amplitude, rng=rng) for _ in range(dim)],
+                        axis=1)
+    if policy == "chirp":
+        u = excitation.log_sine_sweep(lo, hi, n * dt, dt, amplitude=amplitude)[1]
+        return np.repeat(np.resize(u, n)[:, None], dim, axis=1)
+    raise ValueError(f"policy {policy!r}; allowed: {', '.join(POLICIES)}")
 
 
 def _cmd_simulate(args: argparse.Namespace) -> int:
@@ -207,87 +254,74 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
     import numpy as np
 
     import hydro_envs  # noqa: F401  (registers the environments)
+    from hydro_envs import registry
     from hydro_envs.data.measured import MeasuredDataError, write_measured
 
     try:
-        env = gym.make(args.env_id)
+        env = gym.make(args.env_id, randomize=not args.nominal)
     except gym.error.Error as e:  # NameNotFound, NamespaceNotFound, VersionNotFound, ...
         ours = sorted(k for k in gym.registry if k.startswith("hydro_envs/"))
         _err(f"cannot make {args.env_id!r}: {e}; registered hydro_envs envs: "
              + (", ".join(ours) or "(none)"))
         return EXIT_USAGE
+    base = env.unwrapped  # stepped directly: a record is not capped at one episode
+    steps_done, ended = 0, None
     try:
-        base = env.unwrapped
-        for attr in ("dt", "plant_name", "channel_values"):
+        for attr in ("dt", "plant_name", "channel_values", "params"):
             if not hasattr(base, attr):
                 _err(f"{args.env_id}: env has no attribute {attr!r}; `hydro simulate` needs "
-                     "dt, plant_name and channel_values()")
+                     "dt, plant_name, params and channel_values()")
                 return EXIT_FAIL
         dt = float(base.dt)
+        spec = registry.get(str(base.plant_name))
         env.reset(seed=args.seed)
-        env.action_space.seed(args.seed)
-
-        names: list[str] | None = None
-        cols: dict[str, list[float]] = {}
-
-        def record(k: int) -> None:
-            nonlocal names
-            vals = base.channel_values()
-            if names is None:
-                names = list(vals)
-                for n in names:
-                    cols[n] = []
-            elif list(vals) != names:
-                raise RuntimeError(
-                    f"channel_values() changed its channels at step {k}: "
-                    f"{list(vals)} vs {names}"
-                )
-            for n in names:
-                cols[n].append(float(vals[n]))
-
-        record(0)
-        steps_done = 0
-        ended = None
-        for k in range(1, args.steps + 1):
-            if args.policy == "zero":
-                action = _zero_action(env.action_space)
-            else:
-                action = env.action_space.sample()
-            _, _, terminated, truncated, _ = env.step(action)
-            record(k)
-            steps_done = k
-            if terminated or truncated:
-                if k < args.steps:
-                    ended = "terminated" if terminated else "truncated"
+        actions = simulation_actions(args.policy, args.steps, int(np.prod(env.action_space.shape)), dt,
+                                     args.amplitude, args.f0, args.f1, args.hold, args.seed)
+        first = base.channel_values()
+        names = list(first)
+        rows = [dict(first)]
+        for k in range(args.steps):
+            a = actions[k].reshape(env.action_space.shape).astype(env.action_space.dtype)
+            _, _, terminated, _, _ = base.step(a)
+            now = base.channel_values()
+            for name in spec.inputs:  # the input applied over [t_k, t_k+1) belongs to row k
+                if name in now:
+                    rows[k][name] = now[name]
+            rows.append(dict(now))
+            steps_done = k + 1
+            if terminated:
+                ended = "terminated"
                 break
         t = np.arange(steps_done + 1, dtype=np.float64) * dt
-        path = write_measured(
-            args.out,
-            t,
-            {n: np.asarray(v) for n, v in cols.items()},
-            plant=str(base.plant_name),
-            metadata={
-                "env_id": args.env_id,
-                "seed": args.seed,
-                "policy": args.policy,
-                "steps": steps_done,
-                "dt": repr(dt),
-                "source": "hydro simulate",
-            },
-        )
+        params = base.params
+        units = {d["name"]: d.get("unit", "") for d in type(params).describe()}
+        meta = {
+            "env_id": args.env_id,
+            "seed": args.seed,
+            "policy": args.policy,
+            "amplitude": args.amplitude,
+            "randomized": not args.nominal,
+            "steps": steps_done,
+            "dt": repr(dt),
+            "convention": "row k: sensors at t_k, input held over [t_k, t_k+1); last row repeats the input",
+            "source": "hydro simulate",
+        }
+        for name, value in params.as_dict().items():
+            meta[f"param.{name}"] = f"{value!r} [{units.get(name, '')}]"
+        path = write_measured(args.out, t, {n: np.array([r[n] for r in rows]) for n in names},
+                              plant=spec.name, metadata=meta)
+    except ValueError as e:
+        _err(str(e))
+        return EXIT_FAIL
     except (MeasuredDataError, OSError) as e:
         _err(str(e))
         return EXIT_FAIL
     finally:
         env.close()
-    rows = steps_done + 1
-    print(f"wrote {rows} rows ({steps_done} steps, {steps_done * dt:.6g} s) to {path}")
+    print(f"wrote {steps_done + 1} rows ({steps_done} steps, {steps_done * dt:.6g} s) to {path}")
     if ended is not None:
-        print(
-            f"hydro: note: episode {ended} after {steps_done} of {args.steps} steps; "
-            "stopped there (no auto-reset)",
-            file=sys.stderr,
-        )
+        print(f"hydro: note: the plant terminated after {steps_done} of {args.steps} steps; stopped there",
+              file=sys.stderr)
     return EXIT_OK
 
 

@@ -192,8 +192,12 @@ class _FakeServoEnv:
         class Env(gym.Env):
             metadata = {"render_modes": []}
 
-            def __init__(self, end_at=None, nan_at=None):
-                self.action_space = spaces.Box(-10.0, 10.0, shape=(1,), dtype=np.float32)
+            def __init__(self, end_at=None, nan_at=None, randomize=True):
+                from hydro_envs.plants.servo_cylinder.params import ServoCylinderParams
+
+                self.params = ServoCylinderParams()
+                self.randomize = randomize
+                self.action_space = spaces.Box(-1.0, 1.0, shape=(1,), dtype=np.float32)
                 self.observation_space = spaces.Box(-np.inf, np.inf, shape=(2,),
                                                     dtype=np.float64)
                 self.dt = 0.002
@@ -248,6 +252,27 @@ def test_simulate_zero_policy(fake_env_ids, tmp_path, capsys):
     assert np.all(d["u"] == 0.0)
     assert d.metadata["env_id"] == fake_env_ids["plain"]
     assert d.metadata["seed"] == "3" and d.metadata["policy"] == "zero"
+    assert d.metadata["param.coulomb_friction"].endswith("[N]")
+
+
+@pytest.mark.parametrize("policy", ["random", "prbs", "multisine", "chirp"])
+def test_simulate_row_k_holds_the_input_applied_after_t_k(fake_env_ids, tmp_path, capsys, policy):
+    """Sample-and-hold convention: the fake plant integrates x += 1e-4 u dt, so
+    x[k+1] - x[k] = 1e-4 dt u[k] with u[k] on row k (and the first row's u the first input)."""
+    out = tmp_path / "run.csv"
+    assert main(["simulate", fake_env_ids["plain"], "--steps", "200", "--policy", policy,
+                 "--seed", "1", "--out", str(out)]) == 0
+    capsys.readouterr()
+    d = load_measured(out)
+    np.testing.assert_allclose(np.diff(d["x"]), 1e-4 * 0.002 * d["u"][:-1], rtol=1e-6, atol=1e-16)
+    assert (d["u"][0] != 0.0 or policy == "chirp") and d["u"][-1] == d["u"][-2]
+    assert np.max(np.abs(d["u"])) <= 0.5 + 1e-6 and np.ptp(d["u"]) > 0.3
+
+
+def test_simulate_bad_band_is_an_error(fake_env_ids, tmp_path, capsys):
+    rc = main(["simulate", fake_env_ids["plain"], "--steps", "50", "--policy", "chirp", "--f0", "10",
+               "--f1", "1000", "--out", str(tmp_path / "x.csv")])
+    assert rc == 1 and "Nyquist" in capsys.readouterr().err
 
 
 def test_simulate_random_policy_is_seeded(fake_env_ids, tmp_path, capsys):
@@ -259,7 +284,7 @@ def test_simulate_random_policy_is_seeded(fake_env_ids, tmp_path, capsys):
         paths.append(p)
     a, b = (load_measured(p) for p in paths)
     assert np.array_equal(a.to_array(), b.to_array())
-    assert np.any(a["u"] != 0.0) and np.all(np.abs(a["u"]) <= 10.0)
+    assert np.any(a["u"] != 0.0) and np.all(np.abs(a["u"]) <= 0.5)
     capsys.readouterr()
 
 
@@ -310,16 +335,20 @@ def real_env_id():
     return REAL_ENV_ID
 
 
-@pytest.mark.parametrize("policy", ["zero", "random"])
+@pytest.mark.parametrize("policy", ["zero", "random", "prbs"])
 def test_simulate_real_env(real_env_id, tmp_path, capsys, policy):
     out = tmp_path / f"servo_{policy}.csv"
-    rc = main(["simulate", real_env_id, "--steps", "50", "--policy", policy, "--seed", "0",
-               "--out", str(out)])
+    rc = main(["simulate", real_env_id, "--steps", "2500", "--policy", policy, "--seed", "0",
+               "--nominal", "--out", str(out)])
     cap = capsys.readouterr()
     assert rc == 0, cap.err
     d = load_measured(out)
     assert d.plant == "servo_cylinder"
-    ended = "after" in cap.err
-    assert len(d) == 51 or ended
+    assert len(d) == 2501  # longer than one 2000-step episode
     assert d.names == ("u", "x", "p1", "p2")
     assert np.all(d["p1"] > 0) and np.all(d["p2"] > 0)  # absolute pressures
+    assert d.metadata["randomized"] == "False"
+    from hydro_envs.plants.servo_cylinder.params import ServoCylinderParams
+
+    nominal = ServoCylinderParams()
+    assert d.metadata["param.coulomb_friction"] == f"{nominal.coulomb_friction!r} [N]"
