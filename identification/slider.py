@@ -34,7 +34,12 @@ identification model with parallel filtering)
 
 The Stribeck part (``stribeck=``):
 
-* ``"fit"`` (default): second stage, separable nonlinear least squares. For each trial
+* ``"auto"`` (default): both ``"none"`` and ``"fit"``; the dip model is reported only if the
+  data identify it (rules below) *and* it lowers the Bayesian information criterion
+  ``n ln(RSS/n) + k ln n`` on the used samples. Otherwise the result is the ``"none"`` fit,
+  so an unsupported dip never biases the viscous and Coulomb levels; ``notes`` say which
+  model was chosen and why.
+* ``"fit"``: second stage, separable nonlinear least squares. For each trial
   ``v_S`` the other five parameters follow from step 5, so the residual sum of squares is
   profiled over ``log v_S`` (coarse grid over the speed range of the data, then a bounded
   scalar search); the covariance of all six parameters comes from the full Jacobian at the
@@ -54,6 +59,13 @@ The Stribeck part (``stribeck=``):
 * ``"fixed"``: ``stribeck_velocity`` (and optionally ``static_friction``) are given; the rest
   is linear.
 * ``"none"``: no dip, ``F_S = F_C`` (four linear parameters).
+
+Direction-dependent friction (``asymmetric=True``, with ``stribeck`` ``"none"`` or
+``"auto"``): ``f = m a + (F_C+ + b+ v) [v > 0] + (-F_C- + b- v) [v < 0]``, five linear
+parameters (``DIRECTION_PARAMETER_NAMES``) and no separate offset (a constant force is the
+half-difference of the two Coulomb levels, not separable from them). The fitted values are in
+``direction_params`` / ``direction_std_errors``; ``params`` then holds the symmetric
+equivalents ``F_C = (F_C+ + F_C-)/2``, ``b = (b+ + b-)/2``, ``F_0 = (F_C+ - F_C-)/2``.
 
 Standard errors: the residuals of a filtered, differentiated record are autocorrelated, and
 NOTES.md ("Identification facts") measured naive standard errors 1.6-2.2x too small. We
@@ -79,6 +91,7 @@ __all__ = [
     "identify_slider",
     "identify_slider_measured",
     "PARAMETER_NAMES",
+    "DIRECTION_PARAMETER_NAMES",
 ]
 
 #: Reported parameters, named as the fields of :class:`hydro_envs.plants.slider.SliderParams`.
@@ -98,7 +111,19 @@ _UNITS = {
     "viscous_friction": "N s/m",
     "force_offset": "N",
 }
+#: Parameters of the direction-dependent model (``asymmetric=True``).
+DIRECTION_PARAMETER_NAMES = (
+    "mass",
+    "coulomb_friction_pos",
+    "viscous_friction_pos",
+    "coulomb_friction_neg",
+    "viscous_friction_neg",
+)
+_DIRECTION_UNITS = {"mass": "kg", "coulomb_friction_pos": "N", "viscous_friction_pos": "N s/m",
+                    "coulomb_friction_neg": "N", "viscous_friction_neg": "N s/m"}
 _MIN_USED = 50
+#: relative sample-time jitter accepted on measured records (the median step is used)
+JITTER_TOLERANCE = 1e-3
 
 
 class SliderIdentificationError(ValueError):
@@ -130,6 +155,11 @@ class SliderIdentification:
     acceleration_noise_ratio: float  # sigma_a^2 / mean(a^2) on the used samples (EIV bias)
     notes: list[str] = dataclasses.field(default_factory=list)
     units: dict[str, str] = dataclasses.field(default_factory=lambda: dict(_UNITS))
+    #: direction-dependent fit (``asymmetric=True``), else None
+    direction_params: dict[str, float] | None = None
+    direction_std_errors: dict[str, float] | None = None
+    #: Bayesian information criterion on the used samples (model selection of ``"auto"``)
+    bic: float = math.nan
 
     def to_params(self, base: Any = None):
         """A :class:`~hydro_envs.plants.slider.SliderParams` with the identified values.
@@ -276,9 +306,51 @@ def identify_slider(
     position: Any,
     dt: float,
     *,
+    stribeck: str = "auto",
+    asymmetric: bool = False,
+    **options: Any,
+) -> SliderIdentification:
+    """Identify ``m, F_C, F_S, v_S, b, F_0`` of a slider from force [N] and position [m].
+
+    ``stribeck``: ``"auto"`` (default; the dip only when the data identify it and it lowers
+    the BIC), ``"fit"``, ``"fixed"`` or ``"none"`` (module docstring). ``asymmetric``: fit
+    Coulomb and viscous friction per direction of motion. Other options: see
+    :func:`_identify_slider` (cutoff, decimation, min_speed, stribeck_velocity,
+    static_friction, stribeck_bounds, sign_velocity, filter_order).
+    """
+    if stribeck not in ("auto", "fit", "fixed", "none"):
+        raise SliderIdentificationError(f"stribeck = {stribeck!r}; allowed: 'auto', 'fit', 'fixed', 'none'")
+    if asymmetric:
+        if stribeck not in ("auto", "none"):
+            raise SliderIdentificationError(
+                f"asymmetric=True fits Coulomb and viscous friction per direction without a dip; "
+                f"stribeck = {stribeck!r} is not allowed with it (use 'none' or 'auto')"
+            )
+        return _identify_slider(force, position, dt, stribeck="none", asymmetric=True, **options)
+    if stribeck != "auto":
+        return _identify_slider(force, position, dt, stribeck=stribeck, **options)
+    plain = _identify_slider(force, position, dt, stribeck="none", **options)
+    dip = _identify_slider(force, position, dt, stribeck="fit", **options)
+    if dip.stribeck_identified and dip.bic < plain.bic:
+        dip.notes.append(f"stribeck='auto': dip model chosen (identified; BIC {dip.bic:.6g} < {plain.bic:.6g} "
+                         "without the dip)")
+        return dip
+    why = ("the data do not identify the dip: " + "; ".join(n for n in dip.notes if "NOT identified" in n)
+           if not dip.stribeck_identified else f"BIC {dip.bic:.6g} with the dip is not below {plain.bic:.6g}")
+    plain.notes[:] = [n for n in plain.notes if not n.startswith("stribeck='none'")]
+    plain.notes.append(f"stribeck='auto': no Stribeck dip reported ({why})")
+    return plain
+
+
+def _identify_slider(
+    force: Any,
+    position: Any,
+    dt: float,
+    *,
     cutoff: float | None = None,
     decimation: int | None = None,
     min_speed: float | None = None,
+    asymmetric: bool = False,
     stribeck: str = "fit",
     stribeck_velocity: float | None = None,
     static_friction: float | None = None,
@@ -448,7 +520,30 @@ def identify_slider(
             )
 
     fixed_fs = None
-    if stribeck == "none":
+    direction = None
+    if asymmetric:
+        pos = (v > 0).astype(np.float64)
+        neg = (v < 0).astype(np.float64)
+        names = list(DIRECTION_PARAMETER_NAMES)
+        Phi = np.column_stack([a_c, pfilt(pos)[used_idx], pfilt(v * pos)[used_idx],
+                               -pfilt(neg)[used_idx], pfilt(v * neg)[used_idx]])
+        check_conditioning(Phi, names)
+        theta, resid = lstsq(Phi, ff)
+        J = Phi
+        direction = dict(zip(names, (float(x) for x in theta)))
+        params = {
+            "mass": direction["mass"],
+            "coulomb_friction": 0.5 * (direction["coulomb_friction_pos"] + direction["coulomb_friction_neg"]),
+            "static_friction": 0.5 * (direction["coulomb_friction_pos"] + direction["coulomb_friction_neg"]),
+            "stribeck_velocity": math.nan,
+            "viscous_friction": 0.5 * (direction["viscous_friction_pos"] + direction["viscous_friction_neg"]),
+            "force_offset": 0.5 * (direction["coulomb_friction_pos"] - direction["coulomb_friction_neg"]),
+        }
+        fitted = tuple(names)
+        identified = False
+        notes.append("asymmetric: Coulomb and viscous friction per direction (params hold the symmetric "
+                     "equivalents; no separate offset)")
+    elif stribeck == "none":
         names = ["mass", "coulomb_friction", "viscous_friction", "force_offset"]
         Phi, _ = design(None)
         check_conditioning(Phi, names)
@@ -603,6 +698,8 @@ def identify_slider(
         )
     den = float(np.linalg.norm(ff - ff.mean()))
     nrmse = float(np.linalg.norm(resid)) / den if den > 0 else math.inf
+    rss = float(resid @ resid)
+    bic = n_used * math.log(max(rss, 1e-300) / n_used) + J.shape[1] * math.log(n_used)
     return SliderIdentification(
         params={k: float(params[k]) for k in PARAMETER_NAMES},
         std_errors=se,
@@ -624,14 +721,18 @@ def identify_slider(
         hac_lag=lag,
         acceleration_noise_ratio=float(accel_noise_ratio),
         notes=notes,
+        units=dict(_UNITS, **(_DIRECTION_UNITS if direction is not None else {})),
+        direction_params=direction,
+        direction_std_errors=({k: se[k] for k in DIRECTION_PARAMETER_NAMES} if direction is not None else None),
+        bic=float(bic),
     )
 
 
 def identify_slider_measured(data: Any, **options: Any) -> SliderIdentification:
     """:func:`identify_slider` on a :class:`hydro_envs.data.MeasuredData` of plant ``slider``.
 
-    Needs channels ``f`` [N] and ``x`` [m] and a uniform time axis (relative spread of the
-    time steps below 1e-6).
+    Needs channels ``f`` [N] and ``x`` [m] and a uniform time axis: sample-time jitter up to
+    1e-3 of the median step (a logger's clock) is accepted and the median step used.
     """
     if getattr(data, "plant", None) not in (None, "slider"):
         raise SliderIdentificationError(f"measured data are for plant {data.plant!r}, not 'slider'")
@@ -641,10 +742,10 @@ def identify_slider_measured(data: Any, **options: Any) -> SliderIdentification:
     t = np.asarray(data.t, dtype=np.float64)
     steps = np.diff(t)
     dt = float(np.median(steps))
-    if not np.all(np.abs(steps - dt) <= 1e-6 * dt):
+    if not np.all(np.abs(steps - dt) <= JITTER_TOLERANCE * dt):
         j = int(np.argmax(np.abs(steps - dt)))
         raise SliderIdentificationError(
-            f"time axis is not uniform: step {steps[j]!r} s at sample {j + 1} vs median {dt!r} s; "
-            "resample to a constant rate first"
+            f"time axis is not uniform: step {steps[j]!r} s at sample {j + 1} vs median {dt!r} s "
+            f"(more than {JITTER_TOLERANCE:g} relative: a gap or a changed rate); split or resample the record"
         )
     return identify_slider(data["f"], data["x"], dt, **options)
