@@ -16,9 +16,11 @@ import math
 
 import numpy as np
 
-__all__ = ["REFERENCE_KINDS", "generate_reference"]
+__all__ = ["REFERENCE_KINDS", "FRICTION_REFERENCE_KINDS", "generate_reference", "generate_friction_reference"]
 
 REFERENCE_KINDS = ("steps", "smooth", "sine", "chirp")
+#: references where friction decides the error (see :func:`generate_friction_reference`)
+FRICTION_REFERENCE_KINDS = ("slow_sine", "slow_triangle", "micro_steps")
 
 
 def _limit_amplitude(amp: float, freq: float, max_rate: float) -> float:
@@ -74,3 +76,53 @@ def generate_reference(
         phase = 2.0 * math.pi * (f0 * t + 0.5 * (f1 - f0) / duration * t**2)
         return mid + amp * np.sin(phase)
     raise ValueError(f"unknown reference kind {kind!r}; allowed: {REFERENCE_KINDS + ('mixed',)}")
+
+
+def generate_friction_reference(
+    kind: str,
+    rng: np.random.Generator,
+    n: int,
+    dt: float,
+    low: float,
+    high: float,
+    resolution: float,
+) -> np.ndarray:
+    """Reference of ``n`` samples within ``[low, high]`` where friction decides the error.
+
+    * ``slow_sine``: ``c + A sin(2 pi f t)``, f 0.2-0.5 Hz, A 5-20 % of the half band: peak
+      speeds of a few mm/s to about 20 mm/s, so every reversal crosses the Stribeck region and
+      the slider has to break away twice per period;
+    * ``slow_triangle``: the same band as a triangle: constant low speed between reversals;
+    * ``slow``: one of the two, drawn per episode;
+    * ``micro_steps``: steps of 3-30 position-sensor resolutions (``resolution`` [m]) about the
+      centre, held 0.3-0.8 s: steady-state error, stick and hunting under integral action.
+
+    Every kind starts at its centre ``c`` (uniform in the middle half of the band, so the
+    plant can be started on the reference).
+    """
+    if kind == "slow":
+        kind = ("slow_sine", "slow_triangle")[int(rng.integers(2))]
+    if not (high > low and n > 0 and dt > 0 and resolution > 0):
+        raise ValueError(f"reference needs high > low, n > 0, dt > 0, resolution > 0; got {low}, {high}, {n}, "
+                         f"{dt}, {resolution}")
+    t = dt * np.arange(n)
+    half = 0.5 * (high - low)
+    c = rng.uniform(low + 0.5 * half, high - 0.5 * half)
+    if kind in ("slow_sine", "slow_triangle"):
+        f = rng.uniform(0.2, 0.5)
+        amp = rng.uniform(0.05, 0.2) * half
+        phase = 2.0 * math.pi * f * t
+        if kind == "slow_sine":
+            return c + amp * np.sin(phase)
+        return c + amp * (2.0 / math.pi) * np.arcsin(np.sin(phase))
+    if kind == "micro_steps":
+        out = np.empty(n)
+        k, level = 0, c
+        while k < n:
+            hold = int(round(rng.uniform(0.3, 0.8) / dt))
+            out[k : k + hold] = level
+            k += hold
+            step = rng.uniform(3.0, 30.0) * resolution * (1.0 if rng.random() < 0.5 else -1.0)
+            level = float(np.clip(c + (level - c) + step, c - 0.5 * half, c + 0.5 * half))
+        return out
+    raise ValueError(f"unknown reference kind {kind!r}; allowed: {FRICTION_REFERENCE_KINDS + ('slow',)}")

@@ -22,6 +22,18 @@ SPEC = PlantSpec(
             "hydro_envs.envs.rodless_cylinder:RodlessCylinderVectorEnv",
             2000,
         ),
+        EnvEntry(
+            "hydro_envs/RodlessCylinderSlowSine-v0",
+            "hydro_envs.envs.friction_tasks:RodlessCylinderSlowSineEnv",
+            "hydro_envs.envs.friction_tasks:RodlessCylinderSlowSineVectorEnv",
+            4000,
+        ),
+        EnvEntry(
+            "hydro_envs/RodlessCylinderMicroPosition-v0",
+            "hydro_envs.envs.friction_tasks:RodlessCylinderMicroPositionEnv",
+            "hydro_envs.envs.friction_tasks:RodlessCylinderMicroPositionVectorEnv",
+            3000,
+        ),
     ),
     experiments=("constant_command_run", "small_signal_response"),
     stroke_parameter="stroke",

@@ -22,6 +22,18 @@ SPEC = PlantSpec(
             "hydro_envs.envs.servo_cylinder:ServoCylinderPositionVectorEnv",
             2000,
         ),
+        EnvEntry(
+            "hydro_envs/ServoCylinderSlowSine-v0",
+            "hydro_envs.envs.friction_tasks:ServoCylinderSlowSineEnv",
+            "hydro_envs.envs.friction_tasks:ServoCylinderSlowSineVectorEnv",
+            4000,
+        ),
+        EnvEntry(
+            "hydro_envs/ServoCylinderMicroPosition-v0",
+            "hydro_envs.envs.friction_tasks:ServoCylinderMicroPositionEnv",
+            "hydro_envs.envs.friction_tasks:ServoCylinderMicroPositionVectorEnv",
+            3000,
+        ),
     ),
     stroke_parameter="stroke",
     pressure_parameter="supply_pressure",

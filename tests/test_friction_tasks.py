@@ -1,0 +1,60 @@
+"""Friction-critical tasks: slow sines through reversals and micro-positioning."""
+
+from __future__ import annotations
+
+import math
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import hydro_envs  # noqa: F401  (registers the envs)
+from hydro_envs.envs.references import generate_friction_reference
+
+IDS = ("hydro_envs/ServoCylinderSlowSine-v0", "hydro_envs/RodlessCylinderSlowSine-v0",
+       "hydro_envs/ServoCylinderMicroPosition-v0", "hydro_envs/RodlessCylinderMicroPosition-v0")
+
+
+@pytest.mark.parametrize("kind", ["slow_sine", "slow_triangle"])
+def test_slow_references_reverse_at_low_speed(kind):
+    dt, n, low, high = 1e-3, 4000, 0.007, 0.063  # the servo band (10-90 % of 69.6 mm)
+    for seed in range(20):
+        r = generate_friction_reference(kind, np.random.default_rng(seed), n, dt, low, high, 3e-5)
+        v = np.diff(r) / dt
+        assert low <= r.min() and r.max() <= high
+        assert r[0] == pytest.approx(0.5 * (r.max() + r.min()), abs=0.02 * (high - low))  # starts at its centre
+        assert 1e-3 < np.max(np.abs(v)) < 0.05  # mm/s to a few cm/s: the Stribeck region
+        reversals = np.sum(np.diff(np.sign(v[np.abs(v) > 1e-6])) != 0)
+        assert reversals >= 1  # at least one velocity reversal in 4 s (f >= 0.2 Hz)
+        if kind == "slow_triangle":
+            moving = np.abs(v) > 0.2 * np.max(np.abs(v))
+            assert np.std(np.abs(v[moving])) < 0.05 * np.max(np.abs(v))  # constant speed legs
+
+
+def test_micro_steps_are_a_few_sensor_resolutions():
+    res = 5e-6
+    r = generate_friction_reference("micro_steps", np.random.default_rng(3), 3000, 1e-3, 0.011, 0.099, res)
+    steps = np.diff(r)[np.diff(r) != 0]
+    assert steps.size >= 3
+    assert np.all(np.abs(steps) >= 3 * res - 1e-12) and np.all(np.abs(steps) <= 30 * res + 1e-12)
+
+
+def test_unknown_kind_is_an_error():
+    with pytest.raises(ValueError, match="micro_steps"):
+        generate_friction_reference("fast", np.random.default_rng(0), 10, 1e-3, 0.0, 1.0, 1e-6)
+    with pytest.raises(ValueError, match="reference"):
+        gym.make(IDS[0], reference="sine")
+
+
+@pytest.mark.parametrize("env_id", IDS)
+def test_episode_starts_at_rest_on_the_reference_and_is_seeded(env_id):
+    env = gym.make(env_id)
+    o1, info = env.reset(seed=5)
+    batch = env.unwrapped._batch
+    pos = next(iter(info["state"].values()))
+    assert pos == pytest.approx(batch.REF[0, 0], abs=1e-12)
+    assert abs(o1[0]) * batch.error_scale <= batch.quant + 1e-12  # only the sensor's quantisation
+    o2, _ = gym.make(env_id).reset(seed=5)
+    np.testing.assert_array_equal(o1, o2)
+    assert env.spec.max_episode_steps == (4000 if "SlowSine" in env_id else 3000)
+    env.close()
