@@ -94,8 +94,9 @@ def rows() -> list[ValidationRow]:
                 "004 eq (32): complex poles z = 0.216 +- 0.616j, zeta = -ln|z|/|ln z| (independent of the "
                 "unprinted sample time); model: eqs (19)-(24) with Table 2's viscous sigma = 310 N s/m on "
                 f"the assumed M = {nominal.mass:g} kg. 004 prints no moving mass; with sigma = 310 N s/m, "
-                f"M = {m_match:.1f} kg would give eq (32)'s damping. Tolerance 30 %: an ARX fit "
-                "identified in closed loop"
+                f"M = {m_match:.1f} kg would give eq (32)'s damping; the closed-loop M-sequence ARX(3) "
+                "of 004 sec. 4.2 run on the model agrees (real poles 0.72, 0.10 at 10 ms: overdamped). "
+                "Open: the rig's moving mass. Tolerance 30 %: an ARX fit identified in closed loop"
             ),
             kind="independent",
         )
