@@ -12,13 +12,18 @@ Out-of-range actions are clipped; NaN or inf raise ``ValueError``.
 **Observation** ``Box(float32, (8,))`` (forces normalised by the maximum thrust
 ``A1 p_s = 1340 N``)::
 
-    0     sensed force F_s = k_s x_s (eq (3)), plus optional noise; clipped to [-2, 2]
+    0     measured force: F_s = k_s x_s (eq (3)) through the feedback conditioning filter
+          (``feedback_filter_frequency``), plus optional noise; clipped to [-2, 2]
     1     reference r
     2-6   reference preview at +1, +2, +5, +10, +25 steps (0.2 ... 5 ms)
     7     last action
 
 **Reward** ``-((r - F_s) / error_scale)^2 - action_rate_penalty (a_k - a_{k-1})^2`` with the
-true (noise-free) sensed force after the step; ``error_scale`` = 100 N by default.
+true (unfiltered, noise-free) force ``F_s = k_s x_s`` after the step; ``error_scale`` = 100 N.
+
+**Controller delay**: the valve current of an action is applied ``control_delay`` (whole
+control periods) after the step that chose it, as a digital controller's computation delay;
+observation 7 (last action) is then the command still pending.
 
 **Episode**: 5 kHz control (``dt = 0.2 ms``, the identification rate of 001 sec. 4.5),
 truncated after 5000 steps (1 s) by the registered ``max_episode_steps``; no termination.
@@ -29,7 +34,7 @@ truncated after 5000 steps (1 s) by the registered ``max_episode_steps``; no ter
 ``mixed`` (one of them per episode). All stay inside 85 % of the blocked-force range
 ``[-A2 p_s, A1 p_s]``.
 
-**Info** at every step: ``state`` (the 23 plant states in SI / normalised units, see the plant
+**Info** at every step: ``state`` (the 25 plant states in SI / normalised units, see the plant
 module) and ``params`` (this episode's parameter set).
 
 **Numerics**: one compiled kernel call per step; RK4 sub-steps from the drawn parameters'
@@ -70,6 +75,13 @@ OBS_DIM = 3 + len(PREVIEW_STEPS)
 REF_FRACTION = 0.85
 FORCE_REFERENCE_KINDS = ("square", "sine", "chirp", "steps")
 SQUARE_AMPLITUDES = (50.0, 200.0, 800.0)  # 001 figs. 11-13
+#: longest controller delay the env buffers (the parameter's range: 0-10 ms)
+MAX_DELAY_STEPS = 50
+
+
+def delay_steps(control_delay: float) -> int:
+    """Whole control periods of the controller's computation delay (``control_delay`` [s])."""
+    return min(int(round(control_delay / DT)), MAX_DELAY_STEPS)
 
 
 def generate_force_reference(kind: str, rng: np.random.Generator, n: int, dt: float, low: float, high: float) -> np.ndarray:
@@ -116,7 +128,7 @@ def _observe_copy(i, Y, P, REF, K, NOISE, last_a, prev_a, e_scale, rate_pen, pre
     k = K[i]
     fmax = P[i, plant.I_A1] * P[i, plant.I_PS]
     f_true = P[i, plant.I_KS] * Y[i, plant.XS]
-    f_m = f_true + NOISE[i, k % NOISE.shape[1]]
+    f_m = plant.measured_force(Y[i], P[i]) + NOISE[i, k % NOISE.shape[1]]
     meas[i] = f_m
     r = REF[i, min(k, n_ref - 1)]
     obs[i, 0] = min(max(f_m / fmax, -2.0), 2.0)
@@ -186,6 +198,9 @@ class ForceActuatorBatch(PlantBatch):
         self.NOISE = np.zeros((n, n_ref if self.noise_std > 0 else 1))
         self.meas = np.zeros(n)
         self.preview = np.array(PREVIEW_STEPS, dtype=np.int64)
+        # computation delay of the digital controller: commands wait here control_delay / dt steps
+        self.n_delay = np.zeros(n, dtype=np.int64)
+        self.pending = np.zeros((n, MAX_DELAY_STEPS + 1))
 
     def observation_space(self) -> spaces.Box:
         return observation_space()
@@ -197,6 +212,8 @@ class ForceActuatorBatch(PlantBatch):
         if not (0.0 <= q <= p.stroke):
             raise ValueError(f"options['state']: piston extension xp + xs = {q} m lies outside the stroke [0, {p.stroke}] m")
         self.Y[i] = y
+        self.n_delay[i] = delay_steps(p.control_delay)
+        self.pending[i] = 0.0
         n_ref = self.REF.shape[1]
         low, high = REF_FRACTION * p.min_thrust, REF_FRACTION * p.max_thrust
         ref_opt = options.get("reference")
@@ -219,8 +236,13 @@ class ForceActuatorBatch(PlantBatch):
             self.NOISE[i] = rng.standard_normal(self.NOISE.shape[1]) * self.noise_std
 
     def apply_actions(self) -> None:
-        # action in [-1, 1] -> valve current in A
-        np.multiply(self.last_a[:, 0], self.P[:, plant.I_IMAX], out=self.U[:, 0])
+        # action in [-1, 1] -> valve current in A, applied control_delay after it was computed
+        if not self.n_delay.any():
+            np.multiply(self.last_a[:, 0], self.P[:, plant.I_IMAX], out=self.U[:, 0])
+            return
+        self.pending[:, 1:] = self.pending[:, :-1]
+        np.multiply(self.last_a[:, 0], self.P[:, plant.I_IMAX], out=self.pending[:, 0])
+        self.U[:, 0] = self.pending[np.arange(self.U.shape[0]), self.n_delay]
 
     def observe(self) -> None:
         (_observe_parallel if self.parallel else _observe_serial)(
