@@ -167,14 +167,18 @@ class ForceActuatorParams(PhysicalParams):
         "mass m g of the damping test); 0 for the blocked-piston rig of the seed's model",
     )
     feedback_filter_frequency: float = physical(
-        0.0, "Hz", (0.0, 1e4),
-        "force-signal conditioning of the controller's feedback path: a second-order Butterworth "
-        "low-pass on F_s = k_s x_s with this cutoff (0 = none, the measured force is k_s x_s)",
+        175.0, "Hz", (0.0, 1e4),
+        "force-signal conditioning of the controller's feedback path (Hall-effect deflection "
+        "sensor, 001 sec. 2, through the controller card): a second-order Butterworth low-pass on "
+        "F_s = k_s x_s; 0 = none. Not printed in 001: the cutoff is calibrated so that the "
+        "proportional loop's limit cycle sits at the observed 95 Hz (001 sec. 4.7); the smallest "
+        "limit-cycle gain and the -3 dB bandwidth are then predictions (validation rows)",
     )
     control_delay: float = physical(
-        0.0, "s", (0.0, 0.01),
+        2e-4, "s", (0.0, 0.01),
         "computation delay of the digital force controller: a command computed from the force "
-        "sampled at t_k is applied from t_k + control_delay (a whole number of control periods)",
+        "sampled at t_k is applied from t_k + control_delay; one control period of the 5 kHz "
+        "loop (001 sec. 4.5 sampling rate; 'digital control is also possible', sec. 2)",
     )
 
     def _check_relations(self) -> None:
