@@ -1,7 +1,9 @@
 """Measured data: the plants' channels and the measured-data file format.
 
-See :mod:`hydro_envs.data.measured` for the file format and
-:mod:`hydro_envs.data.channels` for the channels of each plant.
+See :mod:`hydro_envs.data.measured` for the file format and the loader,
+:mod:`hydro_envs.data.foreign` for other layouts and the column map,
+:mod:`hydro_envs.data.units` for unit conversion, :mod:`hydro_envs.data.checks` for the
+plausibility checks and :mod:`hydro_envs.data.channels` for the channels of each plant.
 """
 
 from hydro_envs.data.channels import TIME_CHANNEL, Channel, UnknownPlantError, channels_for, known_plants
