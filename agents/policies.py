@@ -215,7 +215,7 @@ def _load_compact(run: Path, device: str = "cpu") -> TrainedPolicy:
     import torch
 
     import hydro_envs  # noqa: F401  (registers the env ids)
-    from agents.train import _policy_kwargs_obj
+    from agents.policy_kwargs import parse_policy_kwargs, policy_kwargs_object
 
     for f in (ARGS_FILE, CONFIG_FILE):
         if not (run / f).is_file():
@@ -227,7 +227,7 @@ def _load_compact(run: Path, device: str = "cpu") -> TrainedPolicy:
     obs_space, act_space = env.observation_space, env.action_space
     env.close()
     policy = _policy_class(algo, cfg.get("policy", "MlpPolicy"))(
-        obs_space, act_space, lambda _: 0.0, **_policy_kwargs_obj(cfg.get("policy_kwargs", {})))
+        obs_space, act_space, lambda _: 0.0, **policy_kwargs_object(parse_policy_kwargs(cfg.get("policy_kwargs"))))
     state = torch.load(run / POLICY_FILE, map_location=device, weights_only=True)
     policy.load_state_dict(state)
     policy.set_training_mode(False)

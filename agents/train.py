@@ -81,6 +81,7 @@ import yaml  # noqa: E402
 from stable_baselines3.common.callbacks import BaseCallback  # noqa: E402
 from stable_baselines3.common.vec_env import VecNormalize, sync_envs_normalization  # noqa: E402
 
+from agents.policy_kwargs import ACTIVATIONS, parse_policy_kwargs, policy_kwargs_object  # noqa: E402
 from agents.policies import (  # noqa: E402
     ALGOS,
     ARGS_FILE,
@@ -120,7 +121,7 @@ _RESERVED = {"self", "policy", "env", "seed", "device", "verbose", "tensorboard_
              "policy_kwargs", "action_noise", "replay_buffer_class", "replay_buffer_kwargs",
              "rollout_buffer_class", "rollout_buffer_kwargs"}
 _POLICIES = ("MlpPolicy",)
-_ACTIVATIONS = ("tanh", "relu", "elu", "leaky_relu", "gelu", "silu")
+_ACTIVATIONS = tuple(ACTIVATIONS)
 _POLICY_KWARGS: dict[str, tuple[str, ...]] = {
     "net_arch": ALGOS,
     "activation_fn": ALGOS,
@@ -304,10 +305,10 @@ def _check_net_arch(where: str, algo: str, value: Any) -> Any:
 
 
 def _check_policy_kwargs(where: str, algo: str, value: Any) -> dict[str, Any]:
-    if value is None:
-        return {}
-    if not isinstance(value, Mapping):
-        raise ConfigError(f"{where}: policy_kwargs must be a mapping, got {value!r}")
+    try:
+        value = parse_policy_kwargs(value, f"{where}: policy_kwargs")
+    except ValueError as e:
+        raise ConfigError(str(e)) from None
     out: dict[str, Any] = {}
     for k, v in value.items():
         allowed = sorted(kk for kk, algos in _POLICY_KWARGS.items() if algo in algos)
@@ -442,19 +443,6 @@ def _schedule_value(value: float | str) -> float | Callable[[float], float]:
     return float(value)
 
 
-def _policy_kwargs_obj(pk: Mapping[str, Any]) -> dict[str, Any]:
-    import torch.nn as nn
-
-    acts = {"tanh": nn.Tanh, "relu": nn.ReLU, "elu": nn.ELU, "leaky_relu": nn.LeakyReLU, "gelu": nn.GELU,
-            "silu": nn.SiLU}
-    out = dict(pk)
-    if "activation_fn" in out:
-        out["activation_fn"] = acts[out["activation_fn"]]
-    if isinstance(out.get("net_arch"), dict):
-        out["net_arch"] = {k: list(v) for k, v in out["net_arch"].items()}
-    return out
-
-
 def _algo_kwargs(cfg: Mapping[str, Any], algo: str, action_dim: int) -> dict[str, Any]:
     defaults = _algo_defaults(algo)
     kw: dict[str, Any] = {}
@@ -470,7 +458,7 @@ def _algo_kwargs(cfg: Mapping[str, Any], algo: str, action_dim: int) -> dict[str
 
         cls = NormalActionNoise if cfg["noise_type"] == "normal" else OrnsteinUhlenbeckActionNoise
         kw["action_noise"] = cls(np.zeros(action_dim), cfg["noise_std"] * np.ones(action_dim))
-    kw["policy_kwargs"] = _policy_kwargs_obj(cfg["policy_kwargs"])
+    kw["policy_kwargs"] = policy_kwargs_object(cfg["policy_kwargs"])
     return kw
 
 
