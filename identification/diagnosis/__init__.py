@@ -2,7 +2,9 @@
 physical effect from the catalogue, add it, show the held-out gap shrink.
 
 Modules: :mod:`.catalogue` (effects), :mod:`.plants` (what the workflow needs per plant),
-:mod:`.records` (data checks, windows), :mod:`.workflow` (the loop), :mod:`.synthetic`
+:mod:`.records` (data checks, windows), :mod:`.models` (base models, thresholds),
+:mod:`.fitting` (fits, held-out scores), :mod:`.residuals` (residual maps, signature ranking),
+:mod:`.candidates` (candidate refits and judgement), :mod:`.workflow` (the loop), :mod:`.synthetic`
 (hidden-effect data), :mod:`.report` (markdown + figures), :mod:`.cli` (``hydro diagnose``).
 
 Names are imported lazily (``hydro --help`` must not load numba and scipy through the

@@ -25,7 +25,9 @@ def add_diagnose_parser(subparsers: Any) -> argparse.ArgumentParser:
         description="Fit the base model, locate the residual, propose catalogue effects, refit each, "
         "score on held-out data, accept the best only if it clearly wins (see identification/diagnosis).",
     )
-    p.add_argument("--plant", required=True, help="plant name (slider, servo_cylinder, shaking_table, rodless_cylinder, ls_compensator, force_actuator, force_actuator_load)")
+    from identification.diagnosis.plants import PLANTS
+
+    p.add_argument("--plant", required=True, help=f"plant (base model) name ({', '.join(PLANTS)})")
     p.add_argument("--data", required=True, action="append", metavar="FILE",
                    help="measured-data file (CSV/Parquet); repeat for several records")
     p.add_argument("--holdout", action="append", metavar="FILE",

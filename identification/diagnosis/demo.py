@@ -1,8 +1,8 @@
 """``make demo-diagnose``: hide an effect in simulated rig data and let the workflow find it.
 
-Two cases (issue 6): Stribeck friction hidden in the servo cylinder (base model: Coulomb +
-viscous friction), and the modified-IFAS stiffness dip hidden in the shaking table (base
-model: IFAS bulk modulus). For each, the closed-loop records are written as measured-data
+One case per plant folder whose diagnosis settings name a demo (hidden effect, seed): Stribeck
+friction hidden in the servo cylinder (base model: Coulomb + viscous friction), and the
+modified-IFAS stiffness dip hidden in the shaking table (base model: IFAS bulk modulus). For each, the closed-loop records are written as measured-data
 files, the equivalent ``hydro diagnose`` command is printed, the workflow runs with progress
 and writes its report (markdown + figures) under ``--out``.
 
@@ -19,12 +19,12 @@ import numpy as np
 
 from hydro_envs.data.measured import write_measured
 from identification.diagnosis.cli import summary_text
-from identification.diagnosis.plants import diagnosis_plant
+from identification.diagnosis.plants import demo_cases, diagnosis_plant
 from identification.diagnosis.report import write_report
 from identification.diagnosis.synthetic import hidden_effect_records
 from identification.diagnosis.workflow import diagnose
 
-CASES = (("servo_cylinder", "stribeck", 11), ("shaking_table", "modified_ifas", 12))
+CASES = demo_cases()  # (base, hidden effect, seed)
 
 
 def _write(path: Path, rec, spec) -> None:

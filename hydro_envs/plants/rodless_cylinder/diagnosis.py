@@ -1,0 +1,98 @@
+r"""What the diagnosis workflow needs to know about the pneumatic rodless cylinder, as plain data.
+
+:data:`BASES` maps the name the workflow (:mod:`identification.diagnosis`) knows this rig by to
+its base-model settings (keys described in :mod:`identification.diagnosis.plants`) and to
+``effects``: each catalogue effect the cylinder can carry and the fields of
+:class:`~.params.RodlessCylinderParams` that realise it (fit bounds = physical plausibility,
+start value, draw range of hidden-effect records, value when absent, prerequisites, source).
+Imports nothing outside :mod:`hydro_envs`; the model is loaded when a function below is first
+called.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+__all__ = ["BASES", "initial_state", "controller"]
+
+_PNEU = "004 (seed pneumatic rodless cylinder)"
+
+
+def _model():
+    from hydro_envs.plants.rodless_cylinder import model
+
+    return model
+
+
+def initial_state(params, m):
+    """State at a window start: measured position, velocity and pressures (the rest state's
+    where not measured); the spool at its static position for the command."""
+    rc = _model()
+    y = rc.rest_state(params, m["y"], m.get("v", 0.0), m.get("pa"), m.get("pb"))
+    du = m.get("u", params.command_centre) - params.command_centre
+    y[rc.XV] = float(np.clip(du / (params.command_max - params.command_centre) * params.spool_stroke,
+                             -params.spool_stroke, params.spool_stroke))
+    return y
+
+
+def controller(meas, ref, params):
+    """P position loop around the 5 V centre (004 sec. 4.2 uses kp = 50 V/m) with velocity
+    feedforward through the valve's no-load speed gain (~0.3 m/s per V at 6 bar)."""
+    u = params.command_centre + 150.0 * (ref[0] - meas["x"]) + ref[1] / 0.3
+    return float(np.clip(u, 0.0, params.command_max))
+
+
+def _reference_centre(p):
+    return 0.5 * p.stroke
+
+
+_EFFECTS = {
+    "coulomb": dict(
+        parameters=(dict(field="coulomb_friction", bounds=(0.1, 500.0), start=10.0, draw=(10.0, 25.0)),),
+        null={"coulomb_friction": 0.0},
+        source=f"{_PNEU} eq (1), Table 2: F_c = 15.31 N"),
+    "stribeck": dict(
+        parameters=(dict(field="static_friction", bounds=(0.1, 1e3), start=1.8, draw=(1.8, 2.6),
+                         relative_to="coulomb_friction"),
+                    dict(field="stribeck_velocity", bounds=(2e-4, 0.1), start=3e-3, draw=(2e-3, 6e-3))),
+        null={"static_friction": "coulomb_friction"}, requires=("coulomb",),
+        ties={"static_friction": "coulomb_friction"},
+        source=f"{_PNEU} eq (1), Table 2: F_s/F_c = 2.32, v_s = 3.27 mm/s"),
+    "valve_lap": dict(
+        parameters=(dict(field="valve_underlap", bounds=(1e-6, 1e-3), start=1e-4, draw=(5e-5, 2e-4)),),
+        null={"valve_underlap": 0.0},
+        source=f"{_PNEU} eq (2) u = r - d; MPYE-5 mid-position leakage order 6 L/min at 0.1 mm"),
+    "valve_dynamics": dict(
+        parameters=(dict(field="valve_natural_frequency", bounds=(30.0, 6000.0), start=2 * math.pi * 60,
+                         draw=(2 * math.pi * 25, 2 * math.pi * 60)),),
+        null={"valve_natural_frequency": 2 * math.pi * 800},
+        source=f"{_PNEU} eq (28) (a pure gain); MPYE-5 spool bandwidth order 100 Hz, slower valves 25-60 Hz"),
+    "presliding": dict(
+        parameters=(dict(field="bristle_stiffness", bounds=(1e3, 1e6), start=1e5, draw=(3e4, 2e5)),),
+        null={"bristle_stiffness": 0.0}, requires=("coulomb",),
+        source=f"{_PNEU} Fig. 4 ('displacement before sliding'); LuGre sigma0, F_s/sigma0 = 0.2-1 mm "
+        "for soft lip seals and the sealing band; upper bound 1e6 N/m (35 um): stiffer bristles "
+        "need > 30 sub-steps per ms (2600 at 1e8) and act as the static curve anyway"),
+    "sensor_delay": dict(
+        parameters=(dict(field="delay", bounds=(1e-5, 0.05), start=2e-3, draw=(2e-3, 6e-3), log=False),),
+        null={"delay": 0.0}, channels=("y",),
+        source="assumed: encoder interface delay of 1-10 ms"),
+}
+
+#: base-model settings of the rodless cylinder (see the module docstring)
+BASES = {
+    "rodless_cylinder": dict(
+        base_fit=("viscous_friction", "discharge_coefficient"),
+        # 1 um encoder, 0.5 kPa (5 mbar) pressure transducers of a 10-bar range
+        noise={"y": 1e-6, "pa": 500.0, "pb": 500.0, "u": 0.0},
+        initial_state=initial_state, controller=controller,
+        position_channel="y", position_state="y",
+        reference_centre=_reference_centre, reference_amplitude=0.035, reference_speed=0.02,
+        # warm-up: covers the friction-damped air spring
+        segment_seconds=0.7, warmup_seconds=0.3, score_bandwidth=50.0,
+        offset_free=("y",), sensor_offsets=("pa", "pb"),
+        effects=_EFFECTS,
+    ),
+}

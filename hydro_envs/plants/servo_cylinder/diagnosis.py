@@ -1,0 +1,121 @@
+r"""What the diagnosis workflow needs to know about the servo cylinder, as plain data.
+
+:data:`BASES` maps the name the workflow (:mod:`identification.diagnosis`) knows this rig by to
+its base-model settings -- the parameters calibrated in every model (``base_fit``), realistic
+sensor noise, the start-state estimate of a record window, the position loop and reference of
+the hidden-effect records, window lengths, the score band (keys described in
+:mod:`identification.diagnosis.plants`) -- and to ``effects``: each catalogue effect this plant
+can carry and the fields of :class:`~.params.ServoCylinderParams` that realise it (fit bounds =
+physical plausibility, start value, the range hidden-effect records draw from, the value when
+the effect is absent, prerequisites, the source of every number). Imports nothing outside
+:mod:`hydro_envs`; the model is loaded when a function below is first called.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+__all__ = ["BASES", "initial_state", "controller"]
+
+_SERVO = "002_af30b681d6ccfd6c.txt"
+
+
+def _model():
+    from hydro_envs.plants.servo_cylinder import model
+
+    return model
+
+
+def initial_state(params, m):
+    """State at a window start from measured ``m`` (x, v, p1, p2, u): missing pressures at the
+    mean of supply and tank, the spool at its static position for the command."""
+    sc = _model()
+    y = np.zeros(sc.N_STATES)
+    pm = 0.5 * (params.supply_pressure + params.tank_pressure)
+    y[sc.X] = m["x"]
+    y[sc.V] = m.get("v", 0.0)
+    y[sc.P1] = m.get("p1", pm)
+    y[sc.P2] = m.get("p2", pm)
+    y[sc.XV] = float(np.clip(params.spool_gain * m.get("u", 0.0), -params.spool_stroke, params.spool_stroke))
+    return y
+
+
+def controller(meas, ref, params):
+    """P position loop with velocity feedforward, K_v = 40 1/s (the demo's gain)."""
+    kq = _model().no_load_velocity(params) / params.command_max  # m/s per V
+    u = (40.0 * (ref[0] - meas["x"]) + ref[1]) / kq
+    return float(np.clip(u, -params.command_max, params.command_max))
+
+
+def _reference_centre(p):
+    return 0.5 * p.stroke
+
+
+_EFFECTS = {
+    "coulomb": dict(
+        parameters=(dict(field="coulomb_friction", bounds=(0.5, 2e3), start=30.0, draw=(25.0, 80.0)),),
+        null={"coulomb_friction": 0.0},
+        source=f"{_SERVO} eq (1) F_C; range: tens of N for a 6.63 cm^2 seal set"),
+    "stribeck": dict(
+        parameters=(dict(field="static_friction", bounds=(0.5, 4e3), start=1.6, draw=(1.4, 2.2),
+                         relative_to="coulomb_friction"),
+                    dict(field="stribeck_velocity", bounds=(5e-4, 0.5), start=0.01, draw=(5e-3, 2e-2))),
+        null={"static_friction": "coulomb_friction"}, requires=("coulomb",),
+        ties={"static_friction": "coulomb_friction"},
+        source=f"{_SERVO} eq (1) F_S, v_S; ratio F_S/F_C 1.4-2.2 of lubricated seals"),
+    "asymmetric_friction": dict(
+        parameters=(dict(field="friction_asymmetry", bounds=(-0.9, 0.9), start=0.1, draw=(0.2, 0.5), log=False),),
+        null={"friction_asymmetry": 0.0}, requires=("coulomb",),
+        source="001 Table: stiction +99 N / -54 N (asymmetry 0.29) for a rod/cap seal pair"),
+    "pressure_friction": dict(
+        parameters=(dict(field="friction_pressure_coefficient", bounds=(1e-8, 1e-4), start=1e-5,
+                         draw=(1e-5, 3e-5)),),
+        null={"friction_pressure_coefficient": 0.0}, requires=("coulomb",),
+        source="seal data tests/data/pneumatic_seal_friction: +11.4 N over 6 bar, i.e. "
+        "~1.9e-5 N/Pa for a 25 mm seal; draws 1-3e-5 N/Pa: 10-30 N at 10 bar"),
+    "internal_leakage": dict(
+        parameters=(dict(field="internal_leakage", bounds=(1e-15, 1e-10), start=5e-13, draw=(5e-13, 2e-12)),),
+        null={"internal_leakage": 0.0},
+        source="003_54985feb8193da53.txt eqs (4)-(5) C_il (Table 2: 4.343e-13 m^3/(s Pa)); draws: worn piston "
+        "seals, 0.3-1.2 L/min at 100 bar"),
+    "external_leakage": dict(
+        parameters=(dict(field="external_leakage", bounds=(1e-15, 1e-10), start=3e-13, draw=(2e-13, 8e-13)),),
+        null={"external_leakage": 0.0},
+        source="003_54985feb8193da53.txt eqs (4)-(5) C_el (Table 2: 4.05e-14 m^3/(s Pa)); range of worn rod seals"),
+    "valve_lap": dict(
+        parameters=(dict(field="valve_overlap", bounds=(-0.1e-3, 0.1e-3), start=0.01e-3, draw=(0.02e-3, 0.05e-3),
+                         log=False),),
+        null={"valve_overlap": 0.0},
+        source="Hopsan lap convention max(+-xv - x_lap, 0); 003 eq (3) underlap U; servo-valve "
+        "laps of 1-3 % of a 0.279 mm spool stroke (draws: overlap of 7-18 %)"),
+    "valve_dynamics": dict(
+        parameters=(dict(field="valve_natural_frequency", bounds=(60.0, 6000.0), start=2 * math.pi * 100,
+                         draw=(2 * math.pi * 50, 2 * math.pi * 120)),),
+        null={"valve_natural_frequency": 2 * math.pi * 800},
+        source=f"{_SERVO} eq (2), Table 1: 175 Hz (D765); range of industrial servo-valves"),
+    "sensor_delay": dict(
+        parameters=(dict(field="delay", bounds=(1e-5, 0.05), start=2e-3, draw=(2e-3, 6e-3), log=False),),
+        null={"delay": 0.0}, channels=("x",),
+        source="assumed: fieldbus/encoder interface delay of 1-10 ms"),
+}
+
+#: base-model settings of the servo cylinder rig (the workflow's names for the keys: see
+#: :mod:`identification.diagnosis.plants`)
+BASES = {
+    "servo_cylinder": dict(
+        base_fit=("viscous_friction", "bulk_modulus", "discharge_coefficient"),
+        # 1 um encoder (quantisation + electronics), 0.05 bar filtered pressure transducer
+        noise={"x": 1e-6, "p1": 5e3, "p2": 5e3, "u": 0.0},
+        initial_state=initial_state, controller=controller,
+        position_channel="x", position_state="x",
+        reference_centre=_reference_centre, reference_amplitude=0.025, reference_speed=0.02,
+        # warm-up: ~3 times the oil column's 1/(zeta_h omega_h) = 0.1 s
+        segment_seconds=0.7, warmup_seconds=0.3, score_bandwidth=50.0,
+        offset_free=("x",), sensor_offsets=("p1", "p2"), pressure_difference=("p1", "p2"),
+        # the example of ``make demo-diagnose``: (hidden effect, seed); base model: Coulomb + viscous
+        demo=("stribeck", 11),
+        effects=_EFFECTS,
+    ),
+}
