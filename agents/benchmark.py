@@ -56,7 +56,9 @@ from typing import Any
 
 import numpy as np
 
+from agents.adapters import PRESSURE_MAX_FACTOR, EnvAdapter
 from agents.backend import add_backend_args, check_backend, import_ray
+from hydro_envs import registry
 
 __all__ = [
     "ADAPTERS",
@@ -78,7 +80,6 @@ __all__ = [
 
 PARAM_SETS = ("nominal", "in", "out")
 OUT_FACTOR = 2.0
-PRESSURE_MAX_FACTOR = 1.25
 SERIAL_BELOW = 256  # copies: below this the batch is stepped by the serial kernel
 #: (key, label) of the reported metrics, in table order
 METRICS = (
@@ -97,110 +98,42 @@ PAIRED_REFERENCE = "pid"
 
 
 # ------------------------------------------------------------------ env adapters
-@dataclasses.dataclass(frozen=True)
-class EnvAdapter:
-    """What the benchmark needs to know about one env (true output, limits, step reference)."""
+def _discover_adapters() -> dict[str, EnvAdapter]:
+    """Every env id of a plant whose controller module declares ``benchmark_adapter``."""
+    from agents.controllers import controller_module
 
-    env_id: str
-    quantity: str
-    unit: str
-    step_reference: str | None  # kind name of the env's step reference, None: not available
-    settle_abs: float  # absolute floor of the settling band [unit]
-    output: Callable[[Any], tuple[np.ndarray, np.ndarray]]  # batch -> (y, ref) after a step
-    pressures: Callable[[Any], tuple[np.ndarray, np.ndarray, np.ndarray]] | None  # (p (n,k), lo, hi)
-    outside_stroke: Callable[[Any], np.ndarray] | None
-    note: str = ""
+    out: dict[str, EnvAdapter] = {}
+    for spec in registry.specs():
+        mod = controller_module(spec.name) if spec.envs else None
+        if mod is not None and hasattr(mod, "benchmark_adapter"):
+            for env_id in spec.env_ids:
+                out[env_id] = mod.benchmark_adapter(env_id)
+    return out
 
 
-def _ref_now(b) -> np.ndarray:
-    k = np.minimum(b.K, b.REF.shape[1] - 1)
-    return b.REF[np.arange(b.n), k]
+class _Adapters(Mapping):
+    """env id -> :class:`EnvAdapter`, discovered on first use (so ``hydro --help`` stays light)."""
+
+    def __init__(self) -> None:
+        self._data: dict[str, EnvAdapter] | None = None
+
+    def _load(self) -> dict[str, EnvAdapter]:
+        if self._data is None:
+            self._data = _discover_adapters()
+        return self._data
+
+    def __getitem__(self, key: str) -> EnvAdapter:
+        return self._load()[key]
+
+    def __iter__(self):
+        return iter(self._load())
+
+    def __len__(self) -> int:
+        return len(self._load())
 
 
-def _cyl_output(b):
-    return b.Y[:, b.position_index].copy(), _ref_now(b)
-
-
-def _cyl_pressures(b):
-    ip1, ip2 = b.pressure_indices
-    p = b.Y[:, [ip1, ip2]]
-    names = b.params_cls.names()
-    floor = b.P[:, names.index("pressure_floor")]
-    ps = b.P[:, names.index("supply_pressure")]
-    return p, floor, PRESSURE_MAX_FACTOR * ps
-
-
-def _cyl_stroke(b):
-    x = b.Y[:, b.position_index]
-    return (x < 0.0) | (x > b.P[:, b.stroke_index])
-
-
-def _table_output(b):
-    from hydro_envs.plants.shaking_table.model import table_acceleration
-
-    a = np.array([table_acceleration(b.Y[i], b.P[i]) for i in range(b.n)])
-    return a, _ref_now(b)
-
-
-def _table_pressures(b):
-    from hydro_envs.plants.shaking_table import model as st
-
-    return b.Y[:, [st.PA, st.PB]], b.P[:, st.I_PFLOOR], PRESSURE_MAX_FACTOR * b.P[:, st.I_PS]
-
-
-def _table_stroke(b):
-    from hydro_envs.plants.shaking_table import model as st
-
-    return np.abs(b.Y[:, st.X]) > 0.5 * b.P[:, st.I_L]
-
-
-def _force_output(b):
-    from hydro_envs.plants.force_actuator import model as fa
-
-    return b.P[:, fa.I_KS] * b.Y[:, fa.XS], _ref_now(b)
-
-
-def _ls_output(b):
-    from hydro_envs.plants.load_sensing import model as ls
-
-    return b.Y[:, ls.VA].copy(), _ref_now(b)
-
-
-def _ls_pressures(b):
-    from hydro_envs.plants.load_sensing import model as ls
-
-    names = b.params_cls.names()
-    floor = b.P[:, names.index("pressure_floor")]
-    relief = b.P[:, names.index("relief_pressure")]
-    return b.Y[:, [ls.PS, ls.PL]], floor, relief
-
-
-def _ls_stroke(b):
-    from hydro_envs.plants.load_sensing import model as ls
-
-    names = b.params_cls.names()
-    x = b.Y[:, ls.XA]
-    return (x < 0.0) | (x > b.P[:, names.index("stroke")])
-
-
-ADAPTERS: dict[str, EnvAdapter] = {
-    "hydro_envs/ServoCylinderPosition-v0": EnvAdapter(
-        "hydro_envs/ServoCylinderPosition-v0", "position", "m", "steps", 1e-4, _cyl_output, _cyl_pressures,
-        _cyl_stroke),
-    "hydro_envs/RodlessCylinder-v0": EnvAdapter(
-        "hydro_envs/RodlessCylinder-v0", "position", "m", "steps", 2e-4, _cyl_output, _cyl_pressures, _cyl_stroke),
-    "hydro_envs/ShakingTable-v0": EnvAdapter(
-        "hydro_envs/ShakingTable-v0", "acceleration", "m/s^2", None, 0.05, _table_output, _table_pressures,
-        _table_stroke, note="no step reference: the table tracks accelerations of feasible motions "
-                            "(sine, pulse, transition, earthquake); overshoot/settling n/a"),
-    "hydro_envs/ForceActuator-v0": EnvAdapter(
-        "hydro_envs/ForceActuator-v0", "force", "N", "square", 5.0, _force_output, None, None,
-        note="steps = the 001 square references (50/200/800 N); piston locked and no chamber "
-             "pressures in the state: pressure/end-stop columns n/a"),
-    "hydro_envs/LoadSensing-v0": EnvAdapter(
-        "hydro_envs/LoadSensing-v0", "velocity", "m/s", "steps", 2e-3, _ls_output, _ls_pressures, _ls_stroke,
-        note="pressure limits: pump and load pressure within [floor, relief]"),
-}
+#: env id -> what the benchmark reads of it (from the plants' controller modules)
+ADAPTERS: Mapping[str, EnvAdapter] = _Adapters()
 
 
 def _adapter(env_id: str) -> EnvAdapter:
@@ -771,13 +704,14 @@ def _evaluate_on_ray(specs: Sequence[tuple[str, str, str]], draws: Sequence[Mapp
 
 # ------------------------------------------------------------------ outputs
 def _tag(env_id: str) -> str:
-    return {
-        "hydro_envs/ServoCylinderPosition-v0": "servo_cylinder",
-        "hydro_envs/ShakingTable-v0": "shaking_table",
-        "hydro_envs/ForceActuator-v0": "force_actuator",
-        "hydro_envs/LoadSensing-v0": "load_sensing",
-        "hydro_envs/RodlessCylinder-v0": "rodless_cylinder",
-    }.get(env_id, re.sub(r"[^A-Za-z0-9]+", "_", env_id))
+    """File stem of an env: its plant's name for the plant's first env, else the id made safe."""
+    try:
+        spec = registry.spec_for_env(env_id)
+    except KeyError:
+        spec = None
+    if spec is not None and spec.envs and spec.envs[0].id == env_id:
+        return spec.name
+    return re.sub(r"[^A-Za-z0-9]+", "_", env_id.split("/")[-1])
 
 
 def write_outputs(res: BenchmarkResult, out_dir: Path, *, figures: bool = True) -> list[Path]:

@@ -11,9 +11,9 @@ One script that walks through what the suite is for, on ``ServoCylinderPosition-
    least squares (:func:`identification.friction.fit_friction`). The fit is printed beside the
    rig's true values, with standard errors.
 2. **Calibrate** the classical controllers: the PID from the plant's linearisation
-   (:func:`agents.controllers.servo.pid_tuning`: crossover ``zeta_h omega_h`` below the
+   (:func:`agents.controllers.servo_cylinder.pid_tuning`: crossover ``zeta_h omega_h`` below the
    hydraulic resonance), and the PID + friction feedforward whose compensator
-   (:class:`identification.compensators.FrictionCompensator`) uses the Stribeck law just
+   (:class:`hydro_envs.plants.servo_cylinder.compensation.FrictionCompensator`) uses the Stribeck law just
    identified. The identified friction is checked against the training randomisation ranges
    (``configs/randomization/servo_cylinder.yaml``): the learned agent must have seen the rig.
 3. **Train** a PPO (default; ``--algo sac`` also works) agent with domain randomisation
@@ -165,7 +165,7 @@ def friction_figure(fit: Any, points: Any, truth: Any, path: Path) -> Path | Non
 def calibrated_controllers(fit: Any) -> tuple[Any, Any, dict[str, float]]:
     """``(pid, pid_ff, tuning)``: the PID from the nominal linearisation and the same PID with
     the feedforward of the identified friction law."""
-    from agents.controllers.servo import PIDController, PIDFrictionFeedforwardController, pid_tuning
+    from agents.controllers.servo_cylinder import PIDController, PIDFrictionFeedforwardController, pid_tuning
     from hydro_envs.plants.servo_cylinder.params import ServoCylinderParams
 
     p = ServoCylinderParams()
@@ -299,7 +299,7 @@ def run(out: str | Path = "runs/demo", *, algo: str = "ppo", timesteps: int | No
                   f"{tuning['omega_c']:.1f} rad/s, K_p = {tuning['kp']:.1f} 1/m, T_i = {tuning['ti'] * 1e3:.0f} ms, "
                   f"T_d = {tuning['td'] * 1e3:.2f} ms")
     console.print(f"{FF_NAME}: the same PID + the valve-command increment that delivers the reference "
-                  "velocity against the identified friction (identification.compensators)")
+                  "velocity against the identified friction (hydro_envs.plants.servo_cylinder.compensation)")
     for field, val, lo, hi, ok in inside_training_ranges(fit):
         console.print(f"  {field:>18} = {val:.4g}  training range [{lo:.4g}, {hi:.4g}]  "
                       + ("[green]inside[/green]" if ok else "[red]OUTSIDE: the agent never saw this rig[/red]"))

@@ -35,25 +35,23 @@ from pathlib import Path  # noqa: E402
 from typing import Sequence  # noqa: E402
 
 PRETRAINED_ROOT = Path(__file__).resolve().parent / "pretrained"
-PLANTS = {  # folder name -> env id
-    "servo_cylinder": "hydro_envs/ServoCylinderPosition-v0",
-    "shaking_table": "hydro_envs/ShakingTable-v0",
-    "force_actuator": "hydro_envs/ForceActuator-v0",
-    "load_sensing": "hydro_envs/LoadSensing-v0",
-    "rodless_cylinder": "hydro_envs/RodlessCylinder-v0",
-}
+def _plants() -> dict[str, str]:
+    """Plant name -> its main env id, for every plant of the registry with envs and controllers."""
+    from hydro_envs import registry
+
+    from agents.controllers import controller_module
+
+    return {spec.name: spec.envs[0].id for spec in registry.specs()
+            if spec.envs and controller_module(spec.name) is not None}
+
+
+PLANTS = _plants()  # folder name -> env id
 ENV_TO_PLANT = {v: k for k, v in PLANTS.items()}
 # PPO timesteps per training seed: 1 M for every env, a short run (2-5 min here), not the zoo
 # files' long budgets -- the benchmark's learned rows are what such a run gives. On the servo
 # cylinder PPO reaches the PID's RMSE after ~130 k steps (bench/training.py --time-to-pid).
-TIMESTEPS = {
-    "servo_cylinder": 1_000_000,
-    "shaking_table": 1_000_000,
-    "force_actuator": 1_000_000,
-    "load_sensing": 1_000_000,
-    "rodless_cylinder": 1_000_000,
-}
-NOMINAL_PLANTS = ("servo_cylinder",)  # also trained without randomisation
+TIMESTEPS = {plant: 1_000_000 for plant in PLANTS}
+NOMINAL_PLANTS = tuple(PLANTS)[:1]  # the first plant is also trained without randomisation
 
 
 def folder_name(algo: str, seed: int, randomize: bool = True) -> str:

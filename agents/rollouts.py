@@ -1,6 +1,6 @@
-"""``hydro demo --rollouts``: servo-cylinder rollouts under a proportional controller
-(:class:`agents.controllers.servo.ProportionalPositionController`), with a summary of the
-tracking error, the drawn parameters and the step rates."""
+"""``hydro demo --rollouts``: servo-cylinder rollouts under the proportional position
+controller of its controller module, with a summary of the tracking error, the drawn parameters
+and the step rates."""
 
 from __future__ import annotations
 
@@ -10,16 +10,18 @@ import gymnasium as gym
 import numpy as np
 
 import hydro_envs  # noqa: F401
-from agents.controllers.servo import LOOP_BANDWIDTH, ProportionalPositionController
+from agents.controllers import controller_module
+from hydro_envs import registry
 
 ENV_ID = "hydro_envs/ServoCylinderPosition-v0"
 
 
 def run_demo(episodes: int = 5, seed: int = 0) -> int:
     env = gym.make(ENV_ID)
-    ctrl = ProportionalPositionController()
+    mod = controller_module(registry.spec_for_env(ENV_ID).name)
+    ctrl = mod.ProportionalPositionController()
     print(f"hydro-envs demo: {episodes} randomised episodes of {ENV_ID} under a P controller "
-          f"(K_p = {ctrl.kp:.1f} 1/m, loop bandwidth {LOOP_BANDWIDTH:.0f} 1/s)\n")
+          f"(K_p = {ctrl.kp:.1f} 1/m, loop bandwidth {mod.LOOP_BANDWIDTH:.0f} 1/s)\n")
     header = f"{'ep':>3} {'reference':>9} {'RMSE mm':>8} {'max|e| mm':>9} {'mass kg':>8} {'F_C N':>6} {'beta GPa':>8} {'substeps':>8} {'clamps':>6}"
     print(header)
     print("-" * len(header))

@@ -13,7 +13,7 @@ command line stays fast):
   fits from time series.
 * :mod:`identification.neural` -- the neural friction models of 002 sec. 5 (feed-forward net
   trained by Levenberg-Marquardt, RBF net), numpy/numba evaluation and torch export.
-* :mod:`identification.compensators` -- friction feedforward for the servo cylinder (force ->
+* :mod:`hydro_envs.plants.servo_cylinder.compensation` -- friction feedforward for the servo cylinder (force ->
   load pressure -> valve command through the orifice law).
 * :mod:`identification.cli` -- ``hydro identify METHOD ...`` (a registry of methods).
 """

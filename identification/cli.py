@@ -411,13 +411,14 @@ register_method("slider", "inverse-dynamics least squares of a slider (mass, fri
 
 
 def _greybox_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--plant", required=True, choices=("servo_cylinder", "shaking_table"),
-                   help="servo_cylinder (channels u, x, p1, p2) or shaking_table (u, x, a)")
+    p.add_argument("--plant", required=True, metavar="PLANT",
+                   help="a registry plant whose model declares its sensor outputs and its state at a "
+                   "record's first sample (identification.greybox.supported_plants())")
     p.add_argument("--data", required=True, metavar="FILE", help="measured-data file (uniform sampling)")
     p.add_argument("--fit", required=True, metavar="NAME[,NAME...]",
                    help="parameters to fit (field names of the plant's parameter dataclass)")
     p.add_argument("--preset", default=None,
-                   help="shaking_table: start from a preset (modified_ifas, ifas, constant)")
+                   help="start from a preset of the plant's parameter class (where it has presets)")
     p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
                    help="override a start/fixed parameter value (repeatable)")
     p.add_argument("--outputs", default=None, metavar="CH[,CH...]",
@@ -430,9 +431,9 @@ def _greybox_run(args: argparse.Namespace) -> dict[str, Any]:
 
     setup = gb.plant_setup(args.plant)
     cls = setup["params"]
+    if args.preset and not setup["presets"]:
+        raise ValueError(f"--preset: plant {args.plant!r} has no presets")
     base = cls.preset(args.preset) if args.preset else cls()
-    if args.preset and args.plant != "shaking_table":
-        raise ValueError("--preset applies to shaking_table only")
     over = {}
     for item in args.set:
         if "=" not in item:
@@ -443,7 +444,7 @@ def _greybox_run(args: argparse.Namespace) -> dict[str, Any]:
         base = cls.from_mapping(over, base=base)
     names = [n.strip() for n in args.fit.split(",") if n.strip()]
     chans = setup["channels"]
-    default_out = {"servo_cylinder": ("x", "p1", "p2"), "shaking_table": ("x", "a")}[args.plant]
+    default_out = setup["fit_outputs"]
     data = load_measured(args.data, plant=args.plant, required=("u",))
     outs = ([c.strip() for c in args.outputs.split(",")] if args.outputs
             else [c for c in default_out if c in data])

@@ -51,8 +51,6 @@ Statistics (at the optimum, ``J`` the Jacobian of the weighted residuals in thet
 Source of the method: the nonlinear least-squares (NLSM) estimation of seed 003 sec. 3.4 eq
 (21)-(22) (``003_54985feb8193da53.txt``: S = sum r_i^2 over velocity and acceleration of the
 shaking table); statistics as in Seber & Wild, Nonlinear Regression (1989), ch. 2 and 5.
-:func:`table3_rows` reproduces the direction of 003 Table 3 (modified IFAS fits better than
-IFAS for all six inputs).
 """
 
 from __future__ import annotations
@@ -77,15 +75,11 @@ __all__ = [
     "OutputChannel",
     "Experiment",
     "GreyboxResult",
-    "PLANTS",
     "plant_setup",
+    "supported_plants",
     "simulate_outputs",
     "fit_greybox",
     "experiment_from_measured",
-    "TABLE3_INPUTS",
-    "table3_input",
-    "table3_comparison",
-    "table3_rows",
 ]
 
 CORRELATION_LIMIT = 0.95
@@ -169,35 +163,32 @@ def _plant_module(base: PhysicalParams):
     return registry.get(type(base).plant).model
 
 
-#: plant name -> (module, params class name, kernel id name, {channel: OutputChannel})
 def _plants() -> dict[str, dict[str, Any]]:
-    from hydro_envs.plants.servo_cylinder import model as sc
-    from hydro_envs.plants.shaking_table import model as st
+    """Plants a grey-box fit can simulate: every registry plant whose model declares its sensor
+    outputs and ``rest_state_from_measurement`` (the state at a record's first sample).
 
-    return {
-        "servo_cylinder": {
-            "params": sc.ServoCylinderParams,
-            "channels": {
-                "x": OutputChannel("x", state=sc.X, unit="m"),
-                "v": OutputChannel("v", state=sc.V, unit="m/s"),
-                "p1": OutputChannel("p1", state=sc.P1, unit="Pa"),
-                "p2": OutputChannel("p2", state=sc.P2, unit="Pa"),
-            },
-            "presets": None,
-        },
-        "shaking_table": {
-            "params": st.ShakingTableParams,
-            "channels": {
-                "x": OutputChannel("x", state=st.X, unit="m"),
-                "v": OutputChannel("v", state=st.V, unit="m/s"),
-                "a": OutputChannel("a", derivative=st.V, unit="m/s^2"),
-            },
-            "presets": tuple(st.PRESETS),
-        },
-    }
-
-
-PLANTS = ("servo_cylinder", "shaking_table")
+    Channels: the measured ones the model reads from a state or a state derivative, plus
+    ``v`` (the velocity state) where the model names one; presets: the parameter class's
+    ``PRESETS`` if any."""
+    out: dict[str, dict[str, Any]] = {}
+    for spec in registry.specs():
+        if not spec.package or not spec.has_module("model"):
+            continue
+        model = spec.model
+        if not hasattr(model, "rest_state_from_measurement"):
+            continue
+        units = {c.name: c.unit for c in spec.channels}
+        chans = {name: OutputChannel(name, state=int(i), unit=units.get(name, ""))
+                 for name, i in getattr(model, "STATE_OUTPUTS", {}).items()}
+        chans.update({name: OutputChannel(name, derivative=int(i), unit=units.get(name, ""))
+                      for name, i in getattr(model, "DERIVATIVE_OUTPUTS", {}).items()})
+        if "v" in spec.state_names and "v" not in chans:
+            chans["v"] = OutputChannel("v", state=spec.state_names.index("v"), unit="m/s")
+        presets = getattr(model, "PRESETS", None)
+        fit = tuple(getattr(model, "FIT_OUTPUTS", tuple(c for c in chans if c != "v")))
+        out[spec.name] = {"params": spec.params_cls, "channels": chans,
+                          "presets": tuple(presets) if presets else None, "fit_outputs": fit}
+    return out
 
 
 def plant_setup(plant: str) -> dict[str, Any]:
@@ -206,6 +197,11 @@ def plant_setup(plant: str) -> dict[str, Any]:
     if plant not in table:
         raise GreyboxError(f"grey-box plant {plant!r} not supported; supported: {sorted(table)}")
     return table[plant]
+
+
+def supported_plants() -> tuple[str, ...]:
+    """Registry plants a grey-box fit can simulate (see :func:`_plants`)."""
+    return tuple(_plants())
 
 
 # ======================================================================================
@@ -849,146 +845,8 @@ def experiment_from_measured(data, plant: str, params: PhysicalParams, outputs: 
 
 
 def _initial_state(plant: str, params, x0: float | None, meas: Mapping[str, np.ndarray]) -> np.ndarray:
-    """Rest state of the plant at the first measured position (and pressures if measured)."""
-    if plant == "shaking_table":
-        from hydro_envs.plants.shaking_table import model as st
-
-        return st.rest_state(params, 0.0 if x0 is None else x0)
-    if plant == "servo_cylinder":
-        from hydro_envs.plants.servo_cylinder import model as sc
-
-        y = np.zeros(sc.N_STATES)
-        y[sc.X] = 0.5 * params.stroke if x0 is None else x0
-        pm = 0.5 * (params.supply_pressure + params.tank_pressure)
-        y[sc.P1] = float(meas["p1"][0]) if "p1" in meas else pm
-        y[sc.P2] = float(meas["p2"][0]) if "p2" in meas else pm
-        return y
-    raise GreyboxError(f"grey-box plant {plant!r} not supported")
-
-
-# ======================================================================================
-# 003 Table 3: modified IFAS vs IFAS, direction of the MSE comparison
-# ======================================================================================
-
-#: The six inputs of 003 Table 3 in volts (+-10 V = full spool stroke, the plant module's
-#: scale; the text's 0.3 sin(2 pi 2 t) is Table 3's 3 sin(4 pi t)), with the specimen mass,
-#: the paper's MSEs (modified IFAS, IFAS) and the record length used here (shortened: the
-#: fits need a few periods, and six rows must run in about 20 s).
-TABLE3_INPUTS: dict[str, dict[str, Any]] = {
-    "3 sin(4 pi t)": {"specimen": "200kg", "paper": (31.4, 119.1), "seconds": 1.0},
-    "3 sin(16 pi t)": {"specimen": "200kg", "paper": (53.88, 310.92), "seconds": 0.5},
-    "9 sin(28 pi t)": {"specimen": "200kg", "paper": (132.71, 141.51), "seconds": 0.5},
-    "eq (23)": {"specimen": "500kg", "paper": (17.6, 50.57), "seconds": 1.5},
-    "2 sin(10 pi t)": {"specimen": "200kg", "paper": (54.49, 188.1), "seconds": 0.8},
-    "pulse (Fig. 11)": {"specimen": "200kg", "paper": (41.69, 125.8), "seconds": 1.0},
-}
-
-
-def table3_input(name: str, t: np.ndarray) -> np.ndarray:
-    """Valve command [V] of a Table 3 input at times ``t`` [s].
-
-    * sines as printed in Table 3 (volts);
-    * eq (23): ``0.1 sin(2 pi 2 t)`` then ``0.2 sin(2 pi 2 t)`` (normalised) = 1 V then 2 V; the
-      paper switches at 4.35 s of a 6 s record; the shortened 1.5 s record here switches at
-      1.0 s (after two whole periods, at a zero of the sine);
-    * pulse (Fig. 11, not extracted numerically): assumed +2 V for 0.2 s from 0.1 s, then
-      -2 V for 0.2 s from 0.5 s (a move out and back).
-    """
-    t = np.asarray(t, dtype=float)
-    if name == "3 sin(4 pi t)":
-        return 3.0 * np.sin(4 * np.pi * t)
-    if name == "3 sin(16 pi t)":
-        return 3.0 * np.sin(16 * np.pi * t)
-    if name == "9 sin(28 pi t)":
-        return 9.0 * np.sin(28 * np.pi * t)
-    if name == "2 sin(10 pi t)":
-        return 2.0 * np.sin(10 * np.pi * t)
-    if name == "eq (23)":
-        t_sw = 1.0  # whole periods of the 2 Hz sine (1.5 s record)
-        return np.where(t < t_sw, 1.0, 2.0) * np.sin(2 * np.pi * 2 * t)
-    if name == "pulse (Fig. 11)":
-        return np.where((t >= 0.1) & (t < 0.3), 2.0, 0.0) + np.where((t >= 0.5) & (t < 0.7), -2.0, 0.0)
-    raise GreyboxError(f"unknown Table 3 input {name!r}; known: {list(TABLE3_INPUTS)}")
-
-
-#: fitted parameters of both models in the Table 3 comparison and the start perturbation
-TABLE3_FIT = ("e0", "coulomb_friction", "viscous_friction")
-TABLE3_START = {"e0": 1.3, "coulomb_friction": 0.8, "viscous_friction": 1.25}
-TABLE3_DT = 1e-3
-TABLE3_NOISE = {"x": 2e-5, "a": 0.05}  # potentiometer [m], accelerometer [m/s^2]
-
-
-def table3_comparison(name: str, seed: int = 0) -> dict[str, Any]:
-    """Fit the modified-IFAS and the IFAS model to data of the modified-IFAS truth for one
-    Table 3 input; return both fits' acceleration MSE and their ratio.
-
-    Truth: ``ShakingTableParams.preset("modified_ifas", specimen)``, simulated at 1 kHz; noise
-    ``TABLE3_NOISE`` on x and a (seeded). Models: the ``modified_ifas`` and ``ifas`` presets
-    (003 Table 2's two columns) with E_0, F_c, F_v scaled by ``TABLE3_START`` and then fitted
-    to x and a (channel weights = the known noise levels). MSE: eq (21) on the acceleration
-    (the signal the modulus law is for), mean of squared residuals [(m/s^2)^2].
-    """
-    from hydro_envs.plants.shaking_table import model as st
-
-    spec = TABLE3_INPUTS[name]
-    truth = st.ShakingTableParams.preset("modified_ifas", spec["specimen"])
-    n = int(round(spec["seconds"] / TABLE3_DT)) + 1
-    t = TABLE3_DT * np.arange(n)
-    u = table3_input(name, t)
-    chans = list(_plants()["shaking_table"]["channels"].values())
-    chans = [c for c in chans if c.name in ("x", "a")]
-    # one n_substeps for truth and models: the most demanding of the three sets
-    sets = {"truth": truth}
-    for preset in ("modified_ifas", "ifas"):
-        b = st.ShakingTableParams.preset(preset, spec["specimen"])
-        sets[preset] = dataclasses.replace(b, **{k: getattr(b, k) * f for k, f in TABLE3_START.items()})
-    nsub = max(substeps_for_modes(st.stiffness_modes(p), TABLE3_DT)[0] for p in sets.values())
-    nsub = max(nsub, substeps_for_modes(st.stiffness_modes(dataclasses.replace(
-        truth, e0=truth.e0 * 3.0)), TABLE3_DT)[0])
-    exp0 = Experiment(TABLE3_DT, u, st.rest_state(truth), {"x": u, "a": u}, name=name)
-    clean = simulate_outputs(truth, [exp0], chans, n_substeps=nsub)[0][0]
-    rng = np.random.default_rng(seed)
-    meas = {k: clean[k] + TABLE3_NOISE[k] * rng.standard_normal(n) for k in ("x", "a")}
-    out: dict[str, Any] = {"input": name, "specimen": spec["specimen"], "seconds": spec["seconds"],
-                           "paper_mse": {"modified_ifas": spec["paper"][0], "ifas": spec["paper"][1]}}
-    for preset in ("modified_ifas", "ifas"):
-        base = sets[preset]
-        exp = Experiment(TABLE3_DT, u, lambda prm: st.rest_state(prm), meas, name=name)
-        res = fit_greybox(base, TABLE3_FIT, [exp], chans, sigma=TABLE3_NOISE,
-                          reweight=False, n_substeps=nsub, max_nfev=30, tol=1e-6)
-        out[preset] = {"mse_a": res.mse["a"], "mse_x": res.mse["x"], "values": res.values,
-                       "nfev": res.nfev, "seconds": res.seconds}
-    out["ratio"] = out["modified_ifas"]["mse_a"] / out["ifas"]["mse_a"]
-    out["paper_ratio"] = spec["paper"][0] / spec["paper"][1]
-    return out
-
-
-def table3_rows() -> list:
-    """Validation rows "003 Table 3 direction", one per input (see :func:`table3_comparison`).
-
-    Encoding (ValidationRow has no one-sided comparison): ``reproduced`` = MSE_mod / MSE_ifas
-    of the fitted models (>= 0); ``published`` = 0 with ``absolute=True`` and tolerance 1, so
-    the row passes iff ``0 <= ratio <= 1``, i.e. iff the fitted modified-IFAS model has the
-    lower MSE -- the direction Table 3 reports. The paper's own ratio is given in the source
-    text (its magnitude depends on the rig's noise and unmodelled effects, ours on the
-    simulated noise, so only the direction is comparable).
-    """
-    from hydro_envs.validation import ValidationRow
-
-    rows = []
-    for name in TABLE3_INPUTS:
-        c = table3_comparison(name)
-        rows.append(ValidationRow(
-            name=f"003 Table 3 direction, u = {name} ({c['specimen']}): MSE_mod/MSE_ifas of fitted models (<= 1)",
-            published=1.0,
-            reproduced=float(c["ratio"]),
-            tolerance=0.0,
-            unit="1",
-            source=(f"003 Table 3: MSE {c['paper_mse']['modified_ifas']} (modified IFAS) < {c['paper_mse']['ifas']} "
-                    f"(IFAS), ratio {c['paper_ratio']:.3f}; here: data of the modified-IFAS truth "
-                    f"({c['seconds']} s, 1 kHz, noise x 20 um, a 0.05 m/s^2), both presets' E_0, F_c, F_v "
-                    f"fitted from perturbed starts, acceleration MSE {c['modified_ifas']['mse_a']:.4g} vs "
-                    f"{c['ifas']['mse_a']:.4g} (m/s^2)^2; one-sided: passes iff the ratio is <= 1"),
-            upper_bound=True,
-        ))
-    return rows
+    """The plant's state at the record's first sample (its model's ``rest_state_from_measurement``)."""
+    model = registry.get(plant).model
+    if not hasattr(model, "rest_state_from_measurement"):
+        raise GreyboxError(f"grey-box plant {plant!r} not supported; supported: {sorted(_plants())}")
+    return model.rest_state_from_measurement(params, {k: float(v[0]) for k, v in meas.items()})

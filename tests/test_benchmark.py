@@ -193,7 +193,7 @@ def test_shipped_configs_are_valid():
     from agents.controllers import controller_names
 
     files = sorted((Path(__file__).resolve().parents[1] / "agents" / "configs" / "benchmarks").glob("*.yaml"))
-    assert len(files) == 5
+    assert len(files) == 9
     envs = set()
     for f in files:
         c = bm.load_config(f)

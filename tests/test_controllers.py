@@ -6,15 +6,14 @@ import pytest
 from gymnasium.envs.registration import load_env_creator
 
 import hydro_envs  # noqa: F401
-from agents.controllers import (
+from agents.controllers import controller_names, make_controller
+from agents.controllers.friction_models import identified_friction
+from agents.controllers.servo_cylinder import (
     PIDController,
     PIDFrictionFeedforwardController,
-    controller_names,
-    make_controller,
+    ProportionalPositionController,
     pid_tuning,
 )
-from agents.controllers.friction_models import identified_friction
-from agents.controllers.servo import ProportionalPositionController
 from hydro_envs.envs.references import generate_reference
 from hydro_envs.envs.shaking_table.references import generate_table_reference, reference_limits
 from hydro_envs.plants.force_actuator import model as fa
@@ -136,7 +135,7 @@ def test_friction_feedforward_slow_sine(env):
         res[freq] = (rmse(r[200:] - xs_pid[200:]), rmse(r[200:] - xs_ff[200:]))
     print("slow-sine RMSE [m] (PID, PID+FF):", res)
     # measured (nominal, seed 0): 0.2 Hz 9.28 -> 9.11 um, 0.5 Hz 45.46 -> 45.42 um. The valve
-    # cylinder is nearly a flow source (identification/compensators.py: 60 N costs 0.33 % of
+    # cylinder is nearly a flow source (hydro_envs/plants/servo_cylinder/compensation.py: 60 N costs 0.33 % of
     # velocity), so the feedforward helps, but only by ~2 % / 0.1 %, below the encoder count.
     for pid, pff in res.values():
         assert pff < pid
@@ -300,7 +299,7 @@ def test_identified_friction_recovers_the_plant_law(plant, truth):
 def test_table_velocity_gain_of_the_tuning_rule_is_the_plant_s():
     """K_q of the table rule (orifice-law no-load speed) against an open-loop run: a held
     action of 0.2 moves the nominal table at 0.2 K_q within the friction/load-pressure loss."""
-    from agents.controllers.table import table_tuning
+    from agents.controllers.shaking_table import table_tuning
     from hydro_envs import registry
     from hydro_envs.sim.stiffness import substeps_from_stiffness
 
@@ -319,7 +318,7 @@ def test_table_velocity_gain_of_the_tuning_rule_is_the_plant_s():
 def test_force_pid_gain_is_below_the_limit_cycle_onset():
     """The PID gain sits a factor 2.2 below the measured limit-cycle gain: a proportional loop
     at that gain is free of the 200 Hz limit cycle that appears at K_u."""
-    from agents.controllers.force import K_ULTIMATE, force_tuning
+    from agents.controllers.force_actuator import K_ULTIMATE, force_tuning
     from hydro_envs.plants.force_actuator.closed_loop import limit_cycle_sweep
 
     t = force_tuning()

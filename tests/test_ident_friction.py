@@ -21,7 +21,7 @@ from hydro_envs.laws.friction import dahl_friction_rate, lugre_bristle_rate
 from hydro_envs.plants.servo_cylinder.params import ServoCylinderParams
 from hydro_envs.plants.servo_cylinder.model import no_load_velocity
 from identification import experiments as ex
-from identification.compensators import (
+from hydro_envs.plants.servo_cylinder.compensation import (
     FrictionCompensator,
     command_increment,
     valve_command,

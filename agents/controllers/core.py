@@ -140,3 +140,16 @@ class PIDCore:
         self.y_prev = np.array(y, dtype=float, copy=True)
         self.fresh[:] = False
         return a
+
+
+class ZeroController:
+    """Action 0 for every copy (``action_dim`` wide): the do-nothing reference."""
+
+    def __init__(self, action_dim: int = 1) -> None:
+        self.action_dim = int(action_dim)
+
+    def predict(self, obs, state=None, episode_start=None, deterministic=True):
+        obs = np.asarray(obs)
+        if obs.ndim == 1:
+            return np.zeros(self.action_dim, dtype=np.float32), state
+        return np.zeros((obs.shape[0], self.action_dim), dtype=np.float32), state

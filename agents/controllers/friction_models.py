@@ -32,89 +32,36 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["FRICTION_KINDS", "FRICTION_PLANTS", "friction_points", "identified_friction"]
+__all__ = ["FRICTION_KINDS", "friction_plants", "friction_points", "identified_friction"]
 
-FRICTION_PLANTS = ("servo_cylinder", "shaking_table", "rodless_cylinder")
 FRICTION_KINDS = ("stribeck", "neural")
 
 
-def _servo_points():
-    from identification.experiments import (
-        friction_points_from_square_wave,
-        run_friction_experiment,
-    )
-
-    exp = run_friction_experiment(period_max=3.0)
-    return friction_points_from_square_wave(exp.data), exp.params.friction_sign_velocity, "stribeck"
-
-
-def _table_points():
+def _experiments() -> dict:
     from hydro_envs import registry
-    from hydro_envs.plants.shaking_table import model as st
-    from hydro_envs.sim.stiffness import substeps_from_stiffness
 
-    step = registry.get("shaking_table").kernels.step_serial
-    p = st.ShakingTableParams.preset("modified_ifas")
-    dt = 1e-3
-    half = 0.5 * p.stroke
-    speeds = np.geomspace(0.006, 0.3, 20)
-    commands = np.concatenate([speeds, -speeds]) / st.no_load_velocity(p)  # fraction of full opening
-    n = commands.size
-    y = np.stack([st.rest_state(p, -0.95 * half * np.sign(c)) for c in commands])
-    U = (commands * p.command_max).reshape(n, 1)
-    P = np.tile(p.to_array(), (n, 1))
-    nsub = np.full(n, substeps_from_stiffness(st.stiffness_modes(p), dt)[0], dtype=np.int64)
-    W = np.zeros((n, 5, st.N_STATES))
-    clamps = np.zeros(n, dtype=np.int64)
-    lo, hi = -0.2 * half * 2, 0.2 * half * 2  # middle 40 % of the stroke
-    sums = np.zeros((n, 3))  # samples, sum v, sum force
-    x_in, t_in = np.full(n, np.nan), np.zeros(n)
-    done = np.zeros(n, dtype=bool)
-    for k in range(int(60.0 / dt)):
-        step(y, U, P, dt, nsub, W, clamps)
-        x = y[:, st.X]
-        inside = (x > lo) & (x < hi) & ~done
-        first = inside & np.isnan(x_in)
-        x_in[first], t_in[first] = x[first], k * dt
-        sums[inside, 0] += 1
-        sums[inside, 2] += p.piston_area * (y[inside, st.PA] - y[inside, st.PB])
-        leaving = ~np.isnan(x_in) & ~inside & ~done
-        v_mean = (x - x_in) / np.maximum(k * dt - t_in, dt)
-        sums[leaving, 1] = v_mean[leaving]
-        done |= leaving
-        if done.all():
-            break
-    ok = done & (sums[:, 0] > 10)
-    v = sums[ok, 1]
-    f = sums[ok, 2] / sums[ok, 0]
-    return (v, f), 1.0 / p.tanh_gain, "stribeck_gaussian"
+    from agents.controllers import controller_module
+
+    out = {}
+    for spec in registry.specs():
+        mod = controller_module(spec.name) if spec.envs else None
+        if mod is not None and hasattr(mod, "friction_points"):
+            out[spec.name] = mod.friction_points
+    return out
 
 
-def _rodless_points():
-    from hydro_envs.plants.rodless_cylinder import model as rc
-
-    from hydro_envs.plants.rodless_cylinder.experiments import constant_command_run
-
-    p = rc.RodlessCylinderParams()
-    du = np.geomspace(0.03, 2.5, 24)
-    vs, fs = [], []
-    for c in np.concatenate([p.command_centre + du, p.command_centre - du]):
-        v, f, _ = constant_command_run(p, float(c), max_time=10.0)
-        if np.isfinite(v):
-            vs.append(v)
-            fs.append(f)
-    return (np.array(vs), np.array(fs)), 0.0, "stribeck"
-
-
-_EXPERIMENTS = {"servo_cylinder": _servo_points, "shaking_table": _table_points, "rodless_cylinder": _rodless_points}
+def friction_plants() -> tuple[str, ...]:
+    """Plants whose controller module runs a virtual friction experiment."""
+    return tuple(_experiments())
 
 
 @functools.cache
 def friction_points(plant: str):
     """``(points, sign_velocity, static_model)`` of the plant's virtual experiment (cached)."""
-    if plant not in _EXPERIMENTS:
-        raise ValueError(f"plant = {plant!r}; friction identification available for {FRICTION_PLANTS}")
-    return _EXPERIMENTS[plant]()
+    experiments = _experiments()
+    if plant not in experiments:
+        raise ValueError(f"plant = {plant!r}; friction identification available for {sorted(experiments)}")
+    return experiments[plant]()
 
 
 @functools.cache

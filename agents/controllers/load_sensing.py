@@ -99,3 +99,45 @@ class LoadSensingPIDController(BaseController):
         v = o[:, 3] * V_SCALE
         a1 = self.pid.step(e, v)
         return np.stack([np.zeros_like(a1), a1], axis=1)
+
+
+#: the plant these controllers are for (its registry name)
+PLANT = "load_sensing"
+
+# ------------------------------------------------------------------ registry hooks
+def controllers() -> dict:
+    """Classical controllers of this plant's envs: name -> zero-argument factory."""
+    return {"passive": PassiveCompensatorBaseline, "zero": PassiveCompensatorBaseline,
+            "pid": LoadSensingPIDController.from_params}
+
+
+def _ls_output(b):
+    from agents.adapters import ref_now
+    from hydro_envs.plants.load_sensing import model as ls
+
+    return b.Y[:, ls.VA].copy(), ref_now(b)
+
+
+def _ls_pressures(b):
+    from hydro_envs.plants.load_sensing import model as ls
+
+    names = b.params_cls.names()
+    floor = b.P[:, names.index("pressure_floor")]
+    relief = b.P[:, names.index("relief_pressure")]
+    return b.Y[:, [ls.PS, ls.PL]], floor, relief
+
+
+def _ls_stroke(b):
+    from hydro_envs.plants.load_sensing import model as ls
+
+    names = b.params_cls.names()
+    x = b.Y[:, ls.XA]
+    return (x < 0.0) | (x > b.P[:, names.index("stroke")])
+
+
+def benchmark_adapter(env_id: str):
+    """What the benchmark reads of ``env_id`` (actuator velocity; pressures within the relief)."""
+    from agents.adapters import EnvAdapter
+
+    return EnvAdapter(env_id, "velocity", "m/s", "steps", 2e-3, _ls_output, _ls_pressures, _ls_stroke,
+                      note="pressure limits: pump and load pressure within [floor, relief]")

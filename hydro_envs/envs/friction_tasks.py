@@ -1,8 +1,8 @@
 r"""Tasks where friction decides the tracking error: slow sines through velocity reversals and
 micro-positioning, on the servo cylinder (seed 002) and the pneumatic rodless cylinder (004).
 
-The plants, actions, observations and rewards are those of
-:mod:`hydro_envs.envs.servo_cylinder` and :mod:`hydro_envs.envs.rodless_cylinder`; only the
+The plants, actions, observations and rewards are those of the plants' tracking envs (their
+env modules define the task classes with :class:`FrictionTask`); only the
 reference (``hydro_envs.envs.references.generate_friction_reference``), the episode length and
 the start differ. Each episode starts at rest *on* the reference, so the error is made by the
 plant's friction, not by an initial transient.
@@ -33,28 +33,19 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from hydro_envs.envs.base import BatchedEnv, BatchedVectorEnv
 from hydro_envs.envs.references import FRICTION_REFERENCE_KINDS, generate_friction_reference
-from hydro_envs.envs.rodless_cylinder import REF_BAND as RODLESS_BAND
-from hydro_envs.envs.rodless_cylinder import RodlessCylinderBatch
-from hydro_envs.envs.servo_cylinder import REF_BAND as SERVO_BAND
-from hydro_envs.envs.servo_cylinder import ServoCylinderBatch
 
-__all__ = [
-    "ServoCylinderSlowSineEnv", "ServoCylinderSlowSineVectorEnv",
-    "RodlessCylinderSlowSineEnv", "RodlessCylinderSlowSineVectorEnv",
-    "ServoCylinderMicroPositionEnv", "ServoCylinderMicroPositionVectorEnv",
-    "RodlessCylinderMicroPositionEnv", "RodlessCylinderMicroPositionVectorEnv",
-    "SLOW_SINE_STEPS", "MICRO_STEPS",
-]
+__all__ = ["FrictionTask", "SLOW_SINE_STEPS", "MICRO_STEPS"]
 
 SLOW_SINE_STEPS = 4000
 MICRO_STEPS = 3000
 _KINDS = FRICTION_REFERENCE_KINDS + ("slow",)
 
 
-class _FrictionTask:
-    """Mixin: draws a friction reference and starts the plant at rest on it."""
+class FrictionTask:
+    """Mixin of a cylinder-tracking batch: draws a friction reference and starts the plant at
+    rest on it. The plant's env module sets ``friction_kind``, ``band`` (fractions of the
+    stroke), ``position_name`` (state name) and ``episode_steps_default``."""
 
     friction_kind: str
     band: tuple[float, float]
@@ -80,81 +71,3 @@ class _FrictionTask:
         if not opts.get("state"):
             opts["state"] = {self.position_name: float(np.asarray(ref, dtype=float).reshape(-1)[0])}
         super().reset_task(i, rng, p, opts)  # type: ignore[misc]
-
-
-class _ServoFriction(_FrictionTask, ServoCylinderBatch):
-    band = SERVO_BAND
-    position_name = "x"
-
-    def __init__(self, n: int, *, parallel: bool, reference: str | None = None, **kwargs: Any) -> None:
-        super().__init__(n, parallel=parallel, **kwargs)
-        self._init_task(reference)
-
-
-class _RodlessFriction(_FrictionTask, RodlessCylinderBatch):
-    band = RODLESS_BAND
-    position_name = "y"
-
-    def __init__(self, n: int, *, parallel: bool, reference: str | None = None, **kwargs: Any) -> None:
-        super().__init__(n, parallel=parallel, **kwargs)
-        self._init_task(reference)
-
-
-class ServoCylinderSlowSineBatch(_ServoFriction):
-    friction_kind = "slow"
-    episode_steps_default = SLOW_SINE_STEPS
-
-
-class RodlessCylinderSlowSineBatch(_RodlessFriction):
-    friction_kind = "slow"
-    episode_steps_default = SLOW_SINE_STEPS
-
-
-class ServoCylinderMicroPositionBatch(_ServoFriction):
-    friction_kind = "micro_steps"
-    episode_steps_default = MICRO_STEPS
-
-
-class RodlessCylinderMicroPositionBatch(_RodlessFriction):
-    friction_kind = "micro_steps"
-    episode_steps_default = MICRO_STEPS
-
-
-class ServoCylinderSlowSineEnv(BatchedEnv):
-    __doc__ = __doc__
-    batch_cls = ServoCylinderSlowSineBatch
-
-
-class ServoCylinderSlowSineVectorEnv(BatchedVectorEnv):
-    __doc__ = BatchedVectorEnv.__doc__
-    batch_cls = ServoCylinderSlowSineBatch
-
-
-class RodlessCylinderSlowSineEnv(BatchedEnv):
-    __doc__ = __doc__
-    batch_cls = RodlessCylinderSlowSineBatch
-
-
-class RodlessCylinderSlowSineVectorEnv(BatchedVectorEnv):
-    __doc__ = BatchedVectorEnv.__doc__
-    batch_cls = RodlessCylinderSlowSineBatch
-
-
-class ServoCylinderMicroPositionEnv(BatchedEnv):
-    __doc__ = __doc__
-    batch_cls = ServoCylinderMicroPositionBatch
-
-
-class ServoCylinderMicroPositionVectorEnv(BatchedVectorEnv):
-    __doc__ = BatchedVectorEnv.__doc__
-    batch_cls = ServoCylinderMicroPositionBatch
-
-
-class RodlessCylinderMicroPositionEnv(BatchedEnv):
-    __doc__ = __doc__
-    batch_cls = RodlessCylinderMicroPositionBatch
-
-
-class RodlessCylinderMicroPositionVectorEnv(BatchedVectorEnv):
-    __doc__ = BatchedVectorEnv.__doc__
-    batch_cls = RodlessCylinderMicroPositionBatch

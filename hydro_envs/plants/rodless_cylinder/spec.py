@@ -24,14 +24,14 @@ SPEC = PlantSpec(
         ),
         EnvEntry(
             "hydro_envs/RodlessCylinderSlowSine-v0",
-            "hydro_envs.envs.friction_tasks:RodlessCylinderSlowSineEnv",
-            "hydro_envs.envs.friction_tasks:RodlessCylinderSlowSineVectorEnv",
+            "hydro_envs.envs.rodless_cylinder:RodlessCylinderSlowSineEnv",
+            "hydro_envs.envs.rodless_cylinder:RodlessCylinderSlowSineVectorEnv",
             4000,
         ),
         EnvEntry(
             "hydro_envs/RodlessCylinderMicroPosition-v0",
-            "hydro_envs.envs.friction_tasks:RodlessCylinderMicroPositionEnv",
-            "hydro_envs.envs.friction_tasks:RodlessCylinderMicroPositionVectorEnv",
+            "hydro_envs.envs.rodless_cylinder:RodlessCylinderMicroPositionEnv",
+            "hydro_envs.envs.rodless_cylinder:RodlessCylinderMicroPositionVectorEnv",
             3000,
         ),
     ),

@@ -96,6 +96,8 @@ X, V, P1, P2, XV, VV = range(N_STATES)
 #: channel -> the state index whose time derivative it reads
 STATE_OUTPUTS: dict[str, int] = {"x": X, "p1": P1, "p2": P2}
 DERIVATIVE_OUTPUTS: dict[str, int] = {}
+#: channels a grey-box fit uses by default
+FIT_OUTPUTS = ("x", "p1", "p2")
 
 
 @nb.njit(cache=True, error_model="numpy")
@@ -276,3 +278,14 @@ def closed_valve_energy(y: np.ndarray, params: ServoCylinderParams, y0: np.ndarr
         + chamber(v1, v10, y0[P1])
         + chamber(v2, v20, y0[P2])
     )
+
+
+def rest_state_from_measurement(params: ServoCylinderParams, first: dict) -> np.ndarray:
+    """State at a record's first sample: at rest at the measured position (mid-stroke if not
+    measured), chamber pressures as measured or at the valve's null pressure ``(p_s + p_R)/2``."""
+    y = np.zeros(N_STATES)
+    y[X] = first.get("x", 0.5 * params.stroke)
+    pm = 0.5 * (params.supply_pressure + params.tank_pressure)
+    y[P1] = first.get("p1", pm)
+    y[P2] = first.get("p2", pm)
+    return y

@@ -24,14 +24,14 @@ SPEC = PlantSpec(
         ),
         EnvEntry(
             "hydro_envs/ServoCylinderSlowSine-v0",
-            "hydro_envs.envs.friction_tasks:ServoCylinderSlowSineEnv",
-            "hydro_envs.envs.friction_tasks:ServoCylinderSlowSineVectorEnv",
+            "hydro_envs.envs.servo_cylinder:ServoCylinderSlowSineEnv",
+            "hydro_envs.envs.servo_cylinder:ServoCylinderSlowSineVectorEnv",
             4000,
         ),
         EnvEntry(
             "hydro_envs/ServoCylinderMicroPosition-v0",
-            "hydro_envs.envs.friction_tasks:ServoCylinderMicroPositionEnv",
-            "hydro_envs.envs.friction_tasks:ServoCylinderMicroPositionVectorEnv",
+            "hydro_envs.envs.servo_cylinder:ServoCylinderMicroPositionEnv",
+            "hydro_envs.envs.servo_cylinder:ServoCylinderMicroPositionVectorEnv",
             3000,
         ),
     ),

@@ -127,6 +127,8 @@ X, V, PA, PB, XV, VV = range(N_STATES)
 #: channel -> the state index whose time derivative it reads
 STATE_OUTPUTS: dict[str, int] = {"x": X, "pa": PA, "pb": PB}
 DERIVATIVE_OUTPUTS: dict[str, int] = {"a": V}
+#: channels a grey-box fit uses by default
+FIT_OUTPUTS = ("x", "a")
 
 
 
@@ -411,3 +413,9 @@ def closed_valve_energy(y: np.ndarray, params: ShakingTableParams, y0: np.ndarra
     va0, vb0 = chamber_volumes(params, y0[X])
     va, vb = chamber_volumes(params, y[:, X])
     return 0.5 * params.mass * y[:, V] ** 2 + chamber(va, va0, y0[PA]) + chamber(vb, vb0, y0[PB])
+
+
+def rest_state_from_measurement(params: ShakingTableParams, first: dict) -> np.ndarray:
+    """State at a record's first sample: :func:`rest_state` at the measured position (0 if not
+    measured)."""
+    return rest_state(params, first.get("x", 0.0))

@@ -78,3 +78,30 @@ class ForcePIDController(BaseController):
         f = o[:, 0] * self.f_max
         e = o[:, 1] * self.f_max - f
         return self.pid.step(e, f)[:, None]
+
+
+#: the plant these controllers are for (its registry name)
+PLANT = "force_actuator"
+
+# ------------------------------------------------------------------ registry hooks
+def controllers() -> dict:
+    """Classical controllers of this plant's envs: name -> zero-argument factory."""
+    from agents.controllers.core import ZeroController
+
+    return {"zero": lambda: ZeroController(1), "pid": ForcePIDController.from_params}
+
+
+def _force_output(b):
+    from agents.adapters import ref_now
+    from hydro_envs.plants.force_actuator import model as fa
+
+    return b.P[:, fa.I_KS] * b.Y[:, fa.XS], ref_now(b)
+
+
+def benchmark_adapter(env_id: str):
+    """What the benchmark reads of ``env_id`` (true force k_s x_s; the 001 square references)."""
+    from agents.adapters import EnvAdapter
+
+    return EnvAdapter(env_id, "force", "N", "square", 5.0, _force_output, None, None,
+                      note="steps = the 001 square references (50/200/800 N); piston locked and no chamber "
+                           "pressures in the state: pressure/end-stop columns n/a")

@@ -51,6 +51,8 @@ from typing import Any
 
 import numpy as np
 
+from agents.controllers.tracking import ANTI_WINDUP, TrackingPID  # noqa: F401  (re-exported)
+
 from hydro_envs.plants.servo_cylinder.params import ServoCylinderParams
 from hydro_envs.plants.servo_cylinder.model import hydraulic_natural_frequency, no_load_velocity
 
@@ -66,7 +68,6 @@ __all__ = [
 
 ZETA_H = 0.075  # assumed hydraulic damping ratio of the valve-cylinder resonance
 DT = 1e-3  # s, control period of the servo env
-ANTI_WINDUP = ("back_calculation", "conditional", "none")
 PREVIEW_DT = 0.01  # s, obs[2] is the reference at +10 ms
 
 
@@ -106,34 +107,8 @@ def nominal_stribeck(params: ServoCylinderParams | None = None):
     )
 
 
-class PIDController:
-    """PID on the position error with filtered derivative and anti-windup (module docstring).
-
-    ``kp`` [action/m], ``ti, td, tf, tt`` [s]; ``stroke`` [m] and ``error_scale`` [m] undo the
-    observation's normalisation; ``anti_windup`` in ``("back_calculation", "conditional",
-    "none")``. ``tt`` defaults to ``ti``.
-    """
-
-    def __init__(self, kp: float, ti: float, td: float, tf: float, *, stroke: float,
-                 error_scale: float = 0.01, dt: float = DT, anti_windup: str = "back_calculation",
-                 tt: float | None = None) -> None:
-        tt = ti if tt is None else tt
-        for name, val, lo in (("kp", kp, 0.0), ("ti", ti, 0.0), ("tt", tt, 0.0), ("stroke", stroke, 0.0),
-                              ("error_scale", error_scale, 0.0), ("dt", dt, 0.0)):
-            if not (math.isfinite(val) and val > lo):
-                raise ValueError(f"{name} must be finite and > 0, got {val}")
-        for name, val in (("td", td), ("tf", tf)):
-            if not (math.isfinite(val) and val >= 0):
-                raise ValueError(f"{name} must be finite and >= 0, got {val}")
-        if anti_windup not in ANTI_WINDUP:
-            raise ValueError(f"anti_windup = {anti_windup!r}; allowed {ANTI_WINDUP}")
-        self.kp, self.ti, self.td, self.tf, self.tt = float(kp), float(ti), float(td), float(tf), float(tt)
-        self.half = 0.5 * float(stroke)
-        self.error_scale = float(error_scale)
-        self.dt = float(dt)
-        self.anti_windup = anti_windup
-        self._n = -1
-        self.reset()
+class PIDController(TrackingPID):
+    """:class:`~agents.controllers.tracking.TrackingPID` tuned for this plant (module docstring)."""
 
     @classmethod
     def from_params(cls, params: ServoCylinderParams | None = None, *, zeta_h: float = ZETA_H,
@@ -143,59 +118,12 @@ class PIDController:
         t = pid_tuning(p, zeta_h)
         return cls(t["kp"], t["ti"], t["td"], t["tf"], stroke=p.stroke, error_scale=error_scale, **kwargs)
 
-    def reset(self, n: int | None = None) -> None:
-        """Forget all internal states (``n`` copies; ``None``: size them on the next call)."""
-        self._n = -1 if n is None else int(n)
-        m = max(self._n, 0)
-        self.integral = np.zeros(m)
-        self.deriv = np.zeros(m)
-        self.x_prev = np.zeros(m)
-        self.fresh = np.ones(m, dtype=bool)
-
-    def _reset_rows(self, mask: np.ndarray) -> None:
-        self.integral[mask] = 0.0
-        self.deriv[mask] = 0.0
-        self.fresh[mask] = True
-
-    def feedforward(self, obs: np.ndarray) -> np.ndarray:
-        """Additive action before saturation (none here; see the subclass)."""
-        return np.zeros(obs.shape[0])
-
-    def predict(self, obs, state=None, episode_start=None, deterministic=True):
-        obs = np.asarray(obs, dtype=np.float64)
-        single = obs.ndim == 1
-        o = obs[None, :] if single else obs
-        if o.ndim != 2 or o.shape[1] < 11:
-            raise ValueError(f"obs must have shape (11,) or (n, 11), got {obs.shape}")
-        n = o.shape[0]
-        if n != self._n:
-            self.reset(n)
-        if episode_start is not None:
-            mask = np.broadcast_to(np.asarray(episode_start, dtype=bool).reshape(-1), (n,))
-            self._reset_rows(mask)
-        e = o[:, 0] * self.error_scale
-        x = self.half * (o[:, 7] + 1.0)
-        dx = np.where(self.fresh, 0.0, x - self.x_prev)
-        self.deriv = (self.tf * self.deriv - self.kp * self.td * dx) / (self.tf + self.dt)
-        v = self.kp * e + self.integral + self.deriv + self.feedforward(o)
-        a = np.clip(v, -1.0, 1.0)
-        di = self.kp * self.dt / self.ti * e
-        if self.anti_windup == "back_calculation":
-            di = di + self.dt / self.tt * (a - v)
-        elif self.anti_windup == "conditional":
-            di = np.where((a != v) & (np.sign(e) == np.sign(v)), 0.0, di)
-        self.integral = self.integral + di
-        self.x_prev = x
-        self.fresh[:] = False
-        act = a.astype(np.float32)[:, None]
-        return (act[0] if single else act), state
-
 
 class PIDFrictionFeedforwardController(PIDController):
     """:class:`PIDController` plus a friction feedforward at the reference velocity.
 
     ``v_ref = (r(t + 10 ms) - r(t)) / 0.01 s`` from the observation's preview; the increment
-    ``FrictionCompensator(model, params).action(v_ref)`` (:mod:`identification.compensators`:
+    ``FrictionCompensator(model, params).action(v_ref)`` (:mod:`hydro_envs.plants.servo_cylinder.compensation`:
     the valve command that delivers ``v_ref`` against the model's friction minus the one that
     delivers it against none, as a fraction of ``command_max``) is added before saturation, so
     the anti-windup sees the total command. ``model``: any ``F = model(v)`` [N] or object with
@@ -205,7 +133,7 @@ class PIDFrictionFeedforwardController(PIDController):
 
     def __init__(self, kp: float, ti: float, td: float, tf: float, *, stroke: float,
                  model: Any = None, params: ServoCylinderParams | None = None, **kwargs: Any) -> None:
-        from identification.compensators import FrictionCompensator
+        from hydro_envs.plants.servo_cylinder.compensation import FrictionCompensator
 
         super().__init__(kp, ti, td, tf, stroke=stroke, **kwargs)
         p = params if params is not None else ServoCylinderParams()
@@ -238,7 +166,7 @@ class ServoFlowController:
 
     Inner loop: the valve opening that delivers ``v_d`` at the *measured* load pressure
     ``p_L = p1 - p2`` (obs[8..9] times the nominal supply), i.e. the steady-state orifice law of
-    :func:`identification.compensators.valve_command` with the friction force replaced by the
+    :func:`hydro_envs.plants.servo_cylinder.compensation.valve_command` with the friction force replaced by the
     measured ``A p_L`` -- this linearises the pressure dependence of the flow gain (002 eq (3):
     ``Q = C_v w x_v sqrt(2 dp / rho)``) whatever the friction or load is::
 
@@ -322,3 +250,50 @@ class ProportionalPositionController:
         obs = np.asarray(obs)
         error = obs[..., 0:1] * self.error_scale  # obs[0] = e / error_scale
         return np.clip(self.kp * error, -1.0, 1.0).astype(np.float32), state
+
+
+#: the plant these controllers are for (its registry name)
+PLANT = "servo_cylinder"
+
+# ------------------------------------------------------------------ registry hooks
+#: the benchmark's step reference per env id of this plant (None: no step episodes)
+_STEP_REFERENCE = {
+    "hydro_envs/ServoCylinderPosition-v0": "steps",
+    "hydro_envs/ServoCylinderSlowSine-v0": None,
+    "hydro_envs/ServoCylinderMicroPosition-v0": "micro_steps",
+}
+
+
+def controllers() -> dict:
+    """Classical controllers of this plant's envs: name -> zero-argument factory."""
+    from agents.controllers.core import ZeroController
+    from agents.controllers.friction_models import identified_friction
+
+    return {
+        "zero": lambda: ZeroController(1),
+        "p": ProportionalPositionController,
+        "pid": PIDController.from_params,
+        "pid_ff_stribeck": lambda: PIDFrictionFeedforwardController.from_params(
+            model=identified_friction(PLANT, "stribeck")),
+        "pid_ff_neural": lambda: PIDFrictionFeedforwardController.from_params(
+            model=identified_friction(PLANT, "neural")),
+        "flow": ServoFlowController,
+    }
+
+
+def benchmark_adapter(env_id: str):
+    """What the benchmark reads of ``env_id`` (position tracking, encoder-level settling band)."""
+    from agents.adapters import EnvAdapter, cyl_output, cyl_pressures, cyl_stroke
+
+    return EnvAdapter(env_id, "position", "m", _STEP_REFERENCE.get(env_id), 1e-4, cyl_output, cyl_pressures,
+                      cyl_stroke)
+
+
+def friction_points():
+    from identification.experiments import (
+        friction_points_from_square_wave,
+        run_friction_experiment,
+    )
+
+    exp = run_friction_experiment(period_max=3.0)
+    return friction_points_from_square_wave(exp.data), exp.params.friction_sign_velocity, "stribeck"

@@ -1,4 +1,5 @@
-r"""Friction feedforward for the valve-controlled servo cylinder (seed 002).
+r"""Friction feedforward for the valve-controlled servo cylinder (seed 002): the steady-state
+inversion of its orifice law and a compensator built on any identified friction model.
 
 A compensator maps a velocity (the desired one, or a measured one) to the feedforward
 friction force of an identified model -- a static fit (:mod:`identification.friction`) or a

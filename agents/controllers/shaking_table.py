@@ -248,3 +248,95 @@ class TableFlowController(BaseController):
         u = _inverse_orifice(q, p_l, p)
         self.v_ref = self.v_ref + self.dt * a0
         return u[:, None]
+
+
+#: the plant these controllers are for (its registry name)
+PLANT = "shaking_table"
+
+# ------------------------------------------------------------------ registry hooks
+def controllers() -> dict:
+    """Classical controllers of this plant's envs: name -> zero-argument factory."""
+    from agents.controllers.core import ZeroController
+    from agents.controllers.friction_models import identified_friction
+
+    return {
+        "zero": lambda: ZeroController(1),
+        "pid": TablePIDController.from_params,
+        "pid_ff_stribeck": lambda: TableFrictionFeedforwardController.from_params(
+            model=identified_friction(PLANT, "stribeck")),
+        "pid_ff_neural": lambda: TableFrictionFeedforwardController.from_params(
+            model=identified_friction(PLANT, "neural")),
+        "flow": TableFlowController,
+    }
+
+
+def _table_output(b):
+    from agents.adapters import ref_now
+    from hydro_envs.plants.shaking_table.model import table_acceleration
+
+    a = np.array([table_acceleration(b.Y[i], b.P[i]) for i in range(b.n)])
+    return a, ref_now(b)
+
+
+def _table_pressures(b):
+    from agents.adapters import PRESSURE_MAX_FACTOR
+    from hydro_envs.plants.shaking_table import model as st
+
+    return b.Y[:, [st.PA, st.PB]], b.P[:, st.I_PFLOOR], PRESSURE_MAX_FACTOR * b.P[:, st.I_PS]
+
+
+def _table_stroke(b):
+    from hydro_envs.plants.shaking_table import model as st
+
+    return np.abs(b.Y[:, st.X]) > 0.5 * b.P[:, st.I_L]
+
+
+def benchmark_adapter(env_id: str):
+    """What the benchmark reads of ``env_id`` (table acceleration; no step reference)."""
+    from agents.adapters import EnvAdapter
+
+    return EnvAdapter(env_id, "acceleration", "m/s^2", None, 0.05, _table_output, _table_pressures,
+                      _table_stroke, note="no step reference: the table tracks accelerations of feasible motions "
+                                          "(sine, pulse, transition, earthquake); overshoot/settling n/a")
+
+
+def friction_points():
+    from hydro_envs import registry
+    from hydro_envs.plants.shaking_table import model as st
+    from hydro_envs.sim.stiffness import substeps_from_stiffness
+
+    step = registry.get("shaking_table").kernels.step_serial
+    p = st.ShakingTableParams.preset("modified_ifas")
+    dt = 1e-3
+    half = 0.5 * p.stroke
+    speeds = np.geomspace(0.006, 0.3, 20)
+    commands = np.concatenate([speeds, -speeds]) / st.no_load_velocity(p)  # fraction of full opening
+    n = commands.size
+    y = np.stack([st.rest_state(p, -0.95 * half * np.sign(c)) for c in commands])
+    U = (commands * p.command_max).reshape(n, 1)
+    P = np.tile(p.to_array(), (n, 1))
+    nsub = np.full(n, substeps_from_stiffness(st.stiffness_modes(p), dt)[0], dtype=np.int64)
+    W = np.zeros((n, 5, st.N_STATES))
+    clamps = np.zeros(n, dtype=np.int64)
+    lo, hi = -0.2 * half * 2, 0.2 * half * 2  # middle 40 % of the stroke
+    sums = np.zeros((n, 3))  # samples, sum v, sum force
+    x_in, t_in = np.full(n, np.nan), np.zeros(n)
+    done = np.zeros(n, dtype=bool)
+    for k in range(int(60.0 / dt)):
+        step(y, U, P, dt, nsub, W, clamps)
+        x = y[:, st.X]
+        inside = (x > lo) & (x < hi) & ~done
+        first = inside & np.isnan(x_in)
+        x_in[first], t_in[first] = x[first], k * dt
+        sums[inside, 0] += 1
+        sums[inside, 2] += p.piston_area * (y[inside, st.PA] - y[inside, st.PB])
+        leaving = ~np.isnan(x_in) & ~inside & ~done
+        v_mean = (x - x_in) / np.maximum(k * dt - t_in, dt)
+        sums[leaving, 1] = v_mean[leaving]
+        done |= leaving
+        if done.all():
+            break
+    ok = done & (sums[:, 0] > 10)
+    v = sums[ok, 1]
+    f = sums[ok, 2] / sums[ok, 0]
+    return (v, f), 1.0 / p.tanh_gain, "stribeck_gaussian"

@@ -1,7 +1,7 @@
 r"""Classical controllers for ``hydro_envs/RodlessCylinder-v0`` (pneumatic rodless cylinder, seed 004).
 
 The observation layout is the servo cylinder's (:mod:`hydro_envs.envs.cylinder_tracking`), so
-the PID is :class:`agents.controllers.servo.PIDController` with the rodless stroke and a tuning
+the PID is :class:`agents.controllers.tracking.TrackingPID` with the rodless stroke and a tuning
 from the mid-stroke linearisation of 004 eqs (19)-(24)
 (:func:`hydro_envs.plants.rodless_cylinder.linearize_mid_stroke`)::
 
@@ -33,7 +33,7 @@ from typing import Any
 
 import numpy as np
 
-from agents.controllers.servo import PIDController
+from agents.controllers.tracking import TrackingPID
 from hydro_envs.plants.rodless_cylinder.params import RodlessCylinderParams
 from hydro_envs.plants.rodless_cylinder.model import linearize_mid_stroke
 
@@ -52,8 +52,8 @@ def rodless_tuning(params: RodlessCylinderParams | None = None) -> dict[str, flo
             "td": 3.0 / w, "tf": 2.0 / w}
 
 
-class RodlessPIDController(PIDController):
-    """:class:`~agents.controllers.servo.PIDController` tuned by :func:`rodless_tuning`."""
+class RodlessPIDController(TrackingPID):
+    """:class:`~agents.controllers.tracking.TrackingPID` tuned by :func:`rodless_tuning`."""
 
     @classmethod
     def from_params(cls, params: RodlessCylinderParams | None = None, *, error_scale: float = 0.01,
@@ -96,3 +96,53 @@ class RodlessFrictionFeedforwardController(RodlessPIDController):
         f0 = np.asarray(self._f(v0), dtype=float)
         f1 = np.asarray(self._f(v1), dtype=float)
         return self._static * f0 + self._dynamic * (f1 - f0) / PREVIEW_DT
+
+
+#: the plant these controllers are for (its registry name)
+PLANT = "rodless_cylinder"
+
+# ------------------------------------------------------------------ registry hooks
+_STEP_REFERENCE = {
+    "hydro_envs/RodlessCylinder-v0": "steps",
+    "hydro_envs/RodlessCylinderSlowSine-v0": None,
+    "hydro_envs/RodlessCylinderMicroPosition-v0": "micro_steps",
+}
+
+
+def controllers() -> dict:
+    """Classical controllers of this plant's envs: name -> zero-argument factory."""
+    from agents.controllers.core import ZeroController
+    from agents.controllers.friction_models import identified_friction
+
+    return {
+        "zero": lambda: ZeroController(1),
+        "pid": RodlessPIDController.from_params,
+        "pid_ff_stribeck": lambda: RodlessFrictionFeedforwardController.from_params(
+            model=identified_friction(PLANT, "stribeck")),
+        "pid_ff_neural": lambda: RodlessFrictionFeedforwardController.from_params(
+            model=identified_friction(PLANT, "neural")),
+    }
+
+
+def benchmark_adapter(env_id: str):
+    """What the benchmark reads of ``env_id`` (position tracking)."""
+    from agents.adapters import EnvAdapter, cyl_output, cyl_pressures, cyl_stroke
+
+    return EnvAdapter(env_id, "position", "m", _STEP_REFERENCE.get(env_id), 2e-4, cyl_output, cyl_pressures,
+                      cyl_stroke)
+
+
+def friction_points():
+    from hydro_envs.plants.rodless_cylinder import model as rc
+
+    from hydro_envs.plants.rodless_cylinder.experiments import constant_command_run
+
+    p = rc.RodlessCylinderParams()
+    du = np.geomspace(0.03, 2.5, 24)
+    vs, fs = [], []
+    for c in np.concatenate([p.command_centre + du, p.command_centre - du]):
+        v, f, _ = constant_command_run(p, float(c), max_time=10.0)
+        if np.isfinite(v):
+            vs.append(v)
+            fs.append(f)
+    return (np.array(vs), np.array(fs)), 0.0, "stribeck"
