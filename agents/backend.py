@@ -1,4 +1,4 @@
-r"""Run independent pieces of work serially or as Ray core tasks (issue 8).
+r"""Run independent pieces of work serially or as Ray core tasks.
 
 The benchmark, the diagnosis sweep and multi-seed training all consist of independent pieces
 (a controller on a chunk of frozen draws, one hidden-effect case, one training seed). This

@@ -1,4 +1,4 @@
-r"""Benchmark classical and learned controllers on frozen, seeded parameter draws (issue 7, item 3).
+r"""Benchmark classical and learned controllers on frozen, seeded parameter draws.
 
 ``run_benchmark(env_id, controllers, params, n, seed)`` evaluates every controller on the SAME
 ``n`` episodes: the plant parameters are drawn once (:func:`draw_parameters`) and passed to

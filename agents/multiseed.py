@@ -1,4 +1,4 @@
-r"""Train one configuration with several seeds, serially or one Ray task per seed (issue 8).
+r"""Train one configuration with several seeds, serially or one Ray task per seed.
 
 Command line::
 

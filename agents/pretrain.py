@@ -1,4 +1,4 @@
-r"""Pre-trained baselines (issue 7, item 6): train, export, and find them.
+r"""Pre-trained baselines: train, export, and find them.
 
 The baselines shipped in ``agents/pretrained/<plant>/`` are PPO policies
 (``configs/agents/ppo.yml``) in the compact, pickle-free layout of

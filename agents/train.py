@@ -1,4 +1,4 @@
-r"""Train Stable-Baselines3 agents (PPO, SAC, TD3) on the hydro-envs tasks (issue 7, item 2).
+r"""Train Stable-Baselines3 agents (PPO, SAC, TD3) on the hydro-envs tasks.
 
 Command line::
 

@@ -59,7 +59,7 @@ from typing import Any
 import numpy as np
 from scipy import optimize, signal
 
-from identification._json import jsonable as _jsonable
+from hydro_envs.jsonutil import to_jsonable as _jsonable
 
 __all__ = [
     "FrfError",

@@ -68,7 +68,7 @@ from hydro_envs import registry
 from hydro_envs.params import ParameterError, PhysicalParams
 from hydro_envs.sim.simulate import simulate
 from hydro_envs.sim.stiffness import substeps_from_stiffness as substeps_for_modes
-from identification._json import jsonable as _jsonable
+from hydro_envs.jsonutil import to_jsonable as _jsonable
 
 __all__ = [
     "GreyboxError",

@@ -150,7 +150,7 @@ def test_friction_feedforward_slow_sine(env):
     assert ff.feedforward(o2[None])[0] > 0
 
 
-# ====================================================================== every env (issue 7 item 1)
+# ====================================================================== every env
 
 
 def _nominal_reference(env_id, steps):

@@ -1,4 +1,4 @@
-"""The main job (agents/demo.py) and the pre-trained baselines (agents/pretrain.py, issue 7).
+"""The main job (agents/demo.py) and the pre-trained baselines (agents/pretrain.py).
 
 What is checked is the truth of each stage, not that it ran: the virtual constant-velocity test
 recovers the rig's friction within its noise, the identified feedforward lowers the PID's

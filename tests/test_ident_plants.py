@@ -1,4 +1,4 @@
-"""Identification on the project's plants (issue 5 items 4, 7): the seeds' experiments run on
+"""Identification on the project's plants: the seeds' experiments run on
 our simulators, and fit results turned into randomisation specs and presets.
 
 * 004 sec. 4.2: closed-loop direct identification of the rodless cylinder, ARX(3, 3, 1)

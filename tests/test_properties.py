@@ -1,4 +1,4 @@
-"""Property tests (hypothesis) of the input boundaries (issue 8 item 3).
+"""Property tests (hypothesis) of the input boundaries.
 
 (a) config validation: invalid parameter values and malformed randomisation specs raise the
     package's error naming the field; valid draws construct;

@@ -1,5 +1,5 @@
 """agents/backend.py and the Ray backend of the benchmark, the diagnosis sweep and multi-seed
-training: same results as serial (issue 8). Needs the ``ray`` extra; skipped without it."""
+training: same results as serial. Needs the ``ray`` extra; skipped without it."""
 
 import importlib
 import os

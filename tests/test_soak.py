@@ -1,4 +1,4 @@
-"""Soak of every environment (issue 8 item 2): a short version of ``bench/soak.py`` runs here.
+"""Soak of every environment: a short version of ``bench/soak.py`` runs here.
 
 Every env is driven with random and bang-bang actions at the corners of its randomisation
 ranges and beyond them; no NaN/inf, guard breach, stroke breach, energy creation or

@@ -1,4 +1,4 @@
-r"""Classical baseline controllers for ``hydro_envs/ServoCylinderPosition-v0`` (issue 7, item 1).
+r"""Classical baseline controllers for ``hydro_envs/ServoCylinderPosition-v0``.
 
 PID, PID + friction feedforward and the model-based :class:`ServoFlowController`; all act on the env observation (layout: :mod:`hydro_envs.envs.servo_cylinder`)
 and expose the SB3-style ``predict(obs, state=None, episode_start=None, deterministic=True)

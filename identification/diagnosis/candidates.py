@@ -14,7 +14,7 @@ import numpy as np
 
 from hydro_envs.params import ParameterError
 from identification import greybox as gb
-from identification._json import jsonable
+from hydro_envs.jsonutil import to_jsonable as jsonable
 from identification.diagnosis.catalogue import Effect, effect
 from identification.diagnosis.plants import DiagnosisPlant
 from identification.diagnosis.records import Record

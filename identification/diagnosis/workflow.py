@@ -65,7 +65,7 @@ import numpy as np
 
 from hydro_envs.params import ParameterError, PhysicalParams
 from identification import greybox as gb
-from identification._json import jsonable
+from hydro_envs.jsonutil import to_jsonable as jsonable
 from identification.diagnosis.catalogue import effect, effects_for
 from identification.diagnosis.plants import DiagnosisPlant, diagnosis_plant
 from identification.diagnosis.records import Record, check_records
