@@ -829,10 +829,36 @@ _CONFIG_KEYS = {"env", "controllers", "n", "params", "episode_steps", "seed", "o
                 "step_reference", "policies", "figures", "note"}
 
 
+#: folder of the shipped benchmark configs (package data)
+SHIPPED_CONFIGS = Path(__file__).resolve().parent / "configs" / "benchmarks"
+
+
+def config_path(name: str | Path) -> Path:
+    """A benchmark config: an existing file, else a shipped one by name (``servo_cylinder`` or
+    ``servo_cylinder.yaml``, from any working directory)."""
+    path = Path(name)
+    if path.is_file():
+        return path
+    shipped = SHIPPED_CONFIGS / (path.name if path.suffix in (".yaml", ".yml") else f"{path.name}.yaml")
+    if shipped.is_file():
+        return shipped
+    names = sorted(f.stem for f in SHIPPED_CONFIGS.glob("*.yaml"))
+    raise FileNotFoundError(f"benchmark config {str(name)!r}: no such file, and no shipped config of that name; "
+                            f"shipped: {', '.join(names)}")
+
+
+def _policy_path(entry: str) -> str:
+    """A policy run folder named in a config: as given, else relative to the repository/package root."""
+    if Path(entry).exists():
+        return entry
+    rooted = Path(__file__).resolve().parents[1] / entry
+    return str(rooted) if rooted.exists() else entry
+
+
 def load_config(path: str | Path) -> dict[str, Any]:
     import yaml
 
-    path = Path(path)
+    path = config_path(path)
     data = yaml.safe_load(path.read_text(encoding="utf-8"))
     if not isinstance(data, dict):
         raise ValueError(f"benchmark config {path}: top level must be a mapping")  # noqa: TRY004
@@ -852,7 +878,8 @@ def cli_benchmark(args: argparse.Namespace) -> int:
             raise ValueError("--env (or 'env' in --config) is required")
         ctrls = args.controllers if args.controllers is not None else cfg.get("controllers", "pid")
         ctrls = [c.strip() for c in (ctrls.split(",") if isinstance(ctrls, str) else ctrls) if str(c).strip()]
-        ctrls += [f"sb3:{r}" for r in list(cfg.get("policies") or []) + list(args.policy)]
+        ctrls += [f"sb3:{_policy_path(str(r))}" for r in list(cfg.get("policies") or [])]
+        ctrls += [f"sb3:{r}" for r in args.policy]
         psets = args.params if args.params is not None else cfg.get("params", "nominal")
         psets = [s.strip() for s in (psets.split(",") if isinstance(psets, str) else psets)]
         for s in psets:

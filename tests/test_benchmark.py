@@ -218,3 +218,12 @@ def test_every_env_runs_with_same_draws(env_id):
         assert np.all(np.isnan(res.episodes["pid"]["overshoot"]))
     if bm.ADAPTERS[env_id].pressures is None:  # the force actuator: no chamber pressures
         assert np.all(np.isnan(res.episodes["pid"]["pressure_violations"]))
+
+
+def test_configs_resolve_by_name_from_any_directory(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    for name in ("servo_cylinder", "rodless_cylinder_slow_sine.yaml"):
+        assert bm.load_config(name)["env"].startswith("hydro_envs/")
+    assert bm._policy_path("agents/pretrained/servo_cylinder/ppo_s0").startswith(str(bm.Path(bm.__file__).resolve().parents[1]))
+    with pytest.raises(FileNotFoundError, match="shipped: force_actuator"):
+        bm.load_config("no_such_config")
