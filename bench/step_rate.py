@@ -10,8 +10,13 @@ Prints (no pass/fail; targets from the foundation issue in brackets):
 * servo cylinder: position and pressure NRMSE against Radau (rtol 1e-10) over 2 s of random step commands
   with end-stop contact, at the default sub-step               [<= 1e-4, <= 1e-3]
 * peak resident memory of a process running the 1024-copy servo env  [< 1 GiB]
+* per env id, a profile split of one 1024-copy vector step (``--profile`` prints only this table):
+  M env-steps/s, RK4 sub-steps per step (mean over copies), and the share of the step spent in
+  the compiled integration call, in ``apply_actions`` + ``observe`` (inputs, observation and
+  reward), and in the remaining Python (action checks, info dicts, autoreset), each timed with
+  ``time.perf_counter`` around that phase
 
-Usage: ``python bench/step_rate.py [--quick] [--env ID ...]``. Timings are the best of ``--repeats`` runs.
+Usage: ``python bench/step_rate.py [--quick] [--profile] [--env ID ...]``. Timings are the best of ``--repeats`` runs.
 """
 
 from __future__ import annotations
@@ -69,6 +74,56 @@ def vector_env_rate(env_id: str, n: int, steps: int) -> float:
     for k in range(steps):
         venv.step(actions[k])
     return steps * n / (time.perf_counter() - t0)
+
+
+def profile_split(env_id: str, n: int, steps: int) -> dict[str, float]:
+    """Time the phases of ``steps`` vector steps of ``n`` copies after a warm-up (seconds per step)."""
+    import gymnasium as gym
+
+    import hydro_envs  # noqa: F401
+
+    venv = gym.make_vec(env_id, num_envs=n, vectorization_mode="vector_entry_point")
+    venv.reset(seed=0)
+    b = venv.unwrapped._batch
+    rng = np.random.default_rng(0)
+    space = venv.single_action_space
+    actions = rng.uniform(space.low, space.high, (steps,) + (n,) + space.shape).astype(space.dtype)
+    for k in range(20):
+        venv.step(actions[k])
+    spent = {"kernel": 0.0, "observe": 0.0}
+
+    def timed(fn, key):
+        def wrapper(*args):
+            t = time.perf_counter()
+            fn(*args)
+            spent[key] += time.perf_counter() - t
+        return wrapper
+
+    b.step_kernel = timed(b.step_kernel, "kernel")
+    b.apply_actions = timed(b.apply_actions, "observe")
+    b.observe = timed(b.observe, "observe")
+    t0 = time.perf_counter()
+    for k in range(steps):
+        venv.step(actions[k])
+    total = time.perf_counter() - t0
+    return {
+        "rate": steps * n / total,
+        "step": total / steps,
+        "kernel": spent["kernel"] / steps,
+        "observe": spent["observe"] / steps,
+        "python": (total - spent["kernel"] - spent["observe"]) / steps,
+        "n_sub": float(np.mean(b.NSUB)),
+    }
+
+
+def print_profile(env_ids: list[str], n: int, steps: int, repeats: int) -> None:
+    print(f"profile of one {n}-copy vector step (best of {repeats}, {steps} steps after warm-up)")
+    head = f"{'env id':<44} {'M steps/s':>9} {'sub-steps':>9} {'step us':>8} {'kernel':>7} {'obs+rew':>7} {'python':>7}"
+    print(head)
+    for env_id in env_ids:
+        r = min((profile_split(env_id, n, steps) for _ in range(repeats)), key=lambda r: r["step"])
+        print(f"{env_id:<44} {r['rate'] / 1e6:>9.2f} {r['n_sub']:>9.2f} {r['step'] * 1e6:>8.0f} "
+              f"{r['kernel'] / r['step']:>7.0%} {r['observe'] / r['step']:>7.0%} {r['python'] / r['step']:>7.0%}")
 
 
 def kernel_time_per_substep(n: int, steps: int) -> tuple[float, float]:
@@ -157,6 +212,7 @@ def main() -> None:
     ap.add_argument("--quick", action="store_true", help="fewer steps (smoke run)")
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--env", action="append", help="env id to time (repeatable; default: all hydro_envs ids)")
+    ap.add_argument("--profile", action="store_true", help="print only the per-env profile table")
     ap.add_argument("--memory-child", nargs=2, type=int, help=argparse.SUPPRESS)
     args = ap.parse_args()
     if args.memory_child:
@@ -176,6 +232,9 @@ def main() -> None:
 
     best = lambda f: max(f() for _ in range(args.repeats))  # noqa: E731
     env_ids = args.env or sorted(k for k in gym.registry if k.startswith("hydro_envs/"))
+    if args.profile:
+        print_profile(env_ids, n, vec_steps, args.repeats)
+        return
     cart = best(lambda: single_env_rate("CartPole-v1", single_steps))
     vcart = best(lambda: vector_env_rate("CartPole-v1", n, vec_steps))
     print(f"CartPole-v1: single {cart:,.0f} steps/s, vector ({n} copies) {vcart / 1e6:.2f} M env-steps/s")
@@ -187,6 +246,8 @@ def main() -> None:
         print(f"{env_id}: single (gym.make, random actions) {single:,.0f} steps/s = {single / cart:.2f}x "
               f"CartPole [target >= 0.5]; vector ({n} copies) {vec / 1e6:.2f} M env-steps/s "
               f"[servo target >= 2 M/s]; {sub.n_substeps} RK4 sub-steps per {sub.dt * 1e3:g} ms step")
+
+    print_profile(env_ids, n, vec_steps, args.repeats)
 
     ser, par = min((kernel_time_per_substep(n, 200 if not args.quick else 20) for _ in range(args.repeats)),
                    key=lambda t: t[1])

@@ -15,7 +15,6 @@ import warnings
 import gymnasium as gym
 import numpy as np
 import pytest
-from gymnasium.utils.env_checker import check_env
 from gymnasium.vector import AutoresetMode
 
 import hydro_envs  # noqa: F401  (registers the env)
@@ -72,27 +71,6 @@ def spec():
 
 
 # ----------------------------------------------------------------------------- API checks
-def _infinite_bound_warning(w: warnings.WarningMessage) -> bool:
-    text = str(w.message)
-    return "infinity" in text and "Box observation space" in text
-
-
-def test_check_env_has_no_warnings_except_infinite_observation_bounds():
-    env = gym.make(ENV_ID)
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        check_env(env.unwrapped)  # raises on any API violation
-    other = [str(w.message) for w in caught if not _infinite_bound_warning(w)]
-    assert other == []
-
-
-def test_check_env_passes_without_any_warning():
-    env = gym.make(ENV_ID)
-    with warnings.catch_warnings():
-        warnings.simplefilter("error")
-        check_env(env.unwrapped)
-
-
 def test_gym_make_passive_checker_reset_and_step_without_warnings():
     with warnings.catch_warnings():
         warnings.simplefilter("error")

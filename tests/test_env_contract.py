@@ -1,0 +1,123 @@
+"""The contract every registered env keeps, checked once per env id from the registry.
+
+For every id in :func:`hydro_envs.registry.env_entries`: Gymnasium's ``check_env`` passes with
+no warning; ``reset(seed)`` fixes the whole trajectory and a different seed draws differently;
+observations stay inside ``observation_space``; copy ``i`` of the native vector env reset with
+seed ``s`` equals a single env reset with ``s + i``; a pickled or deep-copied env continues
+exactly as the original; NaN/inf actions raise ``ValueError`` naming the action. For one env
+per plant (:data:`hydro_envs.soak.SOAK_ENVS`) a short soak finds no energy created.
+"""
+
+from __future__ import annotations
+
+import copy
+import pickle
+import warnings
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium.utils.env_checker import check_env
+
+import hydro_envs  # noqa: F401  (registers the envs)
+from hydro_envs import registry, soak
+
+ENV_IDS = [entry.id for _, entry in registry.env_entries()]
+STEPS = 40
+N_VEC = 4
+
+
+def _actions(space, steps, seed, batch=()):
+    """Seeded actions for ``space`` (a Box or Discrete single-env space)."""
+    rng = np.random.default_rng(seed)
+    if isinstance(space, gym.spaces.Discrete):
+        return rng.integers(space.start, space.start + space.n, (steps,) + batch)
+    a = rng.uniform(space.low, space.high, (steps,) + batch + space.shape)
+    return a.astype(space.dtype)
+
+
+def _rollout(env, seed, actions):
+    """Observations and rewards of ``actions`` from ``reset(seed)``, resetting (unseeded) at episode ends."""
+    obs, _ = env.reset(seed=seed)
+    O, R = [obs], []
+    for a in actions:
+        obs, r, term, trunc, _ = env.step(a)
+        O.append(obs), R.append(r)
+        if term or trunc:
+            obs, _ = env.reset()
+            O.append(obs)
+    return np.array(O), np.array(R)
+
+
+def test_registry_lists_every_registered_env():
+    hydro = sorted(k for k in gym.registry if k.startswith("hydro_envs/"))
+    assert sorted(ENV_IDS) == hydro and len(ENV_IDS) == len(set(ENV_IDS))
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_env_contract(env_id):
+    env = gym.make(env_id)
+    space = env.action_space
+
+    # Gymnasium's API checker: no error and no warning
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        check_env(gym.make(env_id).unwrapped)
+
+    # reset(seed) fixes the trajectory; another seed draws another episode
+    acts = _actions(space, STEPS, seed=1)
+    O1, R1 = _rollout(env, 5, acts)
+    O2, R2 = _rollout(gym.make(env_id), 5, acts)
+    np.testing.assert_array_equal(O1, O2)
+    np.testing.assert_array_equal(R1, R2)
+    O3, _ = _rollout(gym.make(env_id), 6, acts[:1])
+    assert not np.array_equal(O1[0], O3[0]), "seeds 5 and 6 gave the same initial observation"
+
+    # observations inside the observation space over a random rollout
+    for k, obs in enumerate(O1):
+        assert env.observation_space.contains(obs), f"{env_id}: observation {k} outside the space: {obs}"
+    assert np.all(np.isfinite(R1))
+
+    # copy i of the native vector env == a single env reset with seed s + i
+    vacts = _actions(space, STEPS, seed=2, batch=(N_VEC,))
+    venv = gym.make_vec(env_id, num_envs=N_VEC, vectorization_mode="vector_entry_point")
+    vobs, _ = venv.reset(seed=10)
+    VO, VR, VD = [vobs], [], []
+    for a in vacts:
+        vobs, r, term, trunc, _ = venv.step(a)
+        VO.append(vobs), VR.append(r), VD.append(term | trunc)
+    VO, VR = np.array(VO), np.array(VR)
+    assert not np.any(VD), "rollout too long for the row-by-row comparison (an episode ended)"
+    for i in range(N_VEC):
+        single = gym.make(env_id)
+        Oi, Ri = _rollout(single, 10 + i, vacts[:, i])
+        np.testing.assert_array_equal(Oi, VO[:, i], err_msg=f"{env_id}: vector copy {i}")
+        np.testing.assert_array_equal(Ri, VR[:, i], err_msg=f"{env_id}: vector copy {i}")
+
+    # pickle and deepcopy mid-episode continue identically
+    env = gym.make(env_id)
+    env.reset(seed=3)
+    for a in acts[:10]:
+        env.step(a)
+    clones = [pickle.loads(pickle.dumps(env)), copy.deepcopy(env)]
+    ref = [env.step(a)[:2] for a in acts[10:20]]
+    for clone in clones:
+        got = [clone.step(a)[:2] for a in acts[10:20]]
+        for (o, r), (o2, r2) in zip(ref, got):
+            np.testing.assert_array_equal(o, o2)
+            assert r == r2
+
+    # non-finite actions raise ValueError naming the action
+    if isinstance(space, gym.spaces.Box):
+        for bad in (np.nan, np.inf, -np.inf):
+            a = np.full(space.shape, bad, dtype=space.dtype)
+            with pytest.raises(ValueError, match="action"):
+                env.step(a)
+
+
+@pytest.mark.parametrize("env_id", soak.SOAK_ENVS)
+def test_energy_balance(env_id):
+    r = soak.soak_env(env_id, 2_000, num_envs=8, seed=11, episode_steps=125)
+    assert r.steps >= 2_000
+    assert r.counts.get("energy", 0) == 0 and r.counts.get("passivity", 0) == 0, (r.counts, r.examples)
+    assert r.breaches == 0, (r.counts, r.examples)
