@@ -84,8 +84,58 @@ def _add_methods(p: argparse.ArgumentParser) -> None:
         mp = sub.add_parser(m.name, help=m.help, description=m.description,
                             formatter_class=argparse.RawDescriptionHelpFormatter)
         m.add_arguments(mp)
+        _add_record_options(mp)
         mp.add_argument("--json", action="store_true",
                         help="print one JSON object with parameters, std_errors, units, metrics")
+
+
+def _add_record_options(mp: argparse.ArgumentParser) -> None:
+    """The loader's options (--map, --units, --delimiter, --allow-gaps, ...) plus --map-file."""
+    from hydro_envs.data.cli_args import add_record_arguments
+
+    add_record_arguments(mp)
+    mp.add_argument("--map-file", dest="record_map_file", default=None, metavar="YAML",
+                    help="YAML file with the column map (same content as --map; --map wins)")
+
+
+def _record_kwargs(args: argparse.Namespace) -> dict[str, Any]:
+    """Keyword arguments of ``load_measured`` from the parsed loader options."""
+    from hydro_envs.data.cli_args import record_kwargs
+
+    kw = record_kwargs(args)
+    if kw.get("column_map") is None and getattr(args, "record_map_file", None):
+        kw["column_map"] = args.record_map_file
+    # plausibility checks: always on a foreign record (the loader's default) or when a check
+    # option is given; a file in the package's own SI format is read as written
+    if not (kw["allow_gaps"] or kw["max_jitter"] is not None or kw["stroke"] is not None):
+        kw["check"] = None
+    return kw
+
+
+def _contiguous(data: Any, args: argparse.Namespace) -> Any:
+    """:func:`_longest_segment` with its note kept in ``args.record_notes`` for the report."""
+    notes: list[str] = []
+    out = _longest_segment(data, notes)
+    args.record_notes = notes
+    return out
+
+
+def _longest_segment(data: Any, notes: list[str]) -> Any:
+    """The longest gap-free segment of a record split by ``--allow-gaps`` (a note says so).
+
+    Methods that need one contiguous uniform record (arx, frf, slider, greybox) use it; a gap
+    is never interpolated.
+    """
+    import dataclasses
+
+    segs = getattr(data, "segments", None)
+    if not segs:
+        return data
+    a, b = max(segs, key=lambda s: s[1] - s[0])
+    notes.append(f"record has {len(segs)} gap-separated segments; the longest (samples {a}..{b - 1}, "
+                 f"t = {data.t[a]:.6g}..{data.t[b - 1]:.6g} s) is used")
+    return dataclasses.replace(data, t=data.t[a:b], channels={k: v[a:b] for k, v in data.channels.items()},
+                               segments=None)
 
 
 def _jsonable(v: Any) -> Any:
@@ -129,6 +179,13 @@ def _print_text(res: Mapping[str, Any]) -> None:
         print()
         for r in [["parameter", "value", "std error", "unit"], ["-" * w for w in widths]] + rows:
             print("  ".join(c.ljust(w) for c, w in zip(r, widths)).rstrip())
+    dirp = res.get("direction_parameters") or {}
+    if dirp:
+        dse = res.get("direction_std_errors") or {}
+        print()
+        print("per direction of motion:")
+        for k, v in dirp.items():
+            print(f"  {k} = {_fmt(v)} +- {_fmt(dse.get(k, float('nan')))}")
     metrics = res.get("metrics", {})
     if metrics:
         print()
@@ -157,6 +214,9 @@ def _cmd_identify(args: argparse.Namespace) -> int:
         _err(f"{type(e).__name__}: {msg}")
         return EXIT_FAIL
     res.setdefault("method", name)
+    record_notes = getattr(args, "record_notes", None)
+    if record_notes:
+        res["notes"] = list(res.get("notes") or []) + list(record_notes)
     if getattr(args, "json", False):
         print(json.dumps(_jsonable(res), allow_nan=False))
     else:
@@ -204,13 +264,19 @@ def _friction_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--pressure-dependent", action="store_true",
                    help="add k_p * p to the Coulomb/static level (static models)")
     p.add_argument("--area", type=float, default=None, metavar="M2",
-                   help="piston area [m^2] (default: the file's piston_area metadata, else "
-                   "the plant's nominal value)")
+                   help="piston area [m^2] (default: the file's piston_area metadata; "
+                   "servo_cylinder: else the plant's nominal value)")
+    p.add_argument("--bore", type=float, default=None, metavar="M",
+                   help="seal_friction: cylinder bore [m], area = pi bore^2 / 4 (e.g. 0.025 or "
+                   "0.0257 for the EvaZillen rigs); --bore, --area or geometry in the file is "
+                   "required. The logger's irregular clock (10-17 ms steps, pauses) is accepted: "
+                   "each stroke window is fitted on its own time stamps")
     p.add_argument("--sign-velocity", type=float, default=0.0, metavar="V",
                    help="fit tanh(v/V) instead of sign(v) (match a simulator's regularisation)")
     p.add_argument("--unweighted", action="store_true",
                    help="equal weights (default: each point weighted by the standard error of "
-                   "its window mean)")
+                   "its window mean; seal_friction strokes always get equal weights: the scatter "
+                   "within a stroke says nothing of the stroke-to-stroke variation of its mean)")
     p.add_argument("--seed", type=int, default=0, help="seed of the neural nets (default 0)")
     p.add_argument("--drop-rows", type=int, default=15, metavar="N",
                    help="seal_friction, original format: leading rows to drop (default 15, as "
@@ -234,13 +300,19 @@ def _friction_run(args: argparse.Namespace) -> dict[str, Any]:
     if args.plant == "servo_cylinder":
         from hydro_envs.plants.servo_cylinder.params import ServoCylinderParams
 
-        data = load_measured(args.data, plant="servo_cylinder", required=("u", "x", "p1", "p2"))
+        data = load_measured(args.data, plant="servo_cylinder", required=("u", "x", "p1", "p2"),
+                             **_record_kwargs(args))
         area = args.area
         if area is None:
             area = float(data.metadata.get("piston_area", ServoCylinderParams().piston_area))
         pts = ex.friction_points_from_square_wave(data, area)
     else:
-        data = ex.load_seal_friction(args.data, drop_rows=args.drop_rows)
+        if args.bore is not None and args.area is not None:
+            raise ValueError(f"give --bore ({args.bore} m) or --area ({args.area} m^2), not both")
+        data = ex.load_seal_friction(args.data, drop_rows=args.drop_rows, bore=args.bore)
+        if args.area is None and "piston_area" not in data.metadata:
+            raise ValueError(f"{args.data}: the piston area is unknown -- the file carries no "
+                             "geometry; give --bore M (e.g. 0.025) or --area M2")
         pts = ex.seal_friction_points(data, piston_area=args.area)
         area = pts.meta["piston_area"]
     res: dict[str, Any] = {"method": "friction", "plant": args.plant, "model": args.model,
@@ -259,7 +331,8 @@ def _friction_run(args: argparse.Namespace) -> dict[str, Any]:
         res["notes"] = [f"E of 002 sec. 5 on the paper's rig: {neural.PAPER_E[kind]} N"]
         return res
     sigma = None
-    if not args.unweighted and pts.force_std is not None and pts.n_samples is not None:
+    equal = args.unweighted or args.plant == "seal_friction"
+    if not equal and pts.force_std is not None and pts.n_samples is not None:
         se = pts.force_std / np.sqrt(pts.n_samples)
         if np.all(se > 0):
             sigma = se
@@ -273,6 +346,8 @@ def _friction_run(args: argparse.Namespace) -> dict[str, Any]:
     res["metrics"] = {"nrmse": m["nrmse"], "E": m["E"], "rmse": m["rmse"],
                       "n_points": m["n_points"]}
     res["weighted"] = sigma is not None
+    if args.plant == "seal_friction":
+        _refuse_clamped(fit.parameters, fit.std_errors, fit.units, args.model)
     if getattr(args, "emit_ranges", None):
         from identification import ranges
 
@@ -306,6 +381,25 @@ register_method(
 # ======================================================================================
 
 
+def _refuse_clamped(params: Mapping[str, float], se: Mapping[str, float], units: Mapping[str, str],
+                    model: str) -> None:
+    """Raise when a friction level or coefficient (F_*, lower bound 0) ends at its bound.
+
+    A value pinned at 0 is the bound, not an estimate: the data do not determine it (in one
+    direction of an asymmetric fit, or overall), so no number is reported for it.
+    """
+    for k, v in params.items():
+        if not k.startswith("F_") or v is None:
+            continue
+        s = se.get(k, float("nan"))
+        scale = abs(s) if s is not None and math.isfinite(s) and s > 0 else 1.0
+        if abs(v) <= 1e-9 * max(scale, 1.0):
+            raise ValueError(
+                f"{k} = {v:.3g} {units.get(k, '')} is clamped at its bound 0 (std error {s:.3g}): "
+                f"the data do not determine it; model {model!r} is not supported by these data "
+                "-- fit a model without it (e.g. --model coulomb)")
+
+
 def _io_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--plant", required=True, help="plant of the measured-data file (hydro channels PLANT)")
     p.add_argument("--data", required=True, metavar="FILE", help="measured-data file")
@@ -318,7 +412,9 @@ def _load_io(args: argparse.Namespace):
 
     from hydro_envs.data.measured import load_measured
 
-    data = load_measured(args.data, plant=args.plant, required=(args.input, args.output))
+    data = load_measured(args.data, plant=args.plant, required=(args.input, args.output),
+                         **_record_kwargs(args))
+    data = _contiguous(data, args)
     u = np.asarray(data[args.input], dtype=float)
     y = np.asarray(data[args.output], dtype=float)
     return data, u, y
@@ -383,16 +479,25 @@ def _frf_run(args: argparse.Namespace) -> dict[str, Any]:
 def _slider_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--data", required=True, metavar="FILE", help="measured-data file of plant slider (f, x)")
     p.add_argument("--plant", default="slider", choices=("slider",), help="slider (default)")
-    p.add_argument("--stribeck", default="fit", choices=("fit", "fixed", "none"),
-                   help="fit the Stribeck dip in a second stage (default), keep it fixed, or omit it")
+    p.add_argument("--stribeck", default="auto", choices=("auto", "fit", "fixed", "none"),
+                   help="Stribeck dip: 'auto' (default; kept only when the data identify it and it "
+                        "lowers the BIC), 'fit', 'fixed' or 'none'")
+    p.add_argument("--asymmetric", action="store_true",
+                   help="Coulomb and viscous friction per direction of motion (printed with standard "
+                        "errors); needs --stribeck auto or none")
 
 
 def _slider_run(args: argparse.Namespace) -> dict[str, Any]:
     from hydro_envs.data.measured import load_measured
     from identification.slider import identify_slider_measured
 
-    data = load_measured(args.data, plant="slider")
-    res = identify_slider_measured(data, stribeck=args.stribeck).to_json_dict()
+    data = _contiguous(load_measured(args.data, plant="slider", required=("f", "x"), **_record_kwargs(args)),
+                       args)
+    ident = identify_slider_measured(data, stribeck=args.stribeck, asymmetric=bool(args.asymmetric))
+    res = ident.to_json_dict()
+    if ident.direction_params is not None:
+        res["direction_parameters"] = dict(ident.direction_params)
+        res["direction_std_errors"] = dict(ident.direction_std_errors or {})
     res.update({"plant": "slider", "data": str(args.data), "model": "mass + Stribeck friction + offset"})
     return res
 
@@ -445,7 +550,8 @@ def _greybox_run(args: argparse.Namespace) -> dict[str, Any]:
     names = [n.strip() for n in args.fit.split(",") if n.strip()]
     chans = setup["channels"]
     default_out = setup["fit_outputs"]
-    data = load_measured(args.data, plant=args.plant, required=("u",))
+    data = _contiguous(load_measured(args.data, plant=args.plant, required=("u",), **_record_kwargs(args)),
+                       args)
     outs = ([c.strip() for c in args.outputs.split(",")] if args.outputs
             else [c for c in default_out if c in data])
     if not outs:

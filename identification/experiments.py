@@ -836,7 +836,7 @@ def _parse_raw_seal(path: Path, text: str) -> tuple[np.ndarray, list[int]]:
 def load_seal_friction(
     path: str | os.PathLike[str],
     *,
-    bore: float = SEAL_BORE,
+    bore: float | None = SEAL_BORE,
     drop_rows: int = 15,
 ) -> MeasuredData:
     """Load a seal-friction record as plant ``seal_friction`` (channels ``x, p_gauge, F_load``, SI).
@@ -855,13 +855,18 @@ def load_seal_friction(
     CSV; a digit or sign: original). Malformed files raise
     :class:`~hydro_envs.data.measured.MeasuredDataError` naming file, line and column. The
     piston area ``pi bore^2 / 4`` is stored as ``metadata["piston_area"]`` (CSV files may carry
-    their own).
+    their own). ``bore=None``: no geometry is assumed; an original-format file then carries no
+    ``piston_area`` and :func:`seal_friction_points` needs ``piston_area``.
+
+    The logger's clock is irregular (10-17 ms steps, pauses); the record is kept as sampled --
+    the stroke analysis (:func:`seal_friction_points`) fits each window on its own time stamps
+    and needs no uniform clock.
     """
     p = Path(path)
     if not p.is_file():
         raise MeasuredDataError(p, "file not found")
-    if not (math.isfinite(bore) and bore > 0):
-        raise ValueError(f"bore must be > 0 m, got {bore}")
+    if bore is not None and not (math.isfinite(bore) and bore > 0):
+        raise ValueError(f"bore = {bore!r} m; allowed: a finite value > 0 m")
     raw = p.read_bytes()
     try:
         text = raw.decode("utf-8-sig")
@@ -870,10 +875,11 @@ def load_seal_friction(
     first = text.lstrip()[:1]
     if not first:
         raise MeasuredDataError(p, "file is empty")
-    area = math.pi * bore**2 / 4.0
+    area = None if bore is None else math.pi * bore**2 / 4.0
     if first == "#" or first.isalpha():
         data = load_measured(p, plant=SEAL_FRICTION_PLANT)
-        data.metadata.setdefault("piston_area", repr(area))
+        if area is not None:
+            data.metadata.setdefault("piston_area", repr(area))
         return data
     arr, linenos = _parse_raw_seal(p, text)
     if drop_rows < 0:
@@ -901,10 +907,9 @@ def load_seal_friction(
             "source": f"{p.name}: EvaZillen/3D-printed-pneumatic-actuator, "
                       "results_pneumatic-actuator/data/friction (CC0 1.0)",
             "license": "CC0-1.0",
-            "bore": repr(bore),
-            "piston_area": repr(area),
             "dropped_rows": str(drop_rows),
             "t0_ms": repr(float(t_ms[0])),
+            **({} if bore is None else {"bore": repr(bore), "piston_area": repr(area)}),
         },
     )
 
@@ -932,7 +937,8 @@ def seal_friction_points(
             raise MeasuredDataError(None, f"seal-friction data need channel {ch!r}", column=ch)
     if piston_area is None:
         if "piston_area" not in data.metadata:
-            raise ValueError("piston_area is required (no 'piston_area' in the metadata)")
+            raise ValueError("piston_area is unknown: the record carries no 'piston_area' "
+                             "(give the bore or the piston area)")
         piston_area = float(data.metadata["piston_area"])
     f = data["F_load"] - data["p_gauge"] * piston_area
     pts = constant_velocity_points(

@@ -1,0 +1,70 @@
+"""`hydro identify friction --plant seal_friction`: geometry from --bore / --area (never a silent
+default) and a friction coefficient clamped at its bound refused, on the shipped X-ring records."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from hydro_envs.cli import main
+from identification import experiments as ex
+
+DATA = Path(__file__).resolve().parent / "data" / "pneumatic_seal_friction"
+FILE = str(DATA / "X-ring257_3bar.csv")
+BASE = ["identify", "friction", "--plant", "seal_friction", "--data", FILE, "--drop-rows", "5"]
+
+
+def _json(capsys, argv):
+    code = main(argv + ["--json"])
+    out, err = capsys.readouterr()
+    assert code == 0, err
+    return json.loads(out)
+
+
+def test_without_geometry_is_an_error(capsys):
+    assert main(BASE + ["--model", "coulomb"]) != 0
+    err = capsys.readouterr().err
+    assert "no geometry" in err and "--bore" in err and "--area" in err
+    assert main(BASE + ["--model", "coulomb", "--bore", "0.0257", "--area", "5e-4"]) != 0
+    assert "not both" in capsys.readouterr().err
+
+
+def test_bore_and_area_agree_and_set_the_friction(capsys):
+    bore = 0.0257
+    area = math.pi * bore**2 / 4
+    a = _json(capsys, BASE + ["--model", "coulomb", "--bore", repr(bore)])
+    b = _json(capsys, BASE + ["--model", "coulomb", "--area", repr(area)])
+    assert a["area"] == pytest.approx(area, rel=1e-15)
+    assert a["parameters"]["F_c"] == pytest.approx(b["parameters"]["F_c"], rel=1e-12)
+    # independent truth: half the mean friction difference of retracting and extending windows
+    data = ex.load_seal_friction(FILE, drop_rows=5, bore=None)
+    pts = ex.seal_friction_points(data, piston_area=area)
+    f = np.asarray(pts.force)
+    v = np.asarray(pts.v)
+    half = 0.5 * (np.mean(f[v > 0]) - np.mean(f[v < 0]))
+    assert a["parameters"]["F_c"] == pytest.approx(half, rel=0.1)
+    # a different bore moves the friction by (A2 - A1) * mean pressure: the area is used
+    c = _json(capsys, BASE + ["--model", "coulomb", "--bore", "0.025"])
+    assert abs(c["parameters"]["F_c"] - a["parameters"]["F_c"]) > 0.05
+
+
+def test_loader_without_bore_keeps_no_area():
+    data = ex.load_seal_friction(FILE, drop_rows=5, bore=None)
+    assert "piston_area" not in data.metadata and "bore" not in data.metadata
+    with pytest.raises(ValueError, match="piston_area is unknown"):
+        ex.seal_friction_points(data)
+    with pytest.raises(ValueError, match="bore = -1"):
+        ex.load_seal_friction(FILE, bore=-1.0)
+
+
+def test_clamped_coefficient_is_an_error(capsys):
+    from identification.cli import _refuse_clamped
+
+    with pytest.raises(ValueError, match="F_v_neg = 0 N s/m is clamped at its bound 0"):
+        _refuse_clamped({"F_c_neg": 3.0, "F_v_neg": 0.0}, {"F_c_neg": 0.1, "F_v_neg": 50.0},
+                        {"F_v_neg": "N s/m"}, "coulomb_viscous")
+    _refuse_clamped({"F_c": 3.0, "F_v": 12.0}, {"F_c": 0.1, "F_v": 5.0}, {}, "coulomb_viscous")
