@@ -138,27 +138,6 @@ def _longest_segment(data: Any, notes: list[str]) -> Any:
                                segments=None)
 
 
-def _jsonable(v: Any) -> Any:
-    try:
-        import numpy as np
-    except ImportError:  # pragma: no cover
-        np = None  # type: ignore[assignment]
-    if np is not None:
-        if isinstance(v, np.ndarray):
-            return [_jsonable(x) for x in v.tolist()]
-        if isinstance(v, np.generic):
-            v = v.item()
-    if isinstance(v, bool) or v is None or isinstance(v, (int, str)):
-        return v
-    if isinstance(v, float):
-        return v if math.isfinite(v) else None
-    if isinstance(v, Mapping):
-        return {str(k): _jsonable(x) for k, x in v.items()}
-    if isinstance(v, (list, tuple)):
-        return [_jsonable(x) for x in v]
-    return str(v)
-
-
 def _fmt(v: Any) -> str:
     if isinstance(v, float):
         return f"{v:.6g}" if math.isfinite(v) else str(v)
@@ -218,7 +197,9 @@ def _cmd_identify(args: argparse.Namespace) -> int:
     if record_notes:
         res["notes"] = list(res.get("notes") or []) + list(record_notes)
     if getattr(args, "json", False):
-        print(json.dumps(_jsonable(res), allow_nan=False))
+        from hydro_envs.jsonutil import to_jsonable
+
+        print(json.dumps(to_jsonable(res), allow_nan=False))
     else:
         _print_text(res)
     return EXIT_OK
