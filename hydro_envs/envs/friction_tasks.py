@@ -35,7 +35,7 @@ import numpy as np
 
 from hydro_envs.envs.references import FRICTION_REFERENCE_KINDS, generate_friction_reference
 
-__all__ = ["FrictionTask", "SLOW_SINE_STEPS", "MICRO_STEPS"]
+__all__ = ["FrictionTask", "friction_task_classes", "SLOW_SINE_STEPS", "MICRO_STEPS"]
 
 SLOW_SINE_STEPS = 4000
 MICRO_STEPS = 3000
@@ -71,3 +71,33 @@ class FrictionTask:
         if not opts.get("state"):
             opts["state"] = {self.position_name: float(np.asarray(ref, dtype=float).reshape(-1)[0])}
         super().reset_task(i, rng, p, opts)  # type: ignore[misc]
+
+
+def friction_task_classes(prefix: str, batch_cls: type, band: tuple[float, float], position_name: str,
+                          module: str) -> tuple[type, ...]:
+    """The two friction-critical tasks on a plant's tracking batch ``batch_cls``: returns
+    ``(SlowSineBatch, MicroPositionBatch, SlowSineEnv, SlowSineVectorEnv, MicroPositionEnv,
+    MicroPositionVectorEnv)``, named ``<prefix><Task>...`` and owned by ``module`` (the plant's
+    env module binds them to those names, so they pickle and register like hand-written ones)."""
+    from hydro_envs.envs.base import BatchedEnv, BatchedVectorEnv
+
+    def init(self, n: int, *, parallel: bool, reference: str | None = None, **kwargs: Any) -> None:
+        batch_cls.__init__(self, n, parallel=parallel, **kwargs)
+        self._init_task(reference)
+
+    def make(name: str, bases: tuple[type, ...], attrs: dict) -> type:
+        cls = type(name, bases, {"__module__": module, "__qualname__": name, **attrs})
+        return cls
+
+    out = []
+    for task, kind, steps in (("SlowSine", "slow", SLOW_SINE_STEPS), ("MicroPosition", "micro_steps", MICRO_STEPS)):
+        out.append(make(f"{prefix}{task}Batch", (FrictionTask, batch_cls),
+                        {"band": band, "position_name": position_name, "friction_kind": kind,
+                         "episode_steps_default": steps, "__init__": init}))
+    envs = []
+    for batch in out:
+        name = batch.__name__[: -len("Batch")]
+        envs.append(make(f"{name}Env", (BatchedEnv,), {"__doc__": __doc__, "batch_cls": batch}))
+        envs.append(make(f"{name}VectorEnv", (BatchedVectorEnv,), {"__doc__": BatchedVectorEnv.__doc__,
+                                                                    "batch_cls": batch}))
+    return (*out, *envs)

@@ -63,9 +63,8 @@ from typing import Any, Mapping
 import numba as nb
 import numpy as np
 
-from hydro_envs.envs import friction_tasks
 from hydro_envs.envs.base import BatchedEnv, BatchedVectorEnv
-from hydro_envs.envs.friction_tasks import MICRO_STEPS, SLOW_SINE_STEPS, FrictionTask
+from hydro_envs.envs.friction_tasks import friction_task_classes
 from hydro_envs.envs.cylinder_tracking import (
     OBS_DIM,
     PREVIEW_STEPS,
@@ -199,40 +198,8 @@ class RodlessCylinderVectorEnv(BatchedVectorEnv):
 
 
 # ------------------------------------------------------------------ friction-critical tasks
-class _RodlessCylinderFriction(FrictionTask, RodlessCylinderBatch):
-    band = REF_BAND
-    position_name = "y"
-
-    def __init__(self, n: int, *, parallel: bool, reference: str | None = None, **kwargs: Any) -> None:
-        super().__init__(n, parallel=parallel, **kwargs)
-        self._init_task(reference)
-
-
-class RodlessCylinderSlowSineBatch(_RodlessCylinderFriction):
-    friction_kind = "slow"
-    episode_steps_default = SLOW_SINE_STEPS
-
-
-class RodlessCylinderMicroPositionBatch(_RodlessCylinderFriction):
-    friction_kind = "micro_steps"
-    episode_steps_default = MICRO_STEPS
-
-
-class RodlessCylinderSlowSineEnv(BatchedEnv):
-    __doc__ = friction_tasks.__doc__
-    batch_cls = RodlessCylinderSlowSineBatch
-
-
-class RodlessCylinderSlowSineVectorEnv(BatchedVectorEnv):
-    __doc__ = BatchedVectorEnv.__doc__
-    batch_cls = RodlessCylinderSlowSineBatch
-
-
-class RodlessCylinderMicroPositionEnv(BatchedEnv):
-    __doc__ = friction_tasks.__doc__
-    batch_cls = RodlessCylinderMicroPositionBatch
-
-
-class RodlessCylinderMicroPositionVectorEnv(BatchedVectorEnv):
-    __doc__ = BatchedVectorEnv.__doc__
-    batch_cls = RodlessCylinderMicroPositionBatch
+(
+    RodlessCylinderSlowSineBatch, RodlessCylinderMicroPositionBatch,
+    RodlessCylinderSlowSineEnv, RodlessCylinderSlowSineVectorEnv,
+    RodlessCylinderMicroPositionEnv, RodlessCylinderMicroPositionVectorEnv,
+) = friction_task_classes("RodlessCylinder", RodlessCylinderBatch, REF_BAND, "y", __name__)

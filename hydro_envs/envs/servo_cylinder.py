@@ -45,9 +45,8 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from hydro_envs.envs import friction_tasks
 from hydro_envs.envs.base import BatchedEnv, BatchedVectorEnv
-from hydro_envs.envs.friction_tasks import MICRO_STEPS, SLOW_SINE_STEPS, FrictionTask
+from hydro_envs.envs.friction_tasks import friction_task_classes
 from hydro_envs.envs.cylinder_tracking import (
     OBS_DIM,
     PREVIEW_STEPS,
@@ -140,40 +139,8 @@ class ServoCylinderPositionVectorEnv(BatchedVectorEnv):
 
 
 # ------------------------------------------------------------------ friction-critical tasks
-class _ServoCylinderFriction(FrictionTask, ServoCylinderBatch):
-    band = REF_BAND
-    position_name = "x"
-
-    def __init__(self, n: int, *, parallel: bool, reference: str | None = None, **kwargs: Any) -> None:
-        super().__init__(n, parallel=parallel, **kwargs)
-        self._init_task(reference)
-
-
-class ServoCylinderSlowSineBatch(_ServoCylinderFriction):
-    friction_kind = "slow"
-    episode_steps_default = SLOW_SINE_STEPS
-
-
-class ServoCylinderMicroPositionBatch(_ServoCylinderFriction):
-    friction_kind = "micro_steps"
-    episode_steps_default = MICRO_STEPS
-
-
-class ServoCylinderSlowSineEnv(BatchedEnv):
-    __doc__ = friction_tasks.__doc__
-    batch_cls = ServoCylinderSlowSineBatch
-
-
-class ServoCylinderSlowSineVectorEnv(BatchedVectorEnv):
-    __doc__ = BatchedVectorEnv.__doc__
-    batch_cls = ServoCylinderSlowSineBatch
-
-
-class ServoCylinderMicroPositionEnv(BatchedEnv):
-    __doc__ = friction_tasks.__doc__
-    batch_cls = ServoCylinderMicroPositionBatch
-
-
-class ServoCylinderMicroPositionVectorEnv(BatchedVectorEnv):
-    __doc__ = BatchedVectorEnv.__doc__
-    batch_cls = ServoCylinderMicroPositionBatch
+(
+    ServoCylinderSlowSineBatch, ServoCylinderMicroPositionBatch,
+    ServoCylinderSlowSineEnv, ServoCylinderSlowSineVectorEnv,
+    ServoCylinderMicroPositionEnv, ServoCylinderMicroPositionVectorEnv,
+) = friction_task_classes("ServoCylinder", ServoCylinderBatch, REF_BAND, "x", __name__)
