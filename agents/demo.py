@@ -4,9 +4,9 @@ One script that walks through what the suite is for, on ``ServoCylinderPosition-
 
 1. **Identify** the friction of the "rig" -- the nominal servo cylinder seen through realistic
    sensors (0.03 mm encoder, 20 kPa pressure noise low-passed at 50 Hz,
-   :meth:`identification.experiments.SensorModel.realistic`) -- from the virtual
+   :meth:`hydro_envs.data.sensors.SensorModel.realistic`) -- from the virtual
    constant-velocity square-wave test of 002 sec. 4
-   (:func:`~identification.experiments.run_friction_experiment`, plateau velocities and
+   (:func:`~hydro_envs.plants.servo_cylinder.friction_test.run_friction_experiment`, plateau velocities and
    ``A (p_1 - p_2)`` per plateau, eq (10)), and fit the Stribeck law 002 eq (1) by nonlinear
    least squares (:func:`identification.friction.fit_friction`). The fit is printed beside the
    rig's true values, with standard errors.
@@ -93,11 +93,9 @@ def identify_friction(seed: int = 0):
     Returns ``(fit, points, experiment)``. The sign regularisation of the fit is the plant's
     (``friction_sign_velocity``), as a user would read it from the model they calibrate.
     """
-    from identification.experiments import (
-        SensorModel,
-        friction_points_from_square_wave,
-        run_friction_experiment,
-    )
+    from hydro_envs.data.sensors import SensorModel
+    from hydro_envs.plants.servo_cylinder.friction_test import run_friction_experiment
+    from identification.constant_velocity import friction_points_from_square_wave
     from identification.friction import fit_friction
 
     exp = run_friction_experiment(sensors=SensorModel.realistic(), seed=seed, period_max=3.0)

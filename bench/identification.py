@@ -38,11 +38,13 @@ def best_time(fn: Callable[[], object], repeats: int) -> tuple[float, object]:
 
 
 def bench_experiment(ctx: dict, repeats: int) -> list[tuple[str, float, str]]:
-    from identification import experiments as ex
+    from hydro_envs.data.sensors import SensorModel
+    from hydro_envs.plants.servo_cylinder.friction_test import run_friction_experiment
+    from identification.constant_velocity import friction_points_from_square_wave
 
     t_run, run = best_time(
-        lambda: ex.run_friction_experiment(sensors=ex.SensorModel.realistic(), seed=0), repeats)
-    t_pts, pts = best_time(lambda: ex.friction_points_from_square_wave(run.data), repeats)
+        lambda: run_friction_experiment(sensors=SensorModel.realistic(), seed=0), repeats)
+    t_pts, pts = best_time(lambda: friction_points_from_square_wave(run.data), repeats)
     ctx["points"] = pts
     return [
         (f"virtual 002 test ({run.schedule.duration:.0f} s, {run.data.n_samples} samples)", t_run, ""),

@@ -3,10 +3,12 @@
 Modules (import them explicitly; this package imports nothing heavy so that the ``hydro``
 command line stays fast):
 
-* :mod:`identification.experiments` -- virtual experiments on the plants (the constant-velocity
-  friction test of 002 sec. 4, the plant-agnostic constant-velocity test of 004 sec. 3.2),
-  steady-window extraction, excitation signals (PRBS / M-sequences, log sine sweeps), the
-  measured seal-friction data loader.
+* :mod:`identification.constant_velocity` -- friction points from constant-velocity records:
+  the square-wave test of 002 sec. 4 and the plant-agnostic test of 004 sec. 3.2 (steady
+  windows found in the record). The virtual experiments themselves live with their plants
+  (``hydro_envs.plants.<plant>.friction_test`` / ``experiments``).
+* :mod:`identification.seal_friction` -- the measured seal-friction strokes (CC0): loader and
+  friction points.
 * :mod:`identification.friction` -- friction points and fits: Stribeck (exponential 002 eq (1),
   Gaussian 003 eq (11)) by bounded nonlinear least squares with covariance, the graphical
   construction of 004 sec. 3.1, per-direction and pressure-dependent variants, Dahl and LuGre

@@ -274,7 +274,8 @@ def _friction_arguments(p: argparse.ArgumentParser) -> None:
 def _friction_run(args: argparse.Namespace) -> dict[str, Any]:
     import numpy as np
 
-    from identification import experiments as ex
+    from identification.constant_velocity import friction_points_from_square_wave
+    from identification.seal_friction import load_seal_friction, seal_friction_points
     from identification import friction as fr
     from hydro_envs.data.measured import load_measured
 
@@ -286,15 +287,15 @@ def _friction_run(args: argparse.Namespace) -> dict[str, Any]:
         area = args.area
         if area is None:
             area = float(data.metadata.get("piston_area", ServoCylinderParams().piston_area))
-        pts = ex.friction_points_from_square_wave(data, area)
+        pts = friction_points_from_square_wave(data, area)
     else:
         if args.bore is not None and args.area is not None:
             raise ValueError(f"give --bore ({args.bore} m) or --area ({args.area} m^2), not both")
-        data = ex.load_seal_friction(args.data, drop_rows=args.drop_rows, bore=args.bore)
+        data = load_seal_friction(args.data, drop_rows=args.drop_rows, bore=args.bore)
         if args.area is None and "piston_area" not in data.metadata:
             raise ValueError(f"{args.data}: the piston area is unknown -- the file carries no "
                              "geometry; give --bore M (e.g. 0.025) or --area M2")
-        pts = ex.seal_friction_points(data, piston_area=args.area)
+        pts = seal_friction_points(data, piston_area=args.area)
         area = pts.meta["piston_area"]
     res: dict[str, Any] = {"method": "friction", "plant": args.plant, "model": args.model,
                            "data": str(args.data), "n_points": len(pts), "area": area}

@@ -1,4 +1,4 @@
-"""Truth tests of the seed-001 static experiments (identification.force_actuator_experiments)."""
+"""Truth tests of the seed-001 virtual experiments (hydro_envs.plants.force_actuator.experiments)."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import pytest
 
 from hydro_envs.data.measured import load_measured
 from hydro_envs.plants.force_actuator import model as fa
-from identification import force_actuator_experiments as fe
+from hydro_envs.plants.force_actuator import experiments as fe
 
 NOMINAL = fa.ForceActuatorParams()
 FRICTIONLESS = dataclasses.replace(NOMINAL, coulomb_friction=0.0, stiction_retract=0.0, stiction_extend=0.0)

@@ -20,7 +20,10 @@ from hydro_envs.data.measured import load_measured
 from hydro_envs.laws.friction import dahl_friction_rate, lugre_bristle_rate
 from hydro_envs.plants.servo_cylinder.params import ServoCylinderParams
 from hydro_envs.plants.servo_cylinder.model import no_load_velocity
-from identification import experiments as ex
+from hydro_envs.data.sensors import SensorModel
+from hydro_envs.excitation import log_sine_sweep, log_sweep_frequency, m_sequence, prbs
+from hydro_envs.plants.servo_cylinder.friction_test import friction_test_schedule, run_friction_experiment, simulate_servo_cylinder
+from identification.constant_velocity import constant_velocity_test, friction_points_from_square_wave, steady_windows
 from hydro_envs.plants.servo_cylinder.compensation import (
     FrictionCompensator,
     command_increment,
@@ -234,7 +237,7 @@ def test_graphical_construction_on_table2_curve():
 
 
 def test_default_schedule_fits_the_stroke_and_150_s():
-    s = ex.friction_test_schedule()
+    s = friction_test_schedule()
     assert 149.0 < s.duration <= 150.0
     np.testing.assert_allclose(np.diff(s.amplitudes), 0.05)  # 002: +0.05 V per period
     assert s.amplitudes[0] == pytest.approx(0.05)
@@ -244,18 +247,18 @@ def test_default_schedule_fits_the_stroke_and_150_s():
     travel = k_v * s.amplitudes * s.half_steps * s.dt
     np.testing.assert_allclose(travel, 0.75 * NOMINAL.stroke, rtol=2e-3)
     with pytest.raises(ValueError, match="period_min"):
-        ex.friction_test_schedule(amplitudes=[9.0], travel_fraction=0.5)
+        friction_test_schedule(amplitudes=[9.0], travel_fraction=0.5)
 
 
 def test_virtual_experiment_stays_off_the_stops_and_recovers_exactly():
     """Stable plant, ideal sensors: the 002 sec. 4 algorithm returns the plant's friction law
     (the truth) to 0.3 %, and the piston never touches the end stops."""
-    run = ex.run_friction_experiment(STABLE, duration=40.0, amplitude_step=0.05,
+    run = run_friction_experiment(STABLE, duration=40.0, amplitude_step=0.05,
                                      travel_fraction=0.4)
     x = run.states[:, 0]
     assert x.min() > 5e-3 and x.max() < NOMINAL.stroke - 5e-3
     assert run.clamps == 0
-    pts = ex.friction_points_from_square_wave(run.data)
+    pts = friction_points_from_square_wave(run.data)
     assert np.all(np.sign(pts.v) == np.sign(pts.command))
     truth = static_friction("stribeck", pts.v, _truth(run.params),
                             sign_velocity=run.params.friction_sign_velocity)
@@ -272,8 +275,8 @@ def test_virtual_experiment_realistic_sensors_recovery():
     paper's 0.05 V steps: only ~3 points per direction lie in the dip.)"""
     est = []
     for seed in range(4):
-        run = ex.run_friction_experiment(STABLE, sensors=ex.SensorModel.realistic(), seed=seed)
-        pts = ex.friction_points_from_square_wave(run.data)
+        run = run_friction_experiment(STABLE, sensors=SensorModel.realistic(), seed=seed)
+        pts = friction_points_from_square_wave(run.data)
         fit = fit_friction(pts, model="stribeck", sign_velocity=run.params.friction_sign_velocity,
                            sigma=pts.force_std / np.sqrt(pts.n_samples))
         truth = _truth(run.params)
@@ -290,8 +293,8 @@ def test_nominal_plant_low_speed_limit_cycle_is_visible():
     ~20 mm/s: a friction-induced limit cycle makes the window force oscillate by tens of N
     (ideal sensors), while windows from 25 to 80 mm/s are steady; F_c and F_v are still found
     within 2 %. The window averages are cycle averages, which biases F_s and v_s."""
-    run = ex.run_friction_experiment()
-    pts = ex.friction_points_from_square_wave(run.data)
+    run = run_friction_experiment()
+    pts = friction_points_from_square_wave(run.data)
     slow = np.abs(pts.v) < 0.021
     steady = (np.abs(pts.v) > 0.025) & (np.abs(pts.v) < 0.08)
     assert slow.sum() == 12 and steady.sum() >= 20
@@ -305,9 +308,9 @@ def test_nominal_plant_low_speed_limit_cycle_is_visible():
 
 def test_experiment_file_roundtrip_quantisation_and_noise(tmp_path):
     path = tmp_path / "friction.csv"
-    sensors = ex.SensorModel(position_quantization=3e-5, pressure_noise_std=2e4,
+    sensors = SensorModel(position_quantization=3e-5, pressure_noise_std=2e4,
                              pressure_filter_hz=50.0)
-    run = ex.run_friction_experiment(STABLE, sensors=sensors, seed=3, path=path,
+    run = run_friction_experiment(STABLE, sensors=sensors, seed=3, path=path,
                                      amplitudes=[0.5, 1.0, 2.0], travel_fraction=0.5)
     data = load_measured(path)
     assert data.plant == "servo_cylinder" and data.metadata["piston_area"]
@@ -315,15 +318,15 @@ def test_experiment_file_roundtrip_quantisation_and_noise(tmp_path):
     q = data["x"] / 3e-5
     np.testing.assert_allclose(q, np.round(q), atol=1e-6)  # 0.03 mm encoder steps
     # noise present, reduced by the 50 Hz filter: compare with the noise-free filtered truth
-    _, (p1_clean,) = ex.SensorModel(pressure_filter_hz=50.0).apply(
+    _, (p1_clean,) = SensorModel(pressure_filter_hz=50.0).apply(
         1e-3, run.states[:, 0], [run.states[:, 2]], np.random.default_rng(0))
     noise = data["p1"] - p1_clean
     assert 3e3 < np.std(noise) < 1e4  # 20 kPa white noise through a 50 Hz low-pass at 1 kHz
-    pts = ex.friction_points_from_square_wave(data)
+    pts = friction_points_from_square_wave(data)
     assert len(pts) == 6
     np.testing.assert_allclose(np.abs(pts.command), np.repeat([0.5, 1.0, 2.0], 2))
     # reproducible for the same seed
-    run2 = ex.run_friction_experiment(STABLE, sensors=sensors, seed=3,
+    run2 = run_friction_experiment(STABLE, sensors=sensors, seed=3,
                                       amplitudes=[0.5, 1.0, 2.0], travel_fraction=0.5)
     np.testing.assert_array_equal(run2.data["p1"], data["p1"])
 
@@ -353,13 +356,13 @@ def test_constant_velocity_test_generic_unequal_areas():
         return {"t": t, "x": x, "pa": pa, "pb": pb}
 
     commands = [0.1, 0.25, 0.5, 1.0, 2.0, 4.0, -0.5, -2.0]
-    pts = ex.constant_velocity_test(simulate, commands, area_a=area_a, area_b=area_b,
+    pts = constant_velocity_test(simulate, commands, area_a=area_a, area_b=area_b,
                                     settle_time=0.3)
     assert len(pts) == len(commands)
     np.testing.assert_allclose(pts.v, 0.02 * np.array(commands), rtol=1e-3)
     np.testing.assert_allclose(pts.force, static_friction("stribeck", pts.v, law), rtol=5e-3)
     with pytest.raises(ValueError, match="area_a"):
-        ex.constant_velocity_test(simulate, [1.0])
+        constant_velocity_test(simulate, [1.0])
 
 
 def test_constant_velocity_test_on_servo_cylinder():
@@ -369,11 +372,11 @@ def test_constant_velocity_test_on_servo_cylinder():
 
     def simulate(c: float):
         n = 600
-        states = ex.simulate_servo_cylinder(params, np.full(n, c), x0=0.01)
+        states = simulate_servo_cylinder(params, np.full(n, c), x0=0.01)
         t = np.arange(n + 1) * 1e-3
         return {"t": t, "x": states[:, 0], "pa": states[:, 2], "pb": states[:, 3]}
 
-    pts = ex.constant_velocity_test(simulate, [0.5, 1.0, 2.0], area_a=params.piston_area,
+    pts = constant_velocity_test(simulate, [0.5, 1.0, 2.0], area_a=params.piston_area,
                                     settle_time=0.1)
     truth = static_friction("stribeck", pts.v, _truth(params),
                             sign_velocity=params.friction_sign_velocity)
@@ -383,12 +386,12 @@ def test_constant_velocity_test_on_servo_cylinder():
 def test_steady_windows_on_trapezoid():
     t = np.arange(0.0, 6.0, 0.01)
     v = np.interp(t, [0, 0.5, 2.5, 3.0, 3.5, 5.5, 6.0], [0, 0.01, 0.01, 0, -0.02, -0.02, 0])
-    w = ex.steady_windows(t, v, min_duration=0.5, rel_tol=0.05, trim=0.0)
+    w = steady_windows(t, v, min_duration=0.5, rel_tol=0.05, trim=0.0)
     assert len(w) == 2
     (a0, a1), (b0, b1) = w
     assert t[a0] == pytest.approx(0.5, abs=0.05) and t[a1 - 1] == pytest.approx(2.5, abs=0.05)
     assert t[b0] == pytest.approx(3.5, abs=0.05) and t[b1 - 1] == pytest.approx(5.5, abs=0.05)
-    assert ex.steady_windows(t, np.zeros_like(t)) == []
+    assert steady_windows(t, np.zeros_like(t)) == []
 
 
 # ======================================================================================
@@ -398,37 +401,37 @@ def test_steady_windows_on_trapezoid():
 
 def test_m_sequence_properties():
     n_bits = 7
-    s = ex.m_sequence(n_bits, amplitude=2.0, offset=1.0)
+    s = m_sequence(n_bits, amplitude=2.0, offset=1.0)
     n = 2**n_bits - 1
     assert s.size == n
     assert set(np.unique(s)) == {-1.0, 3.0}
     b = (s - 1.0) / 2.0
     corr = np.array([np.dot(b, np.roll(b, k)) for k in range(n)])
     assert corr[0] == n and np.all(corr[1:] == -1)  # two-level periodic autocorrelation
-    held = ex.m_sequence(5, samples_per_bit=3, periods=2)
+    held = m_sequence(5, samples_per_bit=3, periods=2)
     assert held.size == 2 * 3 * 31 and np.all(held[:3] == held[0])
     with pytest.raises(ValueError):
-        ex.m_sequence(1)
+        m_sequence(1)
 
 
 def test_prbs_and_log_sweep():
-    t, u = ex.prbs(2.0, 1e-3, clock_period=5e-3, amplitude=0.5, seed=4)
+    t, u = prbs(2.0, 1e-3, clock_period=5e-3, amplitude=0.5, seed=4)
     assert t.size == u.size == 2000 and set(np.unique(u)) <= {-0.5, 0.5}
     runs = np.diff(np.flatnonzero(np.diff(u) != 0))
     assert np.all(runs % 5 == 0)  # switches only on the 5 ms clock
-    _, u2 = ex.prbs(2.0, 1e-3, clock_period=5e-3, amplitude=0.5, seed=4)
+    _, u2 = prbs(2.0, 1e-3, clock_period=5e-3, amplitude=0.5, seed=4)
     np.testing.assert_array_equal(u, u2)
     f0, f1, dur, dt = 1.0, 100.0, 10.0, 1e-4
-    t, y = ex.log_sine_sweep(f0, f1, dur, dt)
+    t, y = log_sine_sweep(f0, f1, dur, dt)
     # local frequency from zero crossings follows f0 (f1/f0)^(t/T) within 1 %
     zc = np.flatnonzero(np.diff(np.signbit(y)))
     tz = t[zc] - y[zc] / (y[zc + 1] - y[zc]) * dt
     f_loc = 0.5 / np.diff(tz)
     t_mid = 0.5 * (tz[1:] + tz[:-1])
     sel = (t_mid > 0.5) & (t_mid < 9.5)
-    np.testing.assert_allclose(f_loc[sel], ex.log_sweep_frequency(t_mid[sel], f0, f1, dur), rtol=0.01)
+    np.testing.assert_allclose(f_loc[sel], log_sweep_frequency(t_mid[sel], f0, f1, dur), rtol=0.01)
     with pytest.raises(ValueError, match="Nyquist"):
-        ex.log_sine_sweep(1.0, 600.0, 1.0, 1e-3)
+        log_sine_sweep(1.0, 600.0, 1.0, 1e-3)
 
 
 # ======================================================================================
@@ -503,7 +506,7 @@ def test_valve_command_inverts_the_orifice_law():
         u = float(valve_command(v, p.load_force + p.viscous_friction * v, p))
         n = 800
         x0 = 0.5 * p.stroke - v * n * 1e-3 / 2
-        st = ex.simulate_servo_cylinder(p, np.full(n, u), x0=x0)
+        st = simulate_servo_cylinder(p, np.full(n, u), x0=x0)
         v_meas = (st[-1, 0] - st[400, 0]) / ((n - 400) * 1e-3)
         assert v_meas == pytest.approx(v, rel=2e-5)
     assert float(valve_command(0.0, 100.0, p)) == 0.0
@@ -519,8 +522,8 @@ def test_compensator_improves_slow_constant_velocity_tracking(supply):
     realistic sensors) removes >90 % of the velocity error of the frictionless inversion
     (0.27 % at 13.9 MPa, ~1.9 % at 2.1 MPa supply). (At 5 mm/s on the nominal plant the
     limit cycle sets the mean velocity and the static feedforward does not help.)"""
-    run = ex.run_friction_experiment(sensors=ex.SensorModel.realistic(), seed=0)
-    pts = ex.friction_points_from_square_wave(run.data)
+    run = run_friction_experiment(sensors=SensorModel.realistic(), seed=0)
+    pts = friction_points_from_square_wave(run.data)
     fit = fit_friction(pts, model="stribeck", sigma=pts.force_std / np.sqrt(pts.n_samples))
     plant = ServoCylinderParams(supply_pressure=supply)
     comp = FrictionCompensator(fit, plant)
@@ -528,7 +531,7 @@ def test_compensator_improves_slow_constant_velocity_tracking(supply):
         n = 1200
         errors = []
         for u in (valve_command(v, 0.0, plant), comp.command(v)):
-            st = ex.simulate_servo_cylinder(plant, np.full(n, float(u)),
+            st = simulate_servo_cylinder(plant, np.full(n, float(u)),
                                             x0=0.5 * plant.stroke - v * n * 1e-3 / 2)
             v_meas = (st[-1, 0] - st[400, 0]) / ((n - 400) * 1e-3)
             errors.append(abs(v_meas - v))
@@ -561,7 +564,7 @@ def test_cli_identify_friction_json_and_text(tmp_path, capsys):
     bias of the constant-velocity method on this plant (see
     test_nominal_plant_low_speed_limit_cycle_is_visible): F_s within 8 %, v_s within 25 %."""
     path = tmp_path / "run.csv"
-    run = ex.run_friction_experiment(sensors=ex.SensorModel.realistic(), seed=0, path=path)
+    run = run_friction_experiment(sensors=SensorModel.realistic(), seed=0, path=path)
     assert run.schedule.duration == pytest.approx(150.0, abs=0.5)
     assert hydro_main(["identify", "friction", "--plant", "servo_cylinder", "--data", str(path),
                        "--json"]) == 0
@@ -594,7 +597,7 @@ def test_cli_identify_errors(tmp_path, capsys):
     assert "not found" in capsys.readouterr().err
     # only fast strokes: the Stribeck dip is unidentifiable -> exit 1 with the reason
     fast = tmp_path / "fast.csv"
-    ex.run_friction_experiment(STABLE, amplitudes=[2.0, 2.5, 3.0, 3.5], travel_fraction=0.7,
+    run_friction_experiment(STABLE, amplitudes=[2.0, 2.5, 3.0, 3.5], travel_fraction=0.7,
                                path=fast)
     assert hydro_main(["identify", "friction", "--plant", "servo_cylinder", "--data", str(fast)]) == 1
     err = capsys.readouterr().err
@@ -635,8 +638,8 @@ def test_standard_errors_cover_the_truth_over_many_virtual_experiments():
     in 0.6-1.6) and the mean over seeds is within 2 % of the truth (no bias)."""
     zs, est = [], []
     for seed in range(20):
-        run = ex.run_friction_experiment(STABLE, sensors=ex.SensorModel.realistic(), seed=100 + seed)
-        pts = ex.friction_points_from_square_wave(run.data)
+        run = run_friction_experiment(STABLE, sensors=SensorModel.realistic(), seed=100 + seed)
+        pts = friction_points_from_square_wave(run.data)
         fit = fit_friction(pts, model="stribeck", sign_velocity=run.params.friction_sign_velocity,
                            sigma=pts.force_std / np.sqrt(pts.n_samples))
         truth = _truth(run.params)

@@ -19,7 +19,9 @@ import numpy as np
 import pytest
 
 from hydro_envs.plants.servo_cylinder.params import ServoCylinderParams
-from identification import experiments as ex
+from hydro_envs.data.sensors import SensorModel
+from hydro_envs.plants.servo_cylinder.friction_test import run_friction_experiment
+from identification.constant_velocity import friction_points_from_square_wave
 from identification.friction import (
     InsufficientDataError,
     fit_friction,
@@ -42,8 +44,8 @@ TRUTH = {"F_c": NOMINAL.coulomb_friction, "F_s": NOMINAL.static_friction,
 
 @pytest.fixture(scope="module")
 def points():
-    run = ex.run_friction_experiment(sensors=ex.SensorModel.realistic(), seed=0)
-    return ex.friction_points_from_square_wave(run.data)
+    run = run_friction_experiment(sensors=SensorModel.realistic(), seed=0)
+    return friction_points_from_square_wave(run.data)
 
 
 @pytest.fixture(scope="module")

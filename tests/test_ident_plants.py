@@ -18,7 +18,15 @@ import numpy as np
 import pytest
 import yaml
 
-from identification import experiments as ex
+from hydro_envs.data.sensors import SensorModel
+
+from hydro_envs.plants.force_actuator.experiments import prbs_locked
+
+from hydro_envs.plants.ls_compensator.bode_fit import fit_compensator_viscous
+
+from hydro_envs.plants.rodless_cylinder.experiments import closed_loop_m_sequence
+
+from hydro_envs.plants.servo_cylinder.friction_test import run_friction_experiment
 from identification import ranges
 from identification.arx import SEED_004_EQ32, fit_arx
 
@@ -26,7 +34,7 @@ A6 = np.r_[1.0, -0.4223, -0.3765, -0.2802, -0.1959, 0.1930, 0.2234, -0.0532, -0.
 
 
 def test_closed_loop_m_sequence_arx3_has_the_integrator_of_004_eq32():
-    d = ex.rodless_closed_loop_m_sequence(position_noise_std=5e-6, seed=0)  # 2046 samples, 10 ms
+    d = closed_loop_m_sequence(position_noise_std=5e-6, seed=0)  # 2046 samples, 10 ms
     assert int(d["clamps"]) == 0
     assert np.all((d["u"] > 0.0) & (d["u"] < 10.0))  # the loop never saturated the valve
     y_mm = (d["y"] - d["y"].mean()) * 1e3
@@ -48,7 +56,7 @@ def test_closed_loop_m_sequence_arx3_has_the_integrator_of_004_eq32():
 
 
 def test_force_actuator_locked_prbs_arx10_as_001_eq6():
-    d = ex.force_actuator_prbs_locked(duration=2.0, amplitude=0.1, force_noise_std=0.5, seed=3)
+    d = prbs_locked(duration=2.0, amplitude=0.1, force_noise_std=0.5, seed=3)
     assert int(d["clamps"]) == 0
     n = int(0.7 * d["f"].size)
     y = d["f"] - d["f"][:n].mean()
@@ -71,12 +79,12 @@ def test_viscous_coefficient_from_both_rig_methods_within_5_percent():
     p = lc.LSCompensatorParams()
     c_true = lc.derived(p)["viscous"]
     r1 = rig.run_method1(p, np.geomspace(30.0, 120.0, 5), amplitude=1e5, duration=0.6, settle=0.25)
-    c1 = ex.fit_compensator_viscous(r1)
+    c1 = fit_compensator_viscous(r1)
     assert c1 == pytest.approx(c_true, rel=0.05)
     assert c1 == pytest.approx(rig.fit_viscous_coefficient(r1), rel=0.01)  # the rig's own fit
     speeds = 60.0 / rig.TEETH * np.array([200.0, 280.0, 300.0, 320.0, 400.0])
     r2 = rig.run_method2(p, speeds, duration=0.4, settle=0.15)
-    c2 = ex.fit_compensator_viscous(r2)
+    c2 = fit_compensator_viscous(r2)
     c2_true = lc.derived(r2.params[0])["viscous"]
     assert c2 == pytest.approx(c2_true, rel=0.05)
 
@@ -127,7 +135,7 @@ def test_cli_emit_ranges_from_a_virtual_friction_experiment(tmp_path):
     from identification.cli import main
 
     data = tmp_path / "friction.csv"
-    ex.run_friction_experiment(sensors=ex.SensorModel.realistic(), seed=0, path=data, duration=40.0,
+    run_friction_experiment(sensors=SensorModel.realistic(), seed=0, path=data, duration=40.0,
                               amplitude_start=0.05, period_max=3.0)
     out = tmp_path / "ranges.yaml"
     buf = io.StringIO()
@@ -165,7 +173,7 @@ def test_plant_presets_load_with_sources(name):
     if name.endswith("nominal"):
         assert p == cls()
     else:  # calibrated friction within 10 % of the plant that made the data (F_s biased low
-        # by the friction limit cycle, see identification/experiments.py)
+        # by the friction limit cycle, see hydro_envs/plants/servo_cylinder/friction_test.py)
         n = cls()
         for f in ("coulomb_friction", "static_friction", "stribeck_velocity", "viscous_friction"):
             assert getattr(p, f) == pytest.approx(getattr(n, f), rel=0.1)

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from hydro_envs.cli import main
-from identification import experiments as ex
+from identification.seal_friction import load_seal_friction, seal_friction_points
 
 DATA = Path(__file__).resolve().parent / "data" / "pneumatic_seal_friction"
 FILE = str(DATA / "X-ring257_3bar.csv")
@@ -41,8 +41,8 @@ def test_bore_and_area_agree_and_set_the_friction(capsys):
     assert a["area"] == pytest.approx(area, rel=1e-15)
     assert a["parameters"]["F_c"] == pytest.approx(b["parameters"]["F_c"], rel=1e-12)
     # independent truth: half the mean friction difference of retracting and extending windows
-    data = ex.load_seal_friction(FILE, drop_rows=5, bore=None)
-    pts = ex.seal_friction_points(data, piston_area=area)
+    data = load_seal_friction(FILE, drop_rows=5, bore=None)
+    pts = seal_friction_points(data, piston_area=area)
     f = np.asarray(pts.force)
     v = np.asarray(pts.v)
     half = 0.5 * (np.mean(f[v > 0]) - np.mean(f[v < 0]))
@@ -53,12 +53,12 @@ def test_bore_and_area_agree_and_set_the_friction(capsys):
 
 
 def test_loader_without_bore_keeps_no_area():
-    data = ex.load_seal_friction(FILE, drop_rows=5, bore=None)
+    data = load_seal_friction(FILE, drop_rows=5, bore=None)
     assert "piston_area" not in data.metadata and "bore" not in data.metadata
     with pytest.raises(ValueError, match="piston_area is unknown"):
-        ex.seal_friction_points(data)
+        seal_friction_points(data)
     with pytest.raises(ValueError, match="bore = -1"):
-        ex.load_seal_friction(FILE, bore=-1.0)
+        load_seal_friction(FILE, bore=-1.0)
 
 
 def test_clamped_coefficient_is_an_error(capsys):

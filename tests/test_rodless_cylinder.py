@@ -336,7 +336,7 @@ def test_lugre_presliding_sticks_below_breakaway_and_slides_above():
 def test_friction_magnitude_against_measured_xring_seal():
     """Order of magnitude: the rodless cylinder (two piston seals + sealing and dust bands) vs
     one X-ring seal of nearly the same bore, measured at constant speed (CC0 data)."""
-    from identification.experiments import load_seal_friction
+    from identification.seal_friction import load_seal_friction
 
     for bar in (5, 7):
         data = load_seal_friction(DATA / f"X-ring257_{bar}bar.csv", drop_rows=5)

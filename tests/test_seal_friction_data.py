@@ -24,7 +24,7 @@ import numpy as np
 import pytest
 
 from hydro_envs.data.measured import MeasuredDataError, write_measured
-from identification import experiments as ex
+from identification.seal_friction import load_seal_friction, seal_friction_points
 from identification.friction import FrictionPoints, fit_friction, nrmse
 
 DATA = Path(__file__).resolve().parent / "data" / "pneumatic_seal_friction"
@@ -33,14 +33,14 @@ DROP = 5  # every third row kept: 5 rows = the original analysis's 15 rows at 10
 
 
 def _load(bar: int):
-    return ex.load_seal_friction(DATA / f"X-ring257_{bar}bar.csv", drop_rows=DROP)
+    return load_seal_friction(DATA / f"X-ring257_{bar}bar.csv", drop_rows=DROP)
 
 
 @pytest.fixture(scope="module")
 def points() -> FrictionPoints:
     parts = []
     for bar in PRESSURES:
-        pts = ex.seal_friction_points(_load(bar))
+        pts = seal_friction_points(_load(bar))
         pts.group = np.arange(len(pts)) // 2 + 100 * bar  # cycle number, tagged by pressure
         parts.append(pts)
     return FrictionPoints.concatenate(parts)
@@ -71,11 +71,11 @@ def test_loader_converts_to_si():
 def test_measured_data_csv_roundtrip(tmp_path):
     d = _load(1)
     path = write_measured(tmp_path / "seal.csv", d)
-    d2 = ex.load_seal_friction(path)
+    d2 = load_seal_friction(path)
     np.testing.assert_array_equal(d2["F_load"], d["F_load"])
     assert d2.metadata["piston_area"] == d.metadata["piston_area"]
-    p1 = ex.seal_friction_points(d)
-    p2 = ex.seal_friction_points(d2)
+    p1 = seal_friction_points(d)
+    p2 = seal_friction_points(d2)
     np.testing.assert_allclose(p2.force, p1.force)
 
 
@@ -93,17 +93,17 @@ def test_malformed_raw_files_raise_clear_errors(tmp_path, text, match):
     path = tmp_path / "bad.csv"
     path.write_text(text)
     with pytest.raises(MeasuredDataError, match=match):
-        ex.load_seal_friction(path, drop_rows=0)
+        load_seal_friction(path, drop_rows=0)
 
 
 def test_missing_file_and_wrong_plant_csv(tmp_path):
     with pytest.raises(MeasuredDataError, match="not found"):
-        ex.load_seal_friction(tmp_path / "nope.csv")
+        load_seal_friction(tmp_path / "nope.csv")
     other = tmp_path / "servo.csv"
     write_measured(other, [0.0, 0.001], {"u": [0, 0], "x": [0, 0], "p1": [1e5, 1e5],
                                          "p2": [1e5, 1e5]}, plant="servo_cylinder")
     with pytest.raises(MeasuredDataError, match="seal_friction"):
-        ex.load_seal_friction(other)
+        load_seal_friction(other)
 
 
 def test_friction_opposes_motion_and_grows_with_pressure(points):

@@ -9,9 +9,9 @@ suite would on the rig, then fitted either with the static Stribeck law
 Experiments (all on the nominal parameter set, ideal sensors):
 
 * servo cylinder: the square-wave test of 002 sec. 4
-  (:func:`identification.experiments.run_friction_experiment`, periods capped at 3 s: 68
+  (:func:`hydro_envs.plants.servo_cylinder.friction_test.run_friction_experiment`, periods capped at 3 s: 68
   amplitudes 0.05-3.4 V in about 40 s instead of 150 s, then
-  :func:`~identification.experiments.friction_points_from_square_wave`); Stribeck law 002 eq (1)
+  :func:`~identification.constant_velocity.friction_points_from_square_wave`); Stribeck law 002 eq (1)
   with the plant's sign regularisation.
 * shaking table: constant valve commands held from one end of the stroke; the mean velocity
   and the mean pressure force ``A (P_a - P_b)`` while the table crosses the middle 40 % of the

@@ -290,10 +290,8 @@ def benchmark_adapter(env_id: str):
 
 
 def friction_points():
-    from identification.experiments import (
-        friction_points_from_square_wave,
-        run_friction_experiment,
-    )
+    from hydro_envs.plants.servo_cylinder.friction_test import run_friction_experiment
+    from identification.constant_velocity import friction_points_from_square_wave
 
     exp = run_friction_experiment(period_max=3.0)
     return friction_points_from_square_wave(exp.data), exp.params.friction_sign_velocity, "stribeck"

@@ -32,7 +32,7 @@ The pressure term ``k_p p`` [N/Pa = m^2] is present only with ``pressure_depende
 the gauge chamber pressure for the pneumatic seal rig). It shifts the Coulomb *and* the static
 level by the same amount (the seal's normal force grows with pressure; the Stribeck dip
 height ``F_s - F_c`` is taken as pressure-independent) -- the simplest law that the seal data
-(:mod:`identification.experiments`, one speed per direction) can identify; Simscape's cylinder
+(:mod:`identification.constant_velocity`, one speed per direction) can identify; Simscape's cylinder
 friction uses the same linear growth with pressure. With ``pressure_dependent`` the reported
 ``F_c`` and ``F_s`` are the values at ``p = 0``.
 

@@ -29,7 +29,7 @@ What it can and cannot do: the valve-controlled cylinder is nearly a flow source
 seed's 13.8 MPa supply, 60 N of friction (90 kPa of load pressure) slows the piston by only
 0.33 %, which the increment removes (tests: open-loop velocity error and closed-loop ramp
 lag). It cannot remove the friction-induced limit cycle below about 20 mm/s
-(:mod:`identification.experiments`): that is a dynamic instability of the oil spring against
+(:mod:`hydro_envs.plants.servo_cylinder.friction_test`): that is a dynamic instability of the oil spring against
 the negative Stribeck slope, which a velocity feedforward does not damp. 
 """
 

@@ -1,4 +1,4 @@
-r"""Virtual versions of the two static experiments of seed 001 on the force actuator.
+r"""Virtual experiments of seed 001 on the force actuator: the static tests and the PRBS record.
 
 Source: ``001_3253c61f41166c3e.txt`` sec. 4.2 (open-loop static force characteristic) and
 sec. 4.4 (measurement of the hydraulic damping effect, eq (5)); plant
@@ -44,6 +44,10 @@ sec. 4.4 (measurement of the hydraulic damping effect, eq (5)); plant
    state at its sliding level) the piston equation reads
    ``F~(xi) + m g = dg F_d(xi, v) + g(v) sgn(v)``: :func:`steady_force_balance_residual`.
 
+3. :func:`prbs_locked` -- sec. 4.5: "With the piston fixed at midstroke position, a
+   low-amplitude PRBS input was applied to the open-loop system"; sampled at 5000 Hz, the
+   record from which eq (6)'s ARX model was identified.
+
 Files: the plant registers only the channels ``i`` [A] and ``f`` [N]. The blocked test
 writes exactly those. The hanging-mass file adds the extra columns ``v`` [m/s] (piston
 velocity) and ``load`` [N] (``m g``), so it is written -- and must be loaded -- with
@@ -59,12 +63,11 @@ from typing import Any
 
 import numpy as np
 
-from hydro_envs import registry
 from hydro_envs.data.measured import write_measured
+from hydro_envs.excitation import prbs
 from hydro_envs.plants.force_actuator import model as fa
+from hydro_envs.plants.force_actuator.spec import SPEC as _SPEC
 from hydro_envs.sim.simulate import simulate
-
-_SPEC = registry.get("force_actuator")
 
 __all__ = [
     "G",
@@ -75,6 +78,7 @@ __all__ = [
     "branch_current_offset",
     "hanging_mass_test",
     "steady_force_balance_residual",
+    "prbs_locked",
 ]
 
 G = 9.81  # m/s^2
@@ -329,3 +333,29 @@ def hanging_mass_test(
                       "settle_time_s": settle_time, "noise_std_N": noise_std, "runs": "; ".join(runs)},
         )
     return out
+
+
+def prbs_locked(
+    params: fa.ForceActuatorParams | None = None,
+    *,
+    duration: float = 2.0,
+    amplitude: float = 0.1,
+    clock_samples: int = 1,
+    force_noise_std: float = 0.5,
+    seed: int | None = 3,
+) -> dict[str, np.ndarray]:
+    """001 sec. 4.5 on the force actuator: piston locked at mid-stroke (``piston_locked = 1``
+    is enforced), a low-amplitude PRBS current (``+-amplitude * rated_current``, bits of
+    ``clock_samples`` samples) at 5 kHz (``SEED_T`` = 0.2 ms), sensed force ``k_s x_s``
+    sampled at the end of each period plus white noise ``force_noise_std`` [N]. Returns
+    ``t, i`` [A], ``f`` [N], ``f_true``."""
+    p = params if params is not None else fa.ForceActuatorParams()
+    p = dataclasses.replace(p, piston_locked=1.0)
+    dt = fa.SEED_T
+    t, i = prbs(duration, dt, clock_period=clock_samples * dt, amplitude=amplitude * p.rated_current, seed=seed)
+    clamps = np.zeros(1, dtype=np.int64)
+    states = simulate(_SPEC, p, i.reshape(-1, 1), fa.rest_state(p), dt, clamps=clamps)
+    f = p.sensor_stiffness * states[1:, fa.XS]
+    rng = np.random.default_rng(None if seed is None else seed + 1)
+    noise = force_noise_std * rng.standard_normal(f.size) if force_noise_std > 0 else 0.0
+    return {"t": t, "i": i, "f": f + noise, "f_true": f, "clamps": np.array(int(clamps[0]))}
