@@ -80,6 +80,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -342,35 +343,72 @@ def identify_slider(
     return plain
 
 
-def _identify_slider(
-    force: Any,
-    position: Any,
-    dt: float,
-    *,
-    cutoff: float | None = None,
-    decimation: int | None = None,
-    min_speed: float | None = None,
-    asymmetric: bool = False,
-    stribeck: str = "fit",
-    stribeck_velocity: float | None = None,
-    static_friction: float | None = None,
-    stribeck_bounds: tuple[float, float] | None = None,
-    sign_velocity: float = 0.0,
-    filter_order: int = 4,
-) -> SliderIdentification:
-    """Identify ``m, F_C, F_S, v_S, b, F_0`` of a slider from force [N] and position [m].
+@dataclasses.dataclass
+class _Regression:
+    """The filtered, differentiated and decimated record that every model variant regresses on.
 
-    ``dt`` [s] is the (constant) sample time. ``cutoff`` [Hz] is the position low-pass
-    (default ``fs / 20``); ``decimation`` the decimation factor (default
-    ``max(1, floor(fs / (5 cutoff)))``); ``min_speed`` [m/s] excludes slow samples (default:
-    four times the velocity noise implied by the estimated position noise and the filter,
-    at least 0.1 % of the peak speed). ``stribeck`` is ``"fit" | "fixed" | "none"`` (module
-    docstring); ``stribeck_bounds`` [m/s] limits the ``v_S`` search (default: from the
-    speed range of the data). ``sign_velocity`` > 0 uses ``tanh(v / sign_velocity)`` instead
-    of ``sign(v)`` in the regressor.
+    ``v``, ``a``, ``s`` (sign or tanh of ``v``) and ``absv`` are at the full rate; ``used_idx``
+    are the full-rate indices of the used (fast enough, away from filter edges, decimated)
+    samples; ``ff``, ``a_c``, ``v_c`` are the parallel-filtered force, acceleration and velocity
+    there; ``pfilt`` is the parallel (anti-alias) filter applied to any full-rate column.
     """
-    f = _check_series("force", force)
-    x = _check_series("position", position)
+
+    n: int
+    dt: float
+    cutoff: float
+    decimation: int
+    v: np.ndarray
+    a: np.ndarray
+    s: np.ndarray
+    absv: np.ndarray
+    core: slice
+    idx: np.ndarray
+    used_full: np.ndarray
+    used_mask_dec: np.ndarray
+    used_idx: np.ndarray
+    ff: np.ndarray
+    a_c: np.ndarray
+    v_c: np.ndarray
+    pfilt: Callable[[np.ndarray], np.ndarray]
+    position_noise: float
+    min_speed: float
+    accel_noise_ratio: float
+
+    @property
+    def n_used(self) -> int:
+        return int(self.used_idx.size)
+
+    def used(self, col: np.ndarray) -> np.ndarray:
+        """A full-rate regressor column, parallel-filtered, at the used samples."""
+        return self.pfilt(col)[self.used_idx]
+
+    def design(self, vs: float | None) -> tuple[np.ndarray, np.ndarray | None]:
+        """Used rows of ``[a, s(1-e), s e, v, 1]`` (``[a, s, v, 1]`` without a dip, ``vs=None``);
+        ``e = exp(-|v|/v_S)`` at the full rate."""
+        one = np.ones(self.n_used)
+        if vs is None:
+            return np.column_stack([self.a_c, self.used(self.s), self.v_c, one]), None
+        e = np.exp(-self.absv / vs)
+        return np.column_stack([self.a_c, self.used(self.s * (1.0 - e)), self.used(self.s * e), self.v_c, one]), e
+
+
+@dataclasses.dataclass
+class _Fit:
+    """One model variant fitted: parameters, fitted names (Jacobian column order), residuals."""
+
+    params: dict[str, float]
+    fitted: tuple[str, ...]
+    jacobian: np.ndarray
+    resid: np.ndarray
+    identified: bool
+    notes: list[str]
+    direction: dict[str, float] | None = None
+    at_bound: bool = False
+    profile_span: float = math.nan
+
+
+def _checked_options(f, x, dt, stribeck, stribeck_velocity, cutoff, decimation):
+    """Validate the record and the options; returns ``(cutoff, decimation, trim)``."""
     if f.shape != x.shape:
         raise SliderIdentificationError(
             f"force and position must have the same length, got {f.size} and {x.size} samples"
@@ -404,15 +442,21 @@ def _identify_slider(
         )
     if np.ptp(f) == 0.0:
         raise SliderIdentificationError("force is constant: no excitation, nothing to identify")
+    return cutoff, decimation, trim
 
-    # 2. zero-phase low-pass on position, central differences
+
+def _regression(f, x, dt, cutoff, decimation, trim, min_speed, sign_velocity, filter_order) -> _Regression:
+    """Steps 2-4 of the procedure: zero-phase low-pass and central differences, the used
+    samples (fast enough, both directions), the parallel filter and decimation."""
+    fs = 1.0 / dt
+    n = f.size
     sos = signal.butter(int(filter_order), cutoff, btype="low", fs=fs, output="sos")
     xf = signal.sosfiltfilt(sos, x)
     v, a = _diff_velocity_acceleration(xf, dt)
     sigma_x = _position_noise(x)
     # velocity noise gain of (filter + central difference) for unit white position noise
     probe = np.random.default_rng(12345).standard_normal(min(max(8 * trim, 4096), 65536))
-    vp, _ = _diff_velocity_acceleration(signal.sosfiltfilt(sos, probe), dt)
+    vp, ap = _diff_velocity_acceleration(signal.sosfiltfilt(sos, probe), dt)
     sigma_v = sigma_x * float(np.std(vp[trim:-trim]))
     core = slice(trim, n - trim)
     vmax = float(np.max(np.abs(v[core])))
@@ -430,18 +474,12 @@ def _identify_slider(
             f"no excitation: peak speed {vmax:.3g} m/s is not above 2x min_speed "
             f"({min_speed:.3g} m/s); the slider barely moves (sticking?)"
         )
-
-    # sign function
-    if sign_velocity > 0:
-        s = np.tanh(v / sign_velocity)
-    else:
-        s = np.sign(v)
+    s = np.tanh(v / sign_velocity) if sign_velocity > 0 else np.sign(v)
     absv = np.abs(v)
     valid = absv >= min_speed
     valid[:trim] = False
     valid[n - trim :] = False
 
-    # 4. parallel filter + decimation mask
     if decimation > 1:
         sos_p = signal.butter(8, 0.8 * 0.5 * fs / decimation, btype="low", fs=fs, output="sos")
         width = int(math.ceil(decimation / 0.4 - 1e-9))  # one period of the parallel filter
@@ -477,249 +515,273 @@ def _identify_slider(
             "slider must move in both directions, otherwise Coulomb friction and the force "
             "offset are not separable (sign(v) is constant)"
         )
-
-    ff = pfilt(f)[used_idx]
     a_c = pfilt(a)[used_idx]
     # errors-in-variables check: acceleration noise (position noise through the whole chain)
     # relative to the acceleration excitation; LS shrinks the mass by about this fraction
-    _, ap = _diff_velocity_acceleration(signal.sosfiltfilt(sos, probe), dt)
     sigma_a = sigma_x * float(np.std(pfilt(ap)[trim:-trim]))
     accel_noise_ratio = sigma_a**2 / max(float(np.mean(a_c**2)), 1e-300)
-    v_c = pfilt(v)[used_idx]
-    one = np.ones(n_used)
+    return _Regression(
+        n=n, dt=dt, cutoff=cutoff, decimation=decimation, v=v, a=a, s=s, absv=absv, core=core,
+        idx=idx, used_full=used_full, used_mask_dec=used_mask_dec, used_idx=used_idx,
+        ff=pfilt(f)[used_idx], a_c=a_c, v_c=pfilt(v)[used_idx], pfilt=pfilt,
+        position_noise=sigma_x, min_speed=float(min_speed), accel_noise_ratio=float(accel_noise_ratio),
+    )
+
+
+def _lstsq(Phi: np.ndarray, rhs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Column-scaled least squares: ``(theta, residual)``."""
+    scale = np.sqrt(np.sum(Phi * Phi, axis=0))
+    scale[scale == 0] = 1.0
+    theta_s, *_ = np.linalg.lstsq(Phi / scale, rhs, rcond=None)
+    theta = theta_s / scale
+    return theta, rhs - Phi @ theta
+
+
+def _check_conditioning(Phi: np.ndarray, names: list[str]) -> None:
+    """An error naming the parameter the data cannot separate (zero or collinear regressor)."""
+    scale = np.sqrt(np.sum(Phi * Phi, axis=0))
+    if np.any(scale == 0):
+        j = int(np.flatnonzero(scale == 0)[0])
+        raise SliderIdentificationError(f"parameter {names[j]!r} has no excitation (zero regressor)")
+    _, sv, vt = np.linalg.svd(Phi / scale, full_matrices=False)
+    cond = sv[0] / sv[-1]
+    if cond > 1e6:
+        j = int(np.argmax(np.abs(vt[-1])))
+        raise SliderIdentificationError(
+            f"regressor is ill-conditioned (condition number {cond:.3g}): {names[j]!r} is "
+            "not separable from the others with these data; add excitation (accelerations "
+            "for mass, a range of speeds for viscous friction, both directions for offset)"
+        )
+
+
+def _linear_fit(Phi: np.ndarray, rhs: np.ndarray, names: list[str]) -> tuple[dict[str, float], np.ndarray]:
+    _check_conditioning(Phi, names)
+    theta, resid = _lstsq(Phi, rhs)
+    return dict(zip(names, (float(t) for t in theta))), resid
+
+
+def _fit_asymmetric(R: _Regression) -> _Fit:
+    """``m a + F_C+ [v>0] + b+ v [v>0] - F_C- [v<0] + b- v [v<0]``: friction per direction."""
+    pos = (R.v > 0).astype(np.float64)
+    neg = (R.v < 0).astype(np.float64)
+    names = list(DIRECTION_PARAMETER_NAMES)
+    Phi = np.column_stack([R.a_c, R.used(pos), R.used(R.v * pos), -R.used(neg), R.used(R.v * neg)])
+    d, resid = _linear_fit(Phi, R.ff, names)
+    fc = 0.5 * (d["coulomb_friction_pos"] + d["coulomb_friction_neg"])
+    params = {
+        "mass": d["mass"],
+        "coulomb_friction": fc,
+        "static_friction": fc,
+        "stribeck_velocity": math.nan,
+        "viscous_friction": 0.5 * (d["viscous_friction_pos"] + d["viscous_friction_neg"]),
+        "force_offset": 0.5 * (d["coulomb_friction_pos"] - d["coulomb_friction_neg"]),
+    }
+    note = ("asymmetric: Coulomb and viscous friction per direction (params hold the symmetric "
+            "equivalents; no separate offset)")
+    return _Fit(params, tuple(names), Phi, resid, False, [note], direction=d)
+
+
+def _fit_without_dip(R: _Regression) -> _Fit:
+    """``m a + F_C s + b v + F_0`` (``F_S = F_C``)."""
+    names = ["mass", "coulomb_friction", "viscous_friction", "force_offset"]
+    Phi, _ = R.design(None)
+    lin, resid = _linear_fit(Phi, R.ff, names)
+    params = dict(lin, static_friction=lin["coulomb_friction"], stribeck_velocity=math.nan)
+    return _Fit(params, tuple(names), Phi, resid, False, ["stribeck='none': no Stribeck dip modelled (F_S = F_C)"])
+
+
+def _fit_given_dip(R: _Regression, fs_given: float, vs: float) -> _Fit:
+    """The dip fixed (``F_S``, ``v_S`` given): linear in ``m, F_C, b, F_0``."""
+    names = ["mass", "coulomb_friction", "viscous_friction", "force_offset"]
+    Phi5, _ = R.design(vs)
+    Phi = Phi5[:, [0, 1, 3, 4]]
+    lin, resid = _linear_fit(Phi, R.ff - fs_given * Phi5[:, 2], names)
+    params = dict(lin, static_friction=fs_given, stribeck_velocity=vs)
+    note = f"stribeck='fixed': F_S = {fs_given:g} N and v_S = {vs:g} m/s given"
+    return _Fit(params, tuple(names), Phi, resid, False, [note])
+
+
+def _fit_dip(R: _Regression, stribeck: str, vs_given: float | None, bounds) -> _Fit:
+    """The dip model, linear in ``m, F_C, F_S, b, F_0`` for each ``v_S``; ``v_S`` given
+    (``"fixed"``) or found by a profile search on the residual sum of squares (``"fit"``)."""
+    names5 = ["mass", "coulomb_friction", "static_friction", "viscous_friction", "force_offset"]
     notes: list[str] = []
-
-    def design(vs: float | None) -> tuple[np.ndarray, np.ndarray | None]:
-        """Used rows of [a, s(1-e), s e, v, 1] (or [a, s, v, 1] without dip); e at full rate."""
-        if vs is None:
-            return np.column_stack([a_c, pfilt(s)[used_idx], v_c, one]), None
-        e = np.exp(-absv / vs)
-        cols = [a_c, pfilt(s * (1.0 - e))[used_idx], pfilt(s * e)[used_idx], v_c, one]
-        return np.column_stack(cols), e
-
-    def lstsq(Phi: np.ndarray, rhs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        scale = np.sqrt(np.sum(Phi * Phi, axis=0))
-        scale[scale == 0] = 1.0
-        theta_s, *_ = np.linalg.lstsq(Phi / scale, rhs, rcond=None)
-        theta = theta_s / scale
-        return theta, rhs - Phi @ theta
-
-    def check_conditioning(Phi: np.ndarray, names: list[str]) -> None:
-        scale = np.sqrt(np.sum(Phi * Phi, axis=0))
-        if np.any(scale == 0):
-            j = int(np.flatnonzero(scale == 0)[0])
-            raise SliderIdentificationError(f"parameter {names[j]!r} has no excitation (zero regressor)")
-        _, sv, vt = np.linalg.svd(Phi / scale, full_matrices=False)
-        cond = sv[0] / sv[-1]
-        if cond > 1e6:
-            j = int(np.argmax(np.abs(vt[-1])))
-            raise SliderIdentificationError(
-                f"regressor is ill-conditioned (condition number {cond:.3g}): {names[j]!r} is "
-                "not separable from the others with these data; add excitation (accelerations "
-                "for mass, a range of speeds for viscous friction, both directions for offset)"
-            )
-
-    fixed_fs = None
-    direction = None
-    if asymmetric:
-        pos = (v > 0).astype(np.float64)
-        neg = (v < 0).astype(np.float64)
-        names = list(DIRECTION_PARAMETER_NAMES)
-        Phi = np.column_stack([a_c, pfilt(pos)[used_idx], pfilt(v * pos)[used_idx],
-                               -pfilt(neg)[used_idx], pfilt(v * neg)[used_idx]])
-        check_conditioning(Phi, names)
-        theta, resid = lstsq(Phi, ff)
-        J = Phi
-        direction = dict(zip(names, (float(x) for x in theta)))
-        params = {
-            "mass": direction["mass"],
-            "coulomb_friction": 0.5 * (direction["coulomb_friction_pos"] + direction["coulomb_friction_neg"]),
-            "static_friction": 0.5 * (direction["coulomb_friction_pos"] + direction["coulomb_friction_neg"]),
-            "stribeck_velocity": math.nan,
-            "viscous_friction": 0.5 * (direction["viscous_friction_pos"] + direction["viscous_friction_neg"]),
-            "force_offset": 0.5 * (direction["coulomb_friction_pos"] - direction["coulomb_friction_neg"]),
-        }
-        fitted = tuple(names)
-        identified = False
-        notes.append("asymmetric: Coulomb and viscous friction per direction (params hold the symmetric "
-                     "equivalents; no separate offset)")
-    elif stribeck == "none":
-        names = ["mass", "coulomb_friction", "viscous_friction", "force_offset"]
-        Phi, _ = design(None)
-        check_conditioning(Phi, names)
-        theta, resid = lstsq(Phi, ff)
-        J = Phi
-        lin = dict(zip(names, theta))
-        params = {
-            "mass": lin["mass"],
-            "coulomb_friction": lin["coulomb_friction"],
-            "static_friction": lin["coulomb_friction"],
-            "stribeck_velocity": math.nan,
-            "viscous_friction": lin["viscous_friction"],
-            "force_offset": lin["force_offset"],
-        }
-        fitted = tuple(names)
-        identified = False
-        notes.append("stribeck='none': no Stribeck dip modelled (F_S = F_C)")
-    elif stribeck == "fixed" and static_friction is not None:
-        fixed_fs = float(static_friction)
-        vs = float(stribeck_velocity)
-        names = ["mass", "coulomb_friction", "viscous_friction", "force_offset"]
-        Phi5, _ = design(vs)
-        Phi = Phi5[:, [0, 1, 3, 4]]
-        rhs = ff - fixed_fs * Phi5[:, 2]
-        check_conditioning(Phi, names)
-        theta, resid = lstsq(Phi, rhs)
-        J = Phi
-        lin = dict(zip(names, theta))
-        params = {
-            "mass": lin["mass"],
-            "coulomb_friction": lin["coulomb_friction"],
-            "static_friction": fixed_fs,
-            "stribeck_velocity": vs,
-            "viscous_friction": lin["viscous_friction"],
-            "force_offset": lin["force_offset"],
-        }
-        fitted = tuple(names)
-        identified = False
-        notes.append(f"stribeck='fixed': F_S = {fixed_fs:g} N and v_S = {vs:g} m/s given")
+    at_bound, profile_span = False, math.nan
+    if stribeck == "fixed":
+        vs = float(vs_given)
+        notes.append(f"stribeck='fixed': v_S = {vs:g} m/s given, F_S fitted linearly")
     else:
-        names5 = ["mass", "coulomb_friction", "static_friction", "viscous_friction", "force_offset"]
-        if stribeck == "fixed":
-            vs = float(stribeck_velocity)
-            notes.append(f"stribeck='fixed': v_S = {vs:g} m/s given, F_S fitted linearly")
-        else:
-            speeds = absv[used_full]
-            lo, hi = (
-                stribeck_bounds
-                if stribeck_bounds is not None
-                else (max(0.25 * min_speed, 1e-3 * np.max(speeds), 1e-9), float(np.percentile(speeds, 95)))
-            )
-            if not (0 < lo < hi):
-                raise SliderIdentificationError(f"stribeck_bounds {lo!r}..{hi!r} m/s must satisfy 0 < low < high")
+        speeds = R.absv[R.used_full]
+        lo, hi = (
+            bounds
+            if bounds is not None
+            else (max(0.25 * R.min_speed, 1e-3 * np.max(speeds), 1e-9), float(np.percentile(speeds, 95)))
+        )
+        if not (0 < lo < hi):
+            raise SliderIdentificationError(f"stribeck_bounds {lo!r}..{hi!r} m/s must satisfy 0 < low < high")
 
-            def rss(log_vs: float) -> float:
-                Phi_t, _ = design(math.exp(log_vs))
-                _, r = lstsq(Phi_t, ff)
-                return float(r @ r)
+        def rss(log_vs: float) -> float:
+            _, r = _lstsq(R.design(math.exp(log_vs))[0], R.ff)
+            return float(r @ r)
 
-            grid = np.linspace(math.log(lo), math.log(hi), 25)
-            vals = np.array([rss(g) for g in grid])
-            k = int(np.argmin(vals))
-            a_lo = grid[max(k - 1, 0)]
-            a_hi = grid[min(k + 1, grid.size - 1)]
-            res = optimize.minimize_scalar(rss, bounds=(a_lo, a_hi), method="bounded",
-                                           options={"xatol": 1e-6})
-            vs = math.exp(res.x)
-            at_bound = (res.x - grid[0] < 0.02 * (grid[-1] - grid[0])) or (
-                grid[-1] - res.x < 0.02 * (grid[-1] - grid[0])
-            )
-            profile_span = float(vals.max() / max(vals.min(), 1e-300))
-        Phi, e = design(vs)
-        check_conditioning(Phi, names5)
-        theta, resid = lstsq(Phi, ff)
-        lin = dict(zip(names5, theta))
-        params = {
-            "mass": lin["mass"],
-            "coulomb_friction": lin["coulomb_friction"],
-            "static_friction": lin["static_friction"],
-            "stribeck_velocity": vs,
-            "viscous_friction": lin["viscous_friction"],
-            "force_offset": lin["force_offset"],
-        }
-        if stribeck == "fit":
-            d_fs = lin["static_friction"] - lin["coulomb_friction"]
-            dcol = pfilt(d_fs * s * e * absv / vs**2)[used_idx]  # d(model)/d(v_S)
-            J = np.column_stack([Phi, dcol])
-            fitted = tuple(names5[:3]) + ("stribeck_velocity",) + tuple(names5[3:])
-            order = [0, 1, 2, 5, 3, 4]
-            J = J[:, order]
-        else:
-            J = Phi
-            fitted = tuple(names5)
-        identified = stribeck == "fit"
+        grid = np.linspace(math.log(lo), math.log(hi), 25)
+        vals = np.array([rss(g) for g in grid])
+        k = int(np.argmin(vals))
+        res = optimize.minimize_scalar(rss, bounds=(grid[max(k - 1, 0)], grid[min(k + 1, grid.size - 1)]),
+                                       method="bounded", options={"xatol": 1e-6})
+        vs = math.exp(res.x)
+        span = grid[-1] - grid[0]
+        at_bound = (res.x - grid[0] < 0.02 * span) or (grid[-1] - res.x < 0.02 * span)
+        profile_span = float(vals.max() / max(vals.min(), 1e-300))
+    Phi, e = R.design(vs)
+    lin, resid = _linear_fit(Phi, R.ff, names5)
+    params = dict(lin, stribeck_velocity=vs)
+    if stribeck != "fit":
+        return _Fit(params, tuple(names5), Phi, resid, False, notes)
+    d_fs = lin["static_friction"] - lin["coulomb_friction"]
+    dcol = R.used(d_fs * R.s * e * R.absv / vs**2)  # d(model)/d(v_S)
+    J = np.column_stack([Phi, dcol])[:, [0, 1, 2, 5, 3, 4]]
+    fitted = tuple(names5[:3]) + ("stribeck_velocity",) + tuple(names5[3:])
+    return _Fit(params, fitted, J, resid, True, notes, at_bound=at_bound, profile_span=profile_span)
 
-    # covariance (naive and HAC), on the used samples; gaps are fine (filtered columns)
-    dof = n_used - J.shape[1]
+
+def _covariances(R: _Regression, fit: _Fit) -> tuple[np.ndarray, np.ndarray, int]:
+    """HAC and naive covariance of the fitted parameters on the used samples, and the HAC lag;
+    gaps are fine (filtered columns), the HAC runs over the decimated time axis with zero
+    residuals at the unused samples."""
+    J, resid = fit.jacobian, fit.resid
+    dof = R.n_used - J.shape[1]
     sigma2 = float(resid @ resid) / max(dof, 1)
     try:
         cov_naive = sigma2 * np.linalg.inv(J.T @ J)
     except np.linalg.LinAlgError:
         cov_naive = sigma2 * np.linalg.pinv(J.T @ J)
-    # HAC over the decimated time axis: put the residuals back on it (zeros at gaps)
-    r_full = np.zeros(idx.size)
-    r_full[used_mask_dec] = resid
-    J_full = np.zeros((idx.size, J.shape[1]))
-    J_full[used_mask_dec] = J
-    lag = _newey_west_lag(n_used, resid)
-    cov = _hac_covariance(J_full, r_full, lag, n_used, dof)
-    se = {nm: float(math.sqrt(max(cov[i, i], 0.0))) for i, nm in enumerate(fitted)}
-    se_naive = {nm: float(math.sqrt(max(cov_naive[i, i], 0.0))) for i, nm in enumerate(fitted)}
+    r_full = np.zeros(R.idx.size)
+    r_full[R.used_mask_dec] = resid
+    J_full = np.zeros((R.idx.size, J.shape[1]))
+    J_full[R.used_mask_dec] = J
+    lag = _newey_west_lag(R.n_used, resid)
+    return _hac_covariance(J_full, r_full, lag, R.n_used, dof), cov_naive, lag
 
-    if stribeck == "fit":
-        rel_vs = se["stribeck_velocity"] / vs
-        d_fs = params["static_friction"] - params["coulomb_friction"]
-        i_fc, i_fs = fitted.index("coulomb_friction"), fitted.index("static_friction")
-        var_d = cov[i_fc, i_fc] + cov[i_fs, i_fs] - 2 * cov[i_fc, i_fs]
-        se_d = math.sqrt(max(var_d, 0.0))
-        n_low = int(np.sum(absv[used_idx] < 3.0 * vs))
-        steady_time = _quasi_steady_dip_time(
-            absv, a, min_speed, vs, params["mass"], d_fs, int(math.ceil(2.0 * fs / cutoff - 1e-9)), core
-        ) * dt
-        need_time = 20.0 / cutoff
-        reasons = []
-        if at_bound:
-            reasons.append(f"v_S optimum at the search bound ({vs:.3g} m/s)")
-        if not (d_fs > 3.0 * se_d):
-            reasons.append(f"dip F_S - F_C = {d_fs:.3g} N is within 3 std errors ({se_d:.3g} N)")
-        if not (rel_vs < 0.25):
-            reasons.append(f"relative std error of v_S is {rel_vs:.0%} (> 25 %)")
-        if n_low < 20:
-            reasons.append(f"only {n_low} used samples below 3 v_S")
-        if steady_time < need_time:
-            reasons.append(
-                f"the dip is seen at near-constant speed for only {steady_time:.3g} s (need "
-                f"{need_time:.3g} s = 20 filter periods); elsewhere it is crossed in transients "
-                "faster than the differentiation filter, which distorts them"
-            )
+
+def _dip_not_identified(R: _Regression, fit: _Fit, cov: np.ndarray, se: dict[str, float]) -> list[str]:
+    """Why the data do not identify a fitted Stribeck dip (empty: they do)."""
+    p, fitted = fit.params, fit.fitted
+    vs = p["stribeck_velocity"]
+    rel_vs = se["stribeck_velocity"] / vs
+    d_fs = p["static_friction"] - p["coulomb_friction"]
+    i_fc, i_fs = fitted.index("coulomb_friction"), fitted.index("static_friction")
+    se_d = math.sqrt(max(cov[i_fc, i_fc] + cov[i_fs, i_fs] - 2 * cov[i_fc, i_fs], 0.0))
+    n_low = int(np.sum(R.absv[R.used_idx] < 3.0 * vs))
+    fs = 1.0 / R.dt
+    steady_time = _quasi_steady_dip_time(
+        R.absv, R.a, R.min_speed, vs, p["mass"], d_fs, int(math.ceil(2.0 * fs / R.cutoff - 1e-9)), R.core
+    ) * R.dt
+    need_time = 20.0 / R.cutoff
+    reasons = []
+    if fit.at_bound:
+        reasons.append(f"v_S optimum at the search bound ({vs:.3g} m/s)")
+    if not (d_fs > 3.0 * se_d):
+        reasons.append(f"dip F_S - F_C = {d_fs:.3g} N is within 3 std errors ({se_d:.3g} N)")
+    if not (rel_vs < 0.25):
+        reasons.append(f"relative std error of v_S is {rel_vs:.0%} (> 25 %)")
+    if n_low < 20:
+        reasons.append(f"only {n_low} used samples below 3 v_S")
+    if steady_time < need_time:
+        reasons.append(
+            f"the dip is seen at near-constant speed for only {steady_time:.3g} s (need "
+            f"{need_time:.3g} s = 20 filter periods); elsewhere it is crossed in transients "
+            "faster than the differentiation filter, which distorts them"
+        )
+    return reasons
+
+
+def _identify_slider(
+    force: Any,
+    position: Any,
+    dt: float,
+    *,
+    cutoff: float | None = None,
+    decimation: int | None = None,
+    min_speed: float | None = None,
+    asymmetric: bool = False,
+    stribeck: str = "fit",
+    stribeck_velocity: float | None = None,
+    static_friction: float | None = None,
+    stribeck_bounds: tuple[float, float] | None = None,
+    sign_velocity: float = 0.0,
+    filter_order: int = 4,
+) -> SliderIdentification:
+    """Identify ``m, F_C, F_S, v_S, b, F_0`` of a slider from force [N] and position [m].
+
+    ``dt`` [s] is the (constant) sample time. ``cutoff`` [Hz] is the position low-pass
+    (default ``fs / 20``); ``decimation`` the decimation factor (default
+    ``max(1, floor(fs / (5 cutoff)))``); ``min_speed`` [m/s] excludes slow samples (default:
+    four times the velocity noise implied by the estimated position noise and the filter,
+    at least 0.1 % of the peak speed). ``stribeck`` is ``"fit" | "fixed" | "none"`` (module
+    docstring); ``stribeck_bounds`` [m/s] limits the ``v_S`` search (default: from the
+    speed range of the data). ``sign_velocity`` > 0 uses ``tanh(v / sign_velocity)`` instead
+    of ``sign(v)`` in the regressor.
+    """
+    f = _check_series("force", force)
+    x = _check_series("position", position)
+    cutoff, decimation, trim = _checked_options(f, x, dt, stribeck, stribeck_velocity, cutoff, decimation)
+    R = _regression(f, x, dt, cutoff, decimation, trim, min_speed, sign_velocity, filter_order)
+    if asymmetric:
+        fit = _fit_asymmetric(R)
+    elif stribeck == "none":
+        fit = _fit_without_dip(R)
+    elif stribeck == "fixed" and static_friction is not None:
+        fit = _fit_given_dip(R, float(static_friction), float(stribeck_velocity))
+    else:
+        fit = _fit_dip(R, stribeck, stribeck_velocity, stribeck_bounds)
+
+    cov, cov_naive, lag = _covariances(R, fit)
+    se = {nm: float(math.sqrt(max(cov[i, i], 0.0))) for i, nm in enumerate(fit.fitted)}
+    se_naive = {nm: float(math.sqrt(max(cov_naive[i, i], 0.0))) for i, nm in enumerate(fit.fitted)}
+    notes = list(fit.notes)
+    identified = fit.identified
+    if stribeck == "fit" and not asymmetric:
+        reasons = _dip_not_identified(R, fit, cov, se)
         if reasons:
             identified = False
             notes.append(
                 "Stribeck dip NOT identified by these data: " + "; ".join(reasons) + ". "
                 "Add slow constant-velocity segments under feedback, or use stribeck='fixed'."
             )
-        notes.append(f"v_S profile: RSS max/min over the search range = {profile_span:.4g}")
-
-    if accel_noise_ratio > 0.01:
+        notes.append(f"v_S profile: RSS max/min over the search range = {fit.profile_span:.4g}")
+    if R.accel_noise_ratio > 0.01:
         notes.append(
-            f"acceleration noise is {accel_noise_ratio:.1%} of the acceleration power: the mass "
+            f"acceleration noise is {R.accel_noise_ratio:.1%} of the acceleration power: the mass "
             "is biased low by about that fraction (errors in variables); lower the cutoff or "
             "excite larger accelerations"
         )
+    resid, ff, n_used = fit.resid, R.ff, R.n_used
     den = float(np.linalg.norm(ff - ff.mean()))
     nrmse = float(np.linalg.norm(resid)) / den if den > 0 else math.inf
     rss = float(resid @ resid)
-    bic = n_used * math.log(max(rss, 1e-300) / n_used) + J.shape[1] * math.log(n_used)
+    bic = n_used * math.log(max(rss, 1e-300) / n_used) + fit.jacobian.shape[1] * math.log(n_used)
+    direction = fit.direction
     return SliderIdentification(
-        params={k: float(params[k]) for k in PARAMETER_NAMES},
+        params={k: float(fit.params[k]) for k in PARAMETER_NAMES},
         std_errors=se,
         std_errors_naive=se_naive,
-        fitted=fitted,
+        fitted=fit.fitted,
         stribeck=stribeck,
         stribeck_identified=bool(identified),
         covariance=cov,
         rms_residual=float(np.sqrt(np.mean(resid**2))),
         fit_percent=100.0 * (1.0 - nrmse),
         nrmse=nrmse,
-        n_samples=n,
+        n_samples=R.n,
         n_used=n_used,
         sample_time=float(dt),
         cutoff=float(cutoff),
         decimation=decimation,
-        min_speed=float(min_speed),
-        position_noise=sigma_x,
+        min_speed=R.min_speed,
+        position_noise=R.position_noise,
         hac_lag=lag,
-        acceleration_noise_ratio=float(accel_noise_ratio),
+        acceleration_noise_ratio=R.accel_noise_ratio,
         notes=notes,
         units=dict(_UNITS, **(_DIRECTION_UNITS if direction is not None else {})),
         direction_params=direction,
