@@ -32,6 +32,7 @@ test: $(STAMP)
 	$(PY) -m pytest -q
 
 test-all: $(STAMP)
+	$(PY) -m pip install --quiet -e ".[all,zoo]"
 	$(PY) -m pytest -q -m "slow or not slow"
 
 bench: $(STAMP)

@@ -17,7 +17,9 @@ example a run folder's ``config.yml``). Keys of an env entry:
 
 * ``n_envs`` (int >= 1), ``n_timesteps`` (int >= 1; ``--timesteps`` overrides),
   ``policy`` (``MlpPolicy``);
-* ``policy_kwargs``: a YAML mapping (not zoo's Python string): ``net_arch`` (list of layer
+* ``policy_kwargs``: the zoo's string ``"dict(net_arch=[...], activation_fn=nn.Tanh, ...)"``
+  (the shipped configs, so that rl_zoo3 reads them as they are; parsed here without
+  evaluating code, :mod:`agents.policy_kwargs`) or a YAML mapping: ``net_arch`` (list of layer
   widths, or ``{pi: [...], vf: [...]}`` for PPO / ``{pi: [...], qf: [...]}`` for SAC/TD3),
   ``activation_fn`` (``tanh | relu | elu | leaky_relu | gelu | silu``), ``log_std_init``,
   ``ortho_init``, ``full_std``, ``use_expln``, ``clip_mean``, ``n_critics``,
