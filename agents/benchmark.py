@@ -25,18 +25,29 @@ Per episode (true, noise-free signals after each step):
 * ``pressure_violations``: steps at which a chamber/line pressure lies outside
   ``[pressure_floor, 1.25 p_supply]`` (LoadSensing: ``[floor, relief]``) plus guard clamps;
 * ``endstop_steps``: steps with the position outside the stroke (on the end-stop contact);
+* friction metrics (:mod:`agents.metrics`): ``reversal_error`` (mean over the reference's
+  velocity reversals of the peak error within 0.2 s after each, the quadrant glitch) and
+  ``stick_time`` (fraction of the time the reference moves while the plant rests) of the
+  tracking episode; ``steady_state_error`` (mean |error| over the last half of each hold) and
+  ``limit_cycle`` (peak-to-peak error there: hunting) of the holds of the step episode, or of the
+  tracking episode when there is no step episode; n/a when the reference has no reversal or hold;
 * ``failed``: non-finite state or action, or RMSE not better than holding the output at its
   initial value (``rmse >= rms(ref - y_0)``);
 * ``rmse_rel_pid``: the episode's RMSE over the classical PID's RMSE on the same draw and
   episode (paired; only when ``pid`` is among the controllers). The episodes mix reference
   kinds, so the RMSE spread between episodes is large; the paired ratio removes it.
 
-Aggregates per controller: mean with a 95 % Student-t interval, failure rate with a Wilson
-interval, CVaR-10 % of the RMSE (mean of the worst ``ceil(0.1 n)`` episodes) with a seeded
-percentile-bootstrap interval.
+Aggregates per controller (:mod:`agents.benchmark_stats`): mean with a seeded 95 %
+percentile-bootstrap interval over the draws (never below zero for a nonnegative metric; for
+``rmse_rel_pid`` a paired bootstrap: a resample keeps controller and PID on the same draws),
+failure rate with a Wilson interval, CVaR-10 % of the RMSE (mean of the worst ``ceil(0.1 n)``
+episodes) with a seeded percentile-bootstrap interval.
 
 Learned agents: a controller spec ``sb3:RUN_DIR`` (or ``NAME=sb3:RUN_DIR``) is loaded with
-``agents.policies.load_trained(RUN_DIR)``; several specs with the same name (default: the run
+``agents.policies.load_trained(RUN_DIR)`` from the folder's safe layout (``policy.pt`` +
+``obs_normalization.npz``, no unpickling); SB3 zips and ``vecnormalize.pkl`` are pickles that
+can run code on load and are read only with ``trust_pickle=True`` (``--trust-pickle``) for
+folders you trust. Several specs with the same name (default: the run
 folder name without a trailing ``_s<k>`` / ``_seed<k>``) are different training seeds, pooled
 into one row (``n`` = draws x seeds).
 """
@@ -46,6 +57,8 @@ from __future__ import annotations
 import argparse
 import csv
 import dataclasses
+import functools
+import json
 import math
 import re
 import sys
@@ -56,8 +69,11 @@ from typing import Any
 
 import numpy as np
 
+from agents import metrics as fm
 from agents.adapters import PRESSURE_MAX_FACTOR, EnvAdapter
 from agents.backend import add_backend_args, check_backend, import_ray
+from agents.benchmark_stats import bootstrap_ci, cvar, draw_bootstrap_ci, wilson_ci
+from agents.benchmark_stats import summarize as _summarize
 from hydro_envs import registry
 
 __all__ = [
@@ -69,9 +85,9 @@ __all__ = [
     "add_cli",
     "bootstrap_ci",
     "cvar",
+    "draw_bootstrap_ci",
     "draw_parameters",
     "main",
-    "mean_ci",
     "rollout",
     "run_benchmark",
     "step_metrics",
@@ -87,6 +103,10 @@ METRICS = (
     ("max_error", "max error"),
     ("overshoot", "overshoot [%]"),
     ("settling_time", "settling [s]"),
+    ("reversal_error", "reversal error"),
+    ("steady_state_error", "steady-state error"),
+    ("limit_cycle", "limit cycle (p-p)"),
+    ("stick_time", "stick time [-]"),
     ("effort", "effort (RMS a)"),
     ("pressure_violations", "pressure viol. [steps]"),
     ("endstop_steps", "end-stop [steps]"),
@@ -240,61 +260,6 @@ def step_metrics(y: np.ndarray, r: np.ndarray, dt: float, *, settle_frac: float 
     return float(np.mean(overs)), float(np.mean(settles)), int(jumps.size)
 
 
-def cvar(values: Sequence[float], alpha: float = 0.1) -> float:
-    """Upper-tail CVaR: mean of the worst ``ceil(alpha n)`` values (NaNs ignored)."""
-    v = np.asarray(values, dtype=float)
-    v = v[np.isfinite(v)]
-    if v.size == 0:
-        return float("nan")
-    k = max(1, math.ceil(alpha * v.size - 1e-12))
-    return float(np.mean(np.sort(v)[::-1][:k]))
-
-
-def mean_ci(values: Sequence[float], level: float = 0.95) -> tuple[float, float, float]:
-    """Mean and Student-t interval (NaNs ignored; one value: zero-width)."""
-    from scipy import stats
-
-    v = np.asarray(values, dtype=float)
-    v = v[np.isfinite(v)]
-    if v.size == 0:
-        return float("nan"), float("nan"), float("nan")
-    m = float(np.mean(v))
-    if v.size == 1:
-        return m, m, m
-    h = float(stats.t.ppf(0.5 + level / 2, v.size - 1) * np.std(v, ddof=1) / math.sqrt(v.size))
-    return m, m - h, m + h
-
-
-def wilson_ci(k: int, n: int, level: float = 0.95) -> tuple[float, float, float]:
-    """Proportion ``k/n`` with its Wilson score interval."""
-    from scipy import stats
-
-    if n == 0:
-        return float("nan"), float("nan"), float("nan")
-    z = float(stats.norm.ppf(0.5 + level / 2))
-    p = k / n
-    den = 1 + z * z / n
-    c = (p + z * z / (2 * n)) / den
-    h = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / den
-    lo = 0.0 if k == 0 else max(0.0, c - h)
-    hi = 1.0 if k == n else min(1.0, c + h)
-    return p, lo, hi
-
-
-def bootstrap_ci(values: Sequence[float], stat: Callable[[np.ndarray], float], *, level: float = 0.95,
-                 n_boot: int = 2000, seed: int = 0) -> tuple[float, float, float]:
-    """Statistic and its seeded percentile-bootstrap interval."""
-    v = np.asarray(values, dtype=float)
-    v = v[np.isfinite(v)]
-    if v.size == 0:
-        return float("nan"), float("nan"), float("nan")
-    s = stat(v)
-    rng = np.random.default_rng(seed)
-    boots = np.array([stat(v[rng.integers(0, v.size, v.size)]) for _ in range(n_boot)])
-    lo, hi = np.percentile(boots, [50 * (1 - level), 50 * (1 + level)])
-    return float(s), float(min(lo, s)), float(max(hi, s))
-
-
 # ------------------------------------------------------------------ rollout
 @dataclasses.dataclass
 class Rollout:
@@ -323,6 +288,9 @@ def rollout(env_id: str, controller: Any, draws: Sequence[Mapping[str, float]], 
     # stepping 20 copies, 8 ms vs 0.1 ms per step on a loaded 2-core machine)
     b.parallel = n >= SERIAL_BELOW
     steps = venv.max_episode_steps
+    # every copy once (the vector env requires it), then each copy with its draw; the second
+    # reset reseeds copy i with seed + i, so the first leaves no trace
+    venv.reset(seed=int(seed), options={"reference": reference} if reference is not None else None)
     for i, d in enumerate(draws):
         mask = np.zeros(n, dtype=bool)
         mask[i] = True
@@ -396,49 +364,52 @@ def episode_metrics(track: Rollout, step: Rollout | None, adapter: EnvAdapter) -
             over[i], settle[i], _ = step_metrics(step.y[:, i], step.ref[:, i], step.dt,
                                                  settle_abs=adapter.settle_abs)
         failed = failed | step.nonfinite
+    fric = friction_metrics(track, step)
     return {"rmse": np.where(track.nonfinite, np.nan, rmse), "max_error": np.where(track.nonfinite, np.nan, max_err),
-            "overshoot": over, "settling_time": settle, "effort": effort,
+            "overshoot": over, "settling_time": settle, **fric, "effort": effort,
             "pressure_violations": track.pressure_violations + (step.pressure_violations if step is not None else 0),
             "endstop_steps": track.endstop_steps + (step.endstop_steps if step is not None else 0),
             "failed": failed.astype(float)}
 
 
-def summarize(episodes: Mapping[str, np.ndarray], seed: int = 0) -> dict[str, tuple[float, float, float, int]]:
-    """Metric -> (value, ci_lo, ci_hi, n) for one controller."""
-    out = {}
-    for key, _ in METRICS:
-        if key == "cvar10_rmse":
-            v = episodes["rmse"]
-            # a failed (non-finite) episode counts as the worst
-            v = np.where(np.isfinite(v), v, np.inf) if np.isfinite(v).any() else v
-            fin = v[np.isfinite(v)]
-            if np.isinf(v).any():
-                out[key] = (float("inf"), float("inf"), float("inf"), int(v.size))
-            else:
-                s, lo, hi = bootstrap_ci(fin, cvar, seed=seed)
-                out[key] = (s, lo, hi, int(fin.size))
-        elif key == "failed":
-            f = episodes["failed"]
-            p, lo, hi = wilson_ci(int(np.sum(f > 0.5)), int(f.size))
-            out[key] = (p, lo, hi, int(f.size))
-        else:
-            v = episodes.get(key, np.full(1, np.nan))
-            m, lo, hi = mean_ci(v)
-            out[key] = (m, lo, hi, int(np.isfinite(v).sum()))
+def friction_metrics(track: Rollout, step: Rollout | None) -> dict[str, np.ndarray]:
+    """Per-episode :mod:`agents.metrics` (module docstring): reversal error and stick time of
+    the tracking episodes, steady-state error and limit cycle of the step episodes (of the
+    tracking episodes without step episodes). NaN for a non-finite episode."""
+    n = track.y.shape[1]
+    out = {k: np.full(n, np.nan) for k in ("reversal_error", "stick_time", "steady_state_error", "limit_cycle")}
+    hold = step if step is not None else track
+    for i in range(n):
+        if not track.nonfinite[i]:
+            y, r = track.y[:, i], track.ref[:, i]
+            out["reversal_error"][i] = fm.reversal_error(y, r, track.dt)
+            out["stick_time"][i] = fm.stick_time(y, r, track.dt)
+        if not hold.nonfinite[i]:
+            y, r = hold.y[:, i], hold.ref[:, i]
+            out["steady_state_error"][i] = fm.steady_state_error(y, r, hold.dt)
+            out["limit_cycle"][i] = fm.limit_cycle_amplitude(y, r, hold.dt)
     return out
+
+
+def summarize(episodes: Mapping[str, np.ndarray], seed: int = 0,
+              n_draws: int | None = None) -> dict[str, tuple[float, float, float, int]]:
+    """Metric -> (value, ci_lo, ci_hi, n) for one controller (:func:`agents.benchmark_stats.summarize`
+    over :data:`METRICS`; episode ``j`` belongs to draw ``j % n_draws``)."""
+    return _summarize(episodes, [k for k, _ in METRICS], seed=seed, n_draws=n_draws)
 
 
 # ------------------------------------------------------------------ controllers
 _SEED_SUFFIX = re.compile(r"[_-](s|seed)\d+$")
 
 
-def _load_policy(run_dir: str) -> Any:
-    """``agents.policies.load_trained(run_dir)`` (imported lazily: training is optional)."""
+def _load_policy(run_dir: str, trust_pickle: bool = False) -> Any:
+    """``agents.policies.load_trained(run_dir)`` (imported lazily: training is optional); pickles
+    only with ``trust_pickle``."""
     try:
         from agents.policies import load_trained
     except ImportError as exc:  # pragma: no cover - depends on the training package
         raise ValueError(f"controller 'sb3:{run_dir}' needs agents.policies.load_trained: {exc}") from exc
-    return load_trained(run_dir)
+    return load_trained(run_dir, trust_pickle=trust_pickle)
 
 
 def _checked_policy(policy: Any, run_dir: str, env_id: str) -> Any:
@@ -502,8 +473,9 @@ class BenchmarkResult:
     def markdown(self) -> str:
         ad = ADAPTERS[self.env_id]
         lines = [f"### {self.env_id}: params = {self.params}, n = {self.n} draws, seed = {self.seed}", ""]
-        lines.append(f"Tracked quantity: {ad.quantity} [{ad.unit}]; RMSE, max error and CVaR in {ad.unit}. "
-                     "Values: mean [95 % CI].")
+        lines.append(f"Tracked quantity: {ad.quantity} [{ad.unit}]; RMSE, max error, reversal error, "
+                     f"steady-state error, limit cycle and CVaR in {ad.unit}. Values: mean [95 % percentile-"
+                     "bootstrap interval over the draws; RMSE / PID: paired; failure rate: Wilson].")
         if ad.note:
             lines.append(f"Note: {ad.note}.")
         lines.append("")
@@ -541,6 +513,7 @@ def run_benchmark(
     step_reference: str | None = "auto",
     figures: bool = True,
     policy_loader: Callable[[str], Any] | None = None,
+    trust_pickle: bool = False,
     env_kwargs: Mapping[str, Any] | None = None,
     progress: Callable[[str], None] | None = None,
     backend: str = "serial",
@@ -553,7 +526,7 @@ def run_benchmark(
     ``episode_steps`` (default: the env's registered length), ``reference`` (tracking
     reference kind; default the env's default), ``step_reference`` (``"auto"``: the env's step
     kind from :data:`ADAPTERS`; ``None``: skip the step episodes). Writes
-    ``<plant>_<params>.md``, ``.csv``, ``_episodes.csv``, ``_draws.csv`` and (``figures``)
+    ``<plant>_<params>.md``, ``.json``, ``.csv``, ``_episodes.csv``, ``_draws.csv`` and (``figures``)
     ``_box.png``, ``_traces.png`` to ``out_dir`` if given.
 
     ``backend="ray"`` evaluates the pieces as Ray core tasks (:mod:`agents.backend`; cluster
@@ -572,7 +545,7 @@ def run_benchmark(
     specs = parse_controllers(env_id, controllers)
     draws = draw_parameters(env_id, params, n, seed)
     step_kind = ADAPTERS[env_id].step_reference if step_reference == "auto" else step_reference
-    loader = policy_loader or _load_policy
+    loader = policy_loader or (functools.partial(_load_policy, trust_pickle=True) if trust_pickle else _load_policy)
     say = progress or (lambda msg: None)
     common = (env_id, seed, reference, step_kind, episode_steps, dict(env_kwargs or {}), loader)
 
@@ -610,7 +583,7 @@ def run_benchmark(
         for c, d in pooled.items():  # paired: episode j of every member vs the PID's draw j % n
             with np.errstate(divide="ignore", invalid="ignore"):
                 d["rmse_rel_pid"] = d["rmse"] / np.tile(ref, members[c])
-    summary = {c: summarize(v, seed) for c, v in pooled.items()}
+    summary = {c: summarize(v, seed, n) for c, v in pooled.items()}
     res = BenchmarkResult(env_id, params, n, seed, draws, pooled, summary, members, param_arrays, traces, dt)
     if out_dir is not None:
         res.files = write_outputs(res, Path(out_dir), figures=figures)
@@ -721,6 +694,9 @@ def write_outputs(res: BenchmarkResult, out_dir: Path, *, figures: bool = True) 
     md = out_dir / f"{stem}.md"
     md.write_text(res.markdown(), encoding="utf-8")
     files.append(md)
+    p = out_dir / f"{stem}.json"
+    p.write_text(json.dumps(result_json(res), indent=1) + "\n", encoding="utf-8")
+    files.append(p)
     p = out_dir / f"{stem}.csv"
     with p.open("w", newline="", encoding="utf-8") as fh:
         w = csv.writer(fh)
@@ -753,48 +729,31 @@ def write_outputs(res: BenchmarkResult, out_dir: Path, *, figures: bool = True) 
 
 
 def _figures(res: BenchmarkResult, out_dir: Path, stem: str) -> list[Path]:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from agents.benchmark_figures import write_figures
 
     ad = ADAPTERS[res.env_id]
     keys = [(k, lab) for k, lab in METRICS if k not in ("cvar10_rmse", "failed")]
-    keys = [(k, lab) for k, lab in keys if any(k in d and np.isfinite(d[k]).any() for d in res.episodes.values())]
-    names = list(res.episodes)
-    cols = 3
-    rows = math.ceil(len(keys) / cols)
-    fig, axes = plt.subplots(rows, cols, figsize=(9, 2.4 * rows), squeeze=False)
-    for ax, (k, lab) in zip(axes.ravel(), keys):
-        data = [res.episodes[c].get(k, np.zeros(0))[np.isfinite(res.episodes[c].get(k, np.zeros(0)))] for c in names]
-        ax.boxplot([d if d.size else [np.nan] for d in data], showfliers=True)
-        ax.set_xticks(range(1, len(names) + 1), names, rotation=30, fontsize=6)
-        unit = f" [{ad.unit}]" if k in ("rmse", "max_error") else ""
-        ax.set_title(lab + unit, fontsize=8)
-        ax.tick_params(labelsize=6)
-    for ax in axes.ravel()[len(keys):]:
-        ax.axis("off")
-    fig.suptitle(f"{res.env_id} ({res.params}, n={res.n})", fontsize=9)
-    fig.tight_layout()
-    box = out_dir / f"{stem}_box.png"
-    fig.savefig(box, dpi=70)
-    plt.close(fig)
-    fig, ax = plt.subplots(figsize=(7, 2.8))
-    t = res.dt * np.arange(1, next(iter(res.traces.values()))[0].size + 1)
-    ref = next(iter(res.traces.values()))[1]
-    ax.plot(t, ref, "k--", lw=1.0, label="reference")
-    for c, (y, _) in res.traces.items():
-        ax.plot(t, y, lw=0.7, label=c)
-    ax.set_xlabel("t [s]", fontsize=7)
-    ax.set_ylabel(f"{ad.quantity} [{ad.unit}]", fontsize=7)
-    ax.tick_params(labelsize=6)
-    ax.legend(fontsize=6, ncol=3)
-    ax.set_title(f"draw 0, episode seed {res.seed}", fontsize=8)
-    fig.tight_layout()
-    tr = out_dir / f"{stem}_traces.png"
-    fig.savefig(tr, dpi=70)
-    plt.close(fig)
-    return [box, tr]
+    return write_figures(res, out_dir, stem, keys, ad.quantity, ad.unit)
+
+
+def result_json(res: BenchmarkResult) -> dict[str, Any]:
+    """The summary table as a JSON-ready dict: per controller and metric value, interval, n, unit."""
+    from agents.benchmark_figures import metric_unit
+
+    ad = ADAPTERS[res.env_id]
+
+    def num(x: float) -> float | str | None:
+        return None if math.isnan(x) else (("inf" if x > 0 else "-inf") if math.isinf(x) else float(x))
+
+    return {
+        "env": res.env_id, "params": res.params, "n_draws": res.n, "seed": res.seed,
+        "quantity": ad.quantity, "unit": ad.unit, "interval": "95 %: percentile bootstrap over draws "
+        "(rmse_rel_pid paired), failure rate Wilson",
+        "metrics": {k: {"label": lab, "unit": metric_unit(k, ad.unit)} for k, lab in METRICS},
+        "controllers": {c: {"seeds": res.members[c], **{k: {"value": num(v), "ci_low": num(lo), "ci_high": num(hi),
+                                                           "n": int(m)} for k, (v, lo, hi, m) in s.items()}}
+                        for c, s in res.summary.items()},
+    }
 
 
 # ------------------------------------------------------------------ command line
@@ -817,6 +776,10 @@ def add_cli(subparsers: Any) -> argparse.ArgumentParser:
     p.add_argument("--steps", type=int, metavar="K", help="episode length in env steps")
     p.add_argument("--policy", nargs="+", action="extend", metavar="RUN_DIR", default=[],
                    help="trained run folder(s) (several training seeds pool by name)")
+    p.add_argument("--trust-pickle", action="store_true",
+                   help="also read run folders that have only SB3's pickled files (model.zip, vecnormalize.pkl); "
+                        "a pickle can run code on load, so only for folders you trust (default: the safe "
+                        "policy.pt + obs_normalization.npz layout only)")
     p.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
     add_backend_args(p)
     p.add_argument("--chunk-size", type=int, metavar="N", default=None,
@@ -901,6 +864,7 @@ def cli_benchmark(args: argparse.Namespace) -> int:
                                 step_reference=cfg.get("step_reference", "auto"), figures=figures,
                                 progress=lambda msg: print(msg, file=sys.stderr, flush=True),
                                 backend=backend, chunk_size=chunk, ray_address=getattr(args, "ray_address", None),
+                                trust_pickle=bool(getattr(args, "trust_pickle", False)),
                                 num_cpus=getattr(args, "num_cpus", None))
             print(res.markdown())
             print(f"({res.seconds:.1f} s)" + (f"; wrote {', '.join(str(f) for f in res.files)}" if res.files else ""))

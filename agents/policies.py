@@ -11,22 +11,29 @@ Run-folder layout (names are the constants below)::
 
     config.yml          resolved hyperparameters, rl-zoo format keyed by the env id
     args.json           the arguments of the run (env id, algo, seed, randomisation, eval set)
-    model.zip           final SB3 model            vecnormalize.pkl       its statistics
-    best_model.zip      best evaluated model       best_vecnormalize.pkl  its statistics
-    evaluations.csv/npz periodic evaluation log    tb/                    TensorBoard logs
+    policy.pt           final policy weights          obs_normalization.npz       its statistics
+    best_policy.pt      best evaluated weights        best_obs_normalization.npz  its statistics
+    model.zip           final SB3 model (to resume)   vecnormalize.pkl            its statistics
+    best_model.zip      best SB3 model                best_vecnormalize.pkl       its statistics
+    evaluations.csv/npz periodic evaluation log       tb/                         TensorBoard logs
 
-The model is read with SB3's ``load`` (its tensors with ``torch.load(weights_only=True)``).
-``vecnormalize.pkl`` is SB3's own pickle format: load run folders you trust, as with any pickle.
+**Loading never unpickles by default.** :func:`load_trained` reads the safe layout: the
+policy's ``state_dict`` with ``torch.load(weights_only=True)`` and the frozen observation
+statistics (mean, var, clip_obs, epsilon) from an ``.npz`` read with ``allow_pickle=False``;
+:func:`agents.train.train` writes it at the end of every run (and with every new best
+evaluation), next to SB3's zip, which SB3 needs to resume training. SB3 zips (their
+``data`` entry is cloudpickled) and ``vecnormalize.pkl`` are pickles: a pickle from someone
+else can execute arbitrary code the moment it is loaded. They are read only with
+``trust_pickle=True`` (``hydro benchmark --trust-pickle``); without it, a folder that has only
+the pickle layout is a :class:`UntrustedPickleError` that says so. Convert a folder you trust
+once with ``export_compact(run, dest, trust_pickle=True)``.
 
 Compact folders (:func:`export_compact`, the pre-trained baselines in ``agents/pretrained/``)
-hold only what evaluation needs, about 45 kB for a 64-64 PPO policy instead of 330 kB, and no
-pickle::
+hold only the safe layout, about 45 kB for a 64-64 PPO policy instead of 330 kB::
 
-    config.yml, args.json   as above
-    policy.pt               the policy's ``state_dict`` (read with ``weights_only=True``)
-    obs_normalization.npz   mean, var, clip_obs, epsilon of the frozen observation statistics
+    config.yml, args.json, policy.pt, obs_normalization.npz
 
-:func:`load_trained` opens both layouts; the compact one gives bit-identical actions (tested).
+Both layouts give bit-identical actions (tested).
 """
 
 from __future__ import annotations
@@ -52,8 +59,12 @@ __all__ = [
     "TB_DIR",
     "POLICY_FILE",
     "OBS_NORM_FILE",
+    "BEST_POLICY_FILE",
+    "BEST_OBS_NORM_FILE",
     "ObsNormalizer",
     "TrainedPolicy",
+    "UntrustedPickleError",
+    "write_compact",
     "algo_class",
     "export_compact",
     "load_trained",
@@ -71,6 +82,16 @@ EVAL_NPZ = "evaluations.npz"
 TB_DIR = "tb"
 POLICY_FILE = "policy.pt"
 OBS_NORM_FILE = "obs_normalization.npz"
+BEST_POLICY_FILE = "best_policy.pt"
+BEST_OBS_NORM_FILE = "best_obs_normalization.npz"
+
+
+class UntrustedPickleError(ValueError):
+    """A run folder has only pickled files and ``trust_pickle`` was not given."""
+
+
+def _compact_files(which: str) -> tuple[str, str]:
+    return (POLICY_FILE, OBS_NORM_FILE) if which == "final" else (BEST_POLICY_FILE, BEST_OBS_NORM_FILE)
 
 
 def algo_class(algo: str) -> type:
@@ -97,6 +118,13 @@ class ObsNormalizer:
         self.clip_obs, self.epsilon = float(clip_obs), float(epsilon)
         self.training, self.norm_reward = False, False
 
+    @property
+    def obs_rms(self) -> Any:
+        """``mean`` and ``var`` under SB3's ``VecNormalize.obs_rms`` names."""
+        from types import SimpleNamespace
+
+        return SimpleNamespace(mean=self.mean, var=self.var)
+
     @classmethod
     def from_vecnormalize(cls, vn: Any) -> "ObsNormalizer":
         return cls(vn.obs_rms.mean, vn.obs_rms.var, vn.clip_obs, vn.epsilon)
@@ -117,9 +145,10 @@ class ObsNormalizer:
 class TrainedPolicy:
     """An SB3 model behind its frozen observation normalisation.
 
-    ``obs_normalizer`` is the unpickled ``VecNormalize`` of the run (no venv attached; only
-    its ``normalize_obs`` is used, which never updates the statistics) or ``None`` when the
-    run did not normalise observations.
+    ``obs_normalizer`` holds the frozen observation statistics (an :class:`ObsNormalizer`, or
+    with a trusted pickle the run's ``VecNormalize`` without its venv; only ``normalize_obs``
+    is used, which never updates them) or is ``None`` when the run did not normalise
+    observations.
     """
 
     def __init__(self, model: Any, obs_normalizer: Any | None, *, env_id: str = "", algo: str = "",
@@ -160,26 +189,42 @@ class TrainedPolicy:
                                   deterministic=deterministic)
 
 
-def load_trained(run_dir: str | Path, which: str = "final", device: str = "cpu") -> TrainedPolicy:
-    """Load the ``which`` (``"final"`` or ``"best"``) model of a run folder with its frozen
-    ``VecNormalize`` observation statistics."""
+def load_trained(run_dir: str | Path, which: str = "final", device: str = "cpu", *,
+                 trust_pickle: bool = False) -> TrainedPolicy:
+    """Load the ``which`` (``"final"`` or ``"best"``) policy of a run folder with its frozen
+    observation statistics.
+
+    Reads the safe layout (``policy.pt`` + ``obs_normalization.npz``, or their ``best_``
+    versions) when present. The pickled layout (SB3 zip + ``vecnormalize.pkl``) is read only
+    with ``trust_pickle=True``, and then in preference (the full SB3 model); without it a
+    folder that has only the pickles raises :class:`UntrustedPickleError`."""
     run = Path(run_dir)
     if which not in ("final", "best"):
         raise ValueError(f"which = {which!r}; allowed ('final', 'best')")
-    if (run / POLICY_FILE).is_file() and not (run / MODEL_FILE).is_file():
-        return _load_compact(run, device)
+    if not isinstance(trust_pickle, bool):
+        raise TypeError(f"trust_pickle must be True or False, got {trust_pickle!r}")
+    policy_file, _ = _compact_files(which)
     model_file, vn_file = (MODEL_FILE, VECNORM_FILE) if which == "final" else (BEST_MODEL_FILE, BEST_VECNORM_FILE)
+    if (run / policy_file).is_file() and not (trust_pickle and (run / model_file).is_file()):
+        return _load_compact(run, device, which)
+    if (run / model_file).is_file() and not trust_pickle:
+        raise UntrustedPickleError(
+            f"{run} has no {policy_file}, only the pickled {model_file}"
+            f"{' and ' + vn_file if (run / vn_file).is_file() else ''}: loading a pickle can execute "
+            "arbitrary code from whoever wrote it, so it is not read by default. If you trust the folder, "
+            "pass --trust-pickle (trust_pickle=True), or convert it once with "
+            "agents.policies.export_compact(run, dest, trust_pickle=True)")
     for f in (ARGS_FILE, CONFIG_FILE, model_file):
         if not (run / f).is_file():
             raise FileNotFoundError(f"{run / f} not found: not a finished run folder of agents.train")
     args = json.loads((run / ARGS_FILE).read_text())
     config_all = yaml.safe_load((run / CONFIG_FILE).read_text())
     env_id, algo = args["env_id"], args["algo"]
-    model = algo_class(algo).load(run / model_file, device=device)
+    model = algo_class(algo).load(run / model_file, device=device)  # trusted: cloudpickle inside
     normalizer = None
     if (run / vn_file).is_file():
         with open(run / vn_file, "rb") as fh:
-            normalizer = pickle.load(fh)  # SB3 VecNormalize state (venv excluded)
+            normalizer = pickle.load(fh)  # trusted: SB3 VecNormalize state (venv excluded)
     return TrainedPolicy(model, normalizer, env_id=env_id, algo=algo,
                          config=config_all.get(env_id, {}), run_dir=run)
 
@@ -191,26 +236,55 @@ def _policy_class(algo: str, policy: str) -> type:
     return cls.policy_aliases[policy]
 
 
-def export_compact(run_dir: str | Path, dest: str | Path, which: str = "final") -> Path:
-    """Write the compact evaluation-only copy of a run folder (module docstring) to ``dest``."""
-    import shutil
-
+def write_compact(policy: Any, obs_normalizer: Any | None, dest: str | Path, which: str = "final") -> None:
+    """Write the safe layout of ``policy`` (an SB3 policy module) and its observation
+    statistics (an SB3 ``VecNormalize``, an :class:`ObsNormalizer` or None) into ``dest``."""
     import torch
 
-    pol = load_trained(run_dir, which)
+    policy_file, norm_file = _compact_files(which)
     dest = Path(dest)
     dest.mkdir(parents=True, exist_ok=True)
-    state = {k: v.detach().cpu().clone() for k, v in pol.model.policy.state_dict().items()}
-    torch.save(state, dest / POLICY_FILE)
-    if pol.obs_normalizer is not None and pol.obs_normalizer.norm_obs:
-        ObsNormalizer.from_vecnormalize(pol.obs_normalizer).save(dest / OBS_NORM_FILE)
+    state = {k: v.detach().cpu().clone() for k, v in policy.state_dict().items()}
+    torch.save(state, dest / policy_file)
+    if obs_normalizer is not None and getattr(obs_normalizer, "norm_obs", False):
+        norm = obs_normalizer if isinstance(obs_normalizer, ObsNormalizer) else ObsNormalizer.from_vecnormalize(obs_normalizer)
+        norm.save(dest / norm_file)
+
+
+def export_compact(run_dir: str | Path, dest: str | Path, which: str = "final", *, trust_pickle: bool = False) -> Path:
+    """Write the compact evaluation-only copy of a run folder (module docstring) to ``dest``.
+
+    A folder with the safe layout is copied without unpickling anything; one with only the
+    pickled layout needs ``trust_pickle=True``."""
+    import shutil
+
+    pol = load_trained(run_dir, which, trust_pickle=trust_pickle)
+    dest = Path(dest)
+    write_compact(_policy_module(pol.model), pol.obs_normalizer, dest)
     for f in (CONFIG_FILE, ARGS_FILE, EVAL_CSV):
         if (Path(run_dir) / f).is_file():
             shutil.copyfile(Path(run_dir) / f, dest / f)
     return dest
 
 
-def _load_compact(run: Path, device: str = "cpu") -> TrainedPolicy:
+def _policy_module(model: Any) -> Any:
+    return model.policy if hasattr(model, "policy") else model
+
+
+class _CompactModel:
+    """The loaded policy module behind the SB3 model attributes callers use (``policy``,
+    ``predict``, the spaces)."""
+
+    def __init__(self, policy: Any) -> None:
+        self.policy = policy
+        self.observation_space = policy.observation_space
+        self.action_space = policy.action_space
+
+    def predict(self, obs: Any, state: Any = None, episode_start: Any = None, deterministic: bool = True):
+        return self.policy.predict(obs, state=state, episode_start=episode_start, deterministic=deterministic)
+
+
+def _load_compact(run: Path, device: str = "cpu", which: str = "final") -> TrainedPolicy:
     import gymnasium as gym
     import torch
 
@@ -228,9 +302,10 @@ def _load_compact(run: Path, device: str = "cpu") -> TrainedPolicy:
     env.close()
     policy = _policy_class(algo, cfg.get("policy", "MlpPolicy"))(
         obs_space, act_space, lambda _: 0.0, **policy_kwargs_object(parse_policy_kwargs(cfg.get("policy_kwargs"))))
-    state = torch.load(run / POLICY_FILE, map_location=device, weights_only=True)
+    policy_file, norm_file = _compact_files(which)
+    state = torch.load(run / policy_file, map_location=device, weights_only=True)
     policy.load_state_dict(state)
     policy.set_training_mode(False)
     policy.to(device)
-    normalizer = ObsNormalizer.load(run / OBS_NORM_FILE) if (run / OBS_NORM_FILE).is_file() else None
-    return TrainedPolicy(policy, normalizer, env_id=env_id, algo=algo, config=cfg, run_dir=run)
+    normalizer = ObsNormalizer.load(run / norm_file) if (run / norm_file).is_file() else None
+    return TrainedPolicy(_CompactModel(policy), normalizer, env_id=env_id, algo=algo, config=cfg, run_dir=run)

@@ -51,7 +51,10 @@ gets a copy of the training statistics and is frozen (``training=False``,
 Each copy runs one full episode; returns are sums of raw env rewards.
 
 The run folder (see :mod:`agents.policies` for the layout) is ``<out>/<env>_<algo>_<seed>_
-<UTC timestamp>`` unless ``name`` is given. Same seed, same config, same machine and
+<UTC timestamp>`` unless ``name`` is given. Besides SB3's zip and ``vecnormalize.pkl`` (pickles,
+kept to resume training) it holds the safe layout evaluation reads without unpickling:
+``policy.pt`` + ``obs_normalization.npz`` (and ``best_`` versions with each new best
+evaluation). Same seed, same config, same machine and
 ``torch.set_num_threads(1)`` give bit-identical runs on CPU (tested).
 """
 
@@ -95,7 +98,9 @@ from agents.policies import (  # noqa: E402
     MODEL_FILE,
     TB_DIR,
     VECNORM_FILE,
+    ObsNormalizer,
     algo_class,
+    write_compact,
 )
 
 __all__ = [
@@ -575,6 +580,7 @@ class EvalLogCallback(BaseCallback):
             self.best = mean
             self.model.save(self.run_dir / BEST_MODEL_FILE)
             train_env.save(str(self.run_dir / BEST_VECNORM_FILE))
+            write_compact(self.model.policy, _obs_normalizer(train_env), self.run_dir, "best")
         if self.verbose:
             print(f"eval @ {self.num_timesteps} steps: return {mean:.4g} +- {std:.3g} "
                   f"(per step {step_r:.4g}), best {self.best:.4g}", flush=True)
@@ -682,10 +688,16 @@ def train(
                     progress_bar=progress_bar)
     model.save(run / MODEL_FILE)
     train_env.save(str(run / VECNORM_FILE))
+    write_compact(model.policy, _obs_normalizer(train_env), run, "final")  # what evaluation reads
     train_env.close()
     if eval_env is not None:
         eval_env.close()
     return run
+
+
+def _obs_normalizer(env: Any) -> Any | None:
+    """The ``VecNormalize`` wrapper of ``env`` (frozen copy of its statistics), or None."""
+    return ObsNormalizer.from_vecnormalize(env) if isinstance(env, VecNormalize) and env.norm_obs else None
 
 
 def _jsonable(x: Any) -> Any:

@@ -246,14 +246,15 @@ class RandomizationSpec:
             values[e.name] = hi_v if hi else lo_v
         return dataclasses.replace(base, **values)
 
-    def check_corners(self, n_random: int = 64) -> None:
-        """Both all-low/all-high corners and random corners must be valid parameter sets."""
+    def check_corners(self, n_random: int = 64, base: PhysicalParams | None = None) -> None:
+        """Both all-low/all-high corners and random corners must be valid parameter sets
+        (around ``base``, default the nominal set)."""
         rng = np.random.default_rng(0)
         corners = [[False] * len(self.entries), [True] * len(self.entries)]
         corners += [list(rng.integers(0, 2, len(self.entries)).astype(bool)) for _ in range(n_random)]
         for flags in corners:
             try:
-                self.corner(flags)
+                self.corner(flags, base)
             except ParameterError as exc:
                 raise RandomizationError(
                     f"randomisation spec {self.source_file}: a corner of the ranges is invalid: {exc}"

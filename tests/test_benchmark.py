@@ -43,16 +43,49 @@ def test_cvar_and_confidence_intervals():
     assert bm.cvar(v, 0.1) == pytest.approx(19.5)
     assert bm.cvar(np.arange(1.0, 11.0), 0.1) == pytest.approx(10.0)
     assert bm.cvar([3.0, np.nan, 1.0], 0.1) == pytest.approx(3.0)
-    m, lo, hi = bm.mean_ci([1.0, 2.0, 3.0, 4.0])
-    # t(0.975, 3) = 3.1824, s = 1.2910: half width 3.1824 * 1.2910 / 2 = 2.0542
-    assert m == pytest.approx(2.5)
-    assert hi - m == pytest.approx(2.0542, abs=1e-3) and m - lo == pytest.approx(2.0542, abs=1e-3)
+    # Wilson score interval, z = 1.95996: 0/20 -> [0, z^2 / (n + z^2)] = [0, 0.16113]
     p, lo, hi = bm.wilson_ci(0, 20)
-    assert p == 0.0 and lo == 0.0 and 0.1 < hi < 0.2  # Wilson: 0.161
+    assert p == 0.0 and lo == 0.0 and hi == pytest.approx(1.95996**2 / (20 + 1.95996**2), rel=1e-5)
+    # 5/20: centre (p + z^2/2n) / (1 + z^2/n), half width z sqrt(p q / n + z^2 / 4n^2) / (1 + z^2/n)
+    z = 1.959963985
+    c = (0.25 + z * z / 40) / (1 + z * z / 20)
+    h = z * math.sqrt(0.25 * 0.75 / 20 + z * z / 1600) / (1 + z * z / 20)
     p, lo, hi = bm.wilson_ci(5, 20)
-    assert lo < p < hi
+    assert p == 0.25 and lo == pytest.approx(c - h, rel=1e-9) and hi == pytest.approx(c + h, rel=1e-9)
     s, lo, hi = bm.bootstrap_ci(v, bm.cvar, seed=0)
     assert lo <= s <= hi
+
+
+def test_draw_bootstrap_is_nonnegative_seeded_and_about_the_standard_error():
+    # zero-inflated counts: the Student-t interval of these goes below zero, the bootstrap not
+    v = np.r_[np.zeros(18), 30.0, 50.0]
+    m, lo, hi, k = bm.draw_bootstrap_ci(v, seed=3)
+    assert (m, k) == (4.0, 20) and lo >= 0.0 and hi > m
+    assert bm.draw_bootstrap_ci(v, seed=3) == (m, lo, hi, k)  # deterministic
+    # normal data: half width ~ 1.96 s / sqrt(n) (s = 1, n = 400: 0.098)
+    x = np.random.default_rng(0).normal(5.0, 1.0, 400)
+    m, lo, hi, _ = bm.draw_bootstrap_ci(x, seed=0)
+    assert m == pytest.approx(np.mean(x))
+    assert (hi - lo) / 2 == pytest.approx(1.96 * np.std(x, ddof=1) / 20, rel=0.1)
+    assert bm.draw_bootstrap_ci(x, seed=1) != (m, lo, hi, 400)  # the seed drives the resamples
+    # constant data and one draw: zero width; NaNs are skipped; no finite value: NaN
+    assert bm.draw_bootstrap_ci([2.0, 2.0, 2.0])[:3] == (2.0, 2.0, 2.0)
+    assert bm.draw_bootstrap_ci([1.0, np.nan, 3.0], seed=0)[0] == 2.0
+    assert math.isnan(bm.draw_bootstrap_ci([np.nan])[0])
+    with pytest.raises(ValueError, match=r"n_draws = 3; must divide the 4 episodes"):
+        bm.draw_bootstrap_ci(np.ones(4), 3)
+
+
+def test_paired_ratio_interval_resamples_whole_draws():
+    # two training seeds on 4 draws: episode j belongs to draw j % 4. The ratio of draw 0 is
+    # 1 for both seeds and of draws 1..3 is 0.5: any resample's mean lies in [0.5, 1].
+    ratio = np.r_[1.0, 0.5, 0.5, 0.5, 1.0, 0.5, 0.5, 0.5]
+    m, lo, hi, _ = bm.draw_bootstrap_ci(ratio, 4, seed=0)
+    assert m == pytest.approx(0.625) and 0.5 <= lo < m < hi <= 1.0
+    # resampling whole draws: a resample mean is a multiple of 1/8 (k draws of 1 among 4),
+    # resampling single episodes would also give multiples of 1/16
+    boots_lo_hi = np.array([lo, hi])
+    assert np.allclose(np.round(boots_lo_hi * 8) / 8, boots_lo_hi)
 
 
 def test_episode_metrics_on_synthetic_rollout():
@@ -227,3 +260,93 @@ def test_configs_resolve_by_name_from_any_directory(tmp_path, monkeypatch):
     assert bm._policy_path("agents/pretrained/servo_cylinder/ppo_s0").startswith(str(bm.Path(bm.__file__).resolve().parents[1]))
     with pytest.raises(FileNotFoundError, match="shipped: force_actuator"):
         bm.load_config("no_such_config")
+
+
+# ------------------------------------------------------------------ friction metrics, JSON, figures
+def test_friction_metrics_of_rollouts():
+    # tracking: a triangle with one reversal at sample 101; the output lags one sample and sits
+    # 0.3 m off within 0.2 s after the reversal. Step episode: one hold level of 300 samples.
+    dt, steps = 1e-3, 300
+    k = np.arange(steps)
+    r = np.minimum(k, 200 - k).astype(float)[:, None] * 1e-3
+    y = r.copy()
+    y[150] += 0.3
+    y[:50] = 0.0  # at rest while the reference moves: samples 1..49 (50 has the jump back)
+    acts = np.zeros((steps, 1, 1))
+    z = np.zeros(1)
+    track = bm.Rollout(y, r, acts, z, z, np.zeros(1, dtype=bool), np.zeros((1, 3)), dt)
+    hold_r = np.full((steps, 1), 2.0)
+    hold_y = hold_r.copy()
+    hold_y[150:] += 1e-4 * np.array([1.0, -1.0] * 75)[:, None]  # +-1e-4 hunting in the last half
+    step = bm.Rollout(hold_y, hold_r, acts, z, z, np.zeros(1, dtype=bool), np.zeros((1, 3)), dt)
+    m = bm.friction_metrics(track, step)
+    assert m["reversal_error"][0] == pytest.approx(0.3)
+    assert m["stick_time"][0] == pytest.approx(49 / 299)  # moving samples 1..299 (all but the reversal's zero speed)
+    assert m["steady_state_error"][0] == pytest.approx(1e-4)
+    assert m["limit_cycle"][0] == pytest.approx(2e-4)
+    # without a step episode the holds come from the tracking episode (a triangle has none)
+    assert np.isnan(bm.friction_metrics(track, None)["steady_state_error"][0])
+
+
+@pytest.mark.parametrize("env_id", ["hydro_envs/ServoCylinderSlowSine-v0",
+                                    "hydro_envs/RodlessCylinderMicroPosition-v0"])
+def test_friction_tasks_report_their_metrics(env_id, tmp_path):
+    import json
+
+    res = bm.run_benchmark(env_id, ["pid"], params="in", n=2, seed=0, episode_steps=1500, out_dir=tmp_path,
+                           figures=False)
+    s = res.summary["pid"]
+    if "SlowSine" in env_id:  # 0.2-0.5 Hz: at least one reversal in 1.5 s
+        assert np.all(np.isfinite(res.episodes["pid"]["reversal_error"]))
+        assert 0 <= s["stick_time"][1] <= s["stick_time"][0] <= s["stick_time"][2] <= 1
+        assert np.isnan(s["steady_state_error"][0])
+    else:  # micro steps: holds, no reversal
+        assert np.all(np.isfinite(res.episodes["pid"]["steady_state_error"]))
+        assert np.isnan(s["reversal_error"][0])
+    doc = json.loads(next(p for p in res.files if p.suffix == ".json").read_text())
+    assert doc["env"] == env_id and doc["n_draws"] == 2
+    assert doc["controllers"]["pid"]["rmse"]["value"] == pytest.approx(s["rmse"][0])
+    assert doc["metrics"]["reversal_error"]["unit"] == "m" and doc["metrics"]["stick_time"]["unit"] == "-"
+    assert "reversal error" in res.markdown()
+
+
+def _png_size(path):
+    head = path.read_bytes()[:24]
+    assert head[:8] == b"\x89PNG\r\n\x1a\n"
+    return int.from_bytes(head[16:20], "big"), int.from_bytes(head[20:24], "big")
+
+
+def test_figures_are_wide_with_large_fonts_few_lines_and_units(tmp_path):
+    import matplotlib.text
+
+    from agents import benchmark_figures as bf
+
+    rng = np.random.default_rng(0)
+    names = ["zero", "p", "pid", "pid_ff", "flow", "sac", "ppo"]  # 7 controllers: two trace rows
+    t = 1e-3 * np.arange(500)
+    ref = 0.01 * np.sin(2 * np.pi * t)
+    episodes = {c: {k: rng.uniform(0.1, 1.0, 4) for k, _ in bm.METRICS if k != "cvar10_rmse"} for c in names}
+    summary = {c: bm.summarize(episodes[c], 0, 4) for c in names}
+    res = bm.BenchmarkResult(SERVO, "in", 4, 0, [{}] * 4, episodes, summary, {c: 1 for c in names}, {},
+                             {c: (ref * (1 - 0.1 * i), ref) for i, c in enumerate(names)}, 1e-3)
+    files = bm.write_outputs(res, tmp_path, figures=True)
+    pngs = [p for p in files if p.suffix == ".png"]
+    assert {p.name for p in pngs} == {"servo_cylinder_in_box.png", "servo_cylinder_in_traces.png"}
+    for p in pngs:
+        assert _png_size(p)[0] >= 1200, p.name
+    keys = [(k, lab) for k, lab in bm.METRICS if k not in ("cvar10_rmse", "failed")]
+    for fig in (bf.box_figure(res, keys, "m"), bf.trace_figure(res, "position", "m")):
+        axes = [ax for ax in fig.axes if ax.axison]
+        for ax in axes:
+            assert "[" in ax.get_ylabel() and ax.get_xlabel(), ax.get_title()
+        sizes = [tx.get_fontsize() for tx in fig.findobj(matplotlib.text.Text) if tx.get_text().strip()]
+        assert min(sizes) >= 9
+    trace = bf.trace_figure(res, "position", "m")
+    assert len(trace.axes) == 4  # 2 rows x (output, error)
+    assert max(len(ax.lines) for ax in trace.axes) <= bf.MAX_LINES
+    plotted = [ln.get_label() for ax in trace.axes[0::2] for ln in ax.lines]
+    assert set(names) <= set(plotted)  # every controller is drawn somewhere
+    box = bf.box_figure(res, keys, "m")
+    assert sum(ax.axison for ax in box.axes) == len(keys)
+    ylabels = {ax.get_title(): ax.get_ylabel() for ax in box.axes if ax.axison}
+    assert ylabels["reversal error"] == "reversal error [m]" and ylabels["overshoot"] == "overshoot [%]"

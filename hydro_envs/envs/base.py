@@ -7,7 +7,15 @@ spaces and the sensor channels. Everything else lives here once:
 
 * parameters: nominal set, declarative randomisation (the plant's ``randomization.yaml``),
   ``reset(options={"params": ...})`` overrides, per-copy RK4 sub-steps from the plant's
-  stiffness bound;
+  stiffness bound. Parameters given to the constructor (``gym.make(id, params={...})``) are
+  kept as given: with randomisation on, a given parameter that the randomisation would draw is
+  held fixed (a ``UserWarning`` names it) and only the others are drawn;
+* the boundary: every constructor argument and reset option is checked before anything is
+  reset, and a bad one raises ``TypeError``/``ValueError`` naming the field, the value and the
+  allowed range (``randomize`` a bool, ``episode_steps``/``max_episode_steps``/``num_envs``
+  positive ints, ``options`` keys known, ``options["state"]`` within :meth:`PlantBatch.state_limits`,
+  ``reset_mask`` a bool array of ``num_envs`` entries). A reset that fails leaves every copy as
+  it was;
 * seeding: every copy draws from its own ``np.random.Generator``; a vector env reset with seed
   ``s`` seeds copy ``i`` with ``s + i`` (as ``SyncVectorEnv`` does), so copy ``i`` reproduces
   a single env reset with seed ``s + i`` bit for bit;
@@ -20,9 +28,12 @@ spaces and the sensor channels. Everything else lives here once:
 
 from __future__ import annotations
 
+import dataclasses
 import math
+import numbers
+import warnings
 from types import ModuleType
-from typing import Any, ClassVar, Mapping
+from typing import Any, ClassVar, Iterable, Mapping
 
 import gymnasium as gym
 import numpy as np
@@ -36,7 +47,68 @@ from hydro_envs.randomization import RandomizationSpec, load_randomization
 from hydro_envs.sim.stiffness import DEFAULT_SAFETY, substeps_from_stiffness
 from hydro_envs.spec import PlantSpec
 
-__all__ = ["PlantBatch", "BatchedEnv", "BatchedVectorEnv", "check_actions", "check_nonnegative"]
+__all__ = [
+    "PlantBatch",
+    "BatchedEnv",
+    "BatchedVectorEnv",
+    "check_actions",
+    "check_nonnegative",
+    "check_positive_int",
+    "PRESSURE_FACTOR",
+    "NORMALISED_LIMIT",
+    "VELOCITY_FACTOR",
+]
+
+#: a state pressure may lie in [0, PRESSURE_FACTOR x the plant's pressure parameter] (its supply
+#: or relief pressure; the factor leaves room for load-induced pressure intensification and is
+#: the one the measured-record checks use, hydro_envs.data.checks)
+PRESSURE_FACTOR = 2.0
+#: a normalised state (unit "1": spool stroke, coil current / rated current) lies within
+#: +-NORMALISED_LIMIT of full scale
+NORMALISED_LIMIT = 2.0
+#: tasks bound the load's velocity by VELOCITY_FACTOR x the plant's own speed bound (its
+#: no-load velocity, or the speed its RK4 sub-step count is sized for)
+VELOCITY_FACTOR = 2.0
+
+
+def check_positive_int(name: str, value: Any) -> int:
+    """``value`` as an int >= 1; ``TypeError`` for a non-integer (bool, float, str),
+    ``ValueError`` for one below 1, both naming ``name``."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Integral):
+        raise TypeError(f"{name} must be a positive int (>= 1), got {value!r} ({type(value).__name__})")
+    if value < 1:
+        raise ValueError(f"{name} must be a positive int (>= 1), got {value}")
+    return int(value)
+
+
+def _check_bool(name: str, value: Any) -> bool:
+    if not isinstance(value, (bool, np.bool_)):
+        raise TypeError(f"{name} must be True or False, got {value!r} ({type(value).__name__})")
+    return bool(value)
+
+
+def _real(where: str, value: Any) -> float:
+    """``value`` as a finite float; ``TypeError`` unless a real number (not bool/str/array)."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
+        raise TypeError(f"{where} must be a real number, got {value!r} ({type(value).__name__})")
+    x = float(value)
+    if not math.isfinite(x):
+        raise ValueError(f"{where} must be finite, got {value!r}")
+    return x
+
+
+def given_param_names(params: Any, params_cls: type) -> tuple[str, ...]:
+    """The parameters a caller set explicitly: the keys of a mapping, or the fields of a
+    parameter instance that differ from the class defaults."""
+    if params is None:
+        return ()
+    if isinstance(params, PhysicalParams):
+        nominal = params_cls()
+        return tuple(f.name for f in dataclasses.fields(params) if getattr(params, f.name) != getattr(nominal, f.name))
+    if isinstance(params, Mapping):
+        return tuple(str(k) for k in params)
+    raise TypeError(f"params must be a mapping of parameter name -> value or a {params_cls.__name__}, "
+                    f"got {type(params).__name__}")
 
 
 def check_nonnegative(**values: float) -> None:
@@ -96,6 +168,11 @@ class PlantBatch:
     obs_dim: ClassVar[int]
     #: reset options this task accepts besides "params" and "state"
     task_options: ClassVar[tuple[str, ...]] = ()
+    #: length states bounded by a parameter (|state| <= parameter), e.g. a spool by its stroke;
+    #: entries whose state or parameter the plant lacks are ignored
+    state_limit_parameters: ClassVar[Mapping[str, str]] = {"xv": "spool_stroke"}
+    #: states a reset may not set (internal filter realisations without a physical meaning)
+    fixed_states: ClassVar[tuple[str, ...]] = ()
 
     def __init__(
         self,
@@ -108,16 +185,17 @@ class PlantBatch:
         episode_steps: int | None = None,
         safety: float = DEFAULT_SAFETY,
     ) -> None:
-        if n < 1:
-            raise ValueError(f"number of copies must be >= 1, got {n}")
-        episode_steps = self.episode_steps_default if episode_steps is None else int(episode_steps)
-        if episode_steps < 1:
-            raise ValueError(f"episode_steps must be >= 1, got {episode_steps}")
-        if not (0.0 < safety <= 1.0):
+        n = check_positive_int("number of copies", n)
+        episode_steps = check_positive_int(
+            "episode_steps", self.episode_steps_default if episode_steps is None else episode_steps
+        )
+        randomize = _check_bool("randomize", randomize)
+        if not (0.0 < _real("safety", safety) <= 1.0):
             raise ValueError(f"safety must be in (0, 1], got {safety}")
         if isinstance(params, self.params_cls):
             self.base_params = params
         else:
+            given_param_names(params, self.params_cls)  # type check
             self.base_params = self.params_cls.from_mapping(params or {})
         if randomize:
             self.spec: RandomizationSpec | None = (
@@ -147,6 +225,7 @@ class PlantBatch:
         self.reward = np.zeros(n)
         self.params: list[PhysicalParams] = [self.base_params] * n
         self.rngs: list[np.random.Generator | None] = [None] * n
+        self._reset_params: PhysicalParams = self.base_params
 
     # ------------------------------------------------------------------ task hooks
     def reset_task(self, i: int, rng: np.random.Generator, p: PhysicalParams, options: Mapping[str, Any]) -> None:
@@ -183,26 +262,177 @@ class PlantBatch:
         """RK4 sub-steps per env step for parameter set ``p`` (stiffness bound)."""
         return substeps_from_stiffness(self.plant.stiffness_modes(p), self.dt, self.safety)[0]
 
-    def state_from_options(self, y: np.ndarray, options: Mapping[str, Any]) -> None:
-        """Overwrite entries of ``y`` from ``options['state']`` (names checked, finite)."""
+    def hold_params(self, names: Iterable[str], *, warn: bool = True) -> None:
+        """Take ``names`` out of the randomisation: they keep their ``base_params`` values.
+
+        Checks that every corner of the remaining ranges around the held values is a valid
+        parameter set (``ValueError`` naming the held parameters otherwise) and, with ``warn``,
+        warns which drawn parameters are now fixed."""
+        if self.spec is None:
+            return
+        held = [e.name for e in self.spec.entries if e.name in set(names)]
+        if not held:
+            return
+        spec = dataclasses.replace(self.spec, entries=tuple(e for e in self.spec.entries if e.name not in held))
+        if spec.entries:
+            try:
+                spec.check_corners(base=self.base_params)
+            except ValueError as exc:
+                values = ", ".join(f"{k}={getattr(self.base_params, k)!r}" for k in held)
+                raise ValueError(f"params ({values}) given with randomisation on: {exc}; "
+                                 "pass randomize=False or values consistent with the drawn ranges") from None
+        self.spec = spec if spec.entries else None
+        if warn:
+            values = ", ".join(f"{k}={getattr(self.base_params, k):g}" for k in held)
+            warnings.warn(
+                f"{self.plant_spec.name}: parameters given to the env ({values}) are held fixed; the "
+                f"randomisation ({self.spec.source_file if self.spec else 'none left'}) draws only the others. "
+                "Pass randomize=False to fix every parameter.",
+                UserWarning,
+                stacklevel=4,
+            )
+
+    def state_limits(self, p: PhysicalParams) -> dict[str, tuple[float, float, str]]:
+        """Allowed range ``(low, high, why)`` of every state a reset may set, for parameters ``p``.
+
+        Derived from the plant's registry entry (``stroke_parameter`` L, ``pressure_parameter``
+        p_max), the state units and the control period dt:
+
+        * pressures [Pa]: ``[0, PRESSURE_FACTOR * p_max]`` (tasks add their pressure floor);
+        * lengths [m]: ``|x| <= L``, or ``|x| <=`` the parameter :attr:`state_limit_parameters`
+          names (a spool within its stroke); tasks check the piston's own stroke interval;
+        * normalised states [1]: ``|x| <= NORMALISED_LIMIT`` (full scale is 1);
+        * a velocity that follows its position in the state vector (``x, v``; ``xv, vv``):
+          ``|v| <= min(width of the position range, L) / dt`` -- faster would cross the whole
+          range (the piston's stroke, the spool's travel) within one control step; any other
+          velocity [m/s]: ``|v| <= L / dt``;
+        * forces [N]: ``|F| <= PRESSURE_FACTOR * p_max * A_max`` (``A_max``: the largest area
+          parameter), their rates [N/s] that over dt;
+        * anything else (gas masses, flows): finite; tasks may narrow it.
+        """
+        names, units = self.plant.STATE_NAMES, self.plant_spec.state_units
+        ps = self.plant_spec
+        L = float(getattr(p, ps.stroke_parameter)) if ps.stroke_parameter else math.inf
+        pmax = PRESSURE_FACTOR * float(getattr(p, ps.pressure_parameter)) if ps.pressure_parameter else math.inf
+        areas = [getattr(p, r["name"]) for r in type(p).describe() if r["unit"] == "m^2"]
+        fmax = pmax * max(areas) if areas else math.inf
+        dt = float(self.dt)
+        out: dict[str, tuple[float, float, str]] = {}
+        for j, (name, unit) in enumerate(zip(names, units)):
+            lim = self.state_limit_parameters.get(name)
+            if unit == "Pa":
+                out[name] = (0.0, pmax, f"absolute pressure, 0 to {PRESSURE_FACTOR:g} x {ps.pressure_parameter}")
+            elif unit == "m" and lim is not None and hasattr(p, lim):
+                b = float(getattr(p, lim))
+                out[name] = (-b, b, f"within +-{lim}")
+            elif unit == "m":
+                out[name] = (-L, L, f"a length within +-{ps.stroke_parameter}")
+            elif unit == "1":
+                out[name] = (-NORMALISED_LIMIT, NORMALISED_LIMIT, f"normalised, within +-{NORMALISED_LIMIT:g} x full scale")
+            elif unit in ("m/s", "1/s"):
+                prev = names[j - 1] if j > 0 else None
+                pos_unit = unit[:-2]
+                if prev is not None and units[j - 1] == pos_unit and prev in out:
+                    width = out[prev][1] - out[prev][0]
+                    vmax = min(width, L) / dt if pos_unit == "m" else width / dt
+                    why = f"the rate of {prev!r}: at most its range crossed in one control step (dt = {dt:g} s)"
+                else:
+                    vmax = L / dt
+                    why = f"at most the stroke crossed in one control step (dt = {dt:g} s)"
+                out[name] = (-vmax, vmax, why)
+            elif unit == "N":
+                out[name] = (-fmax, fmax, f"at most {PRESSURE_FACTOR:g} x {ps.pressure_parameter} on the largest area")
+            elif unit == "N/s":
+                out[name] = (-fmax / dt, fmax / dt, "at most the largest force built up in one control step")
+            else:
+                out[name] = (-math.inf, math.inf, "finite")
+        return out
+
+    @staticmethod
+    def narrow(limits: dict[str, tuple[float, float, str]], name: str, low: float, high: float, why: str) -> None:
+        """Replace ``limits[name]`` by ``[low, high]`` (a task's own, tighter bound)."""
+        limits[name] = (float(low), float(high), why)
+
+    def check_state_option(self, options: Mapping[str, Any]) -> dict[str, float]:
+        """``options['state']`` type- and name-checked: ``{name: float}`` (no range check)."""
+        state = options.get("state")
+        if state is None:
+            return {}
+        if not isinstance(state, Mapping):
+            raise TypeError(f"options['state'] must be a mapping of state name -> value, got {type(state).__name__}")
         names = self.plant.STATE_NAMES
-        for name, value in (options.get("state") or {}).items():
+        out = {}
+        for name, value in state.items():
             if name not in names:
                 raise ValueError(f"options['state'] has unknown state {name!r}; allowed {names}")
-            if not math.isfinite(float(value)):
-                raise ValueError(f"options['state'][{name!r}] must be finite, got {value}")
-            y[names.index(name)] = float(value)
+            if name in self.fixed_states:
+                raise ValueError(f"options['state'][{name!r}]: an internal filter state that a reset cannot set; "
+                                 f"settable: {tuple(n for n in names if n not in self.fixed_states)}")
+            out[name] = _real(f"options['state'][{name!r}]", value)
+        return out
 
-    def reset_copy(self, i: int, rng: np.random.Generator, options: Mapping[str, Any] | None) -> None:
-        """Draw copy ``i``'s episode from ``rng`` and put it at step 0."""
-        options = dict(options or {})
+    def state_from_options(self, y: np.ndarray, options: Mapping[str, Any]) -> None:
+        """Overwrite entries of ``y`` from ``options['state']``: names known, real and finite,
+        each within :meth:`state_limits` of this copy's parameters (``ValueError`` naming the
+        state, the value and the range)."""
+        given = self.check_state_option(options)
+        if not given:
+            return
+        names = self.plant.STATE_NAMES
+        limits = self.state_limits(self._reset_params)
+        units = self.plant_spec.state_units
+        for name, value in given.items():
+            lo, hi, why = limits[name]
+            if not lo <= value <= hi:
+                unit = units[names.index(name)]
+                raise ValueError(f"options['state'][{name!r}] = {value!r} {unit} lies outside [{lo:.6g}, {hi:.6g}] {unit} "
+                                 f"({why})")
+            y[names.index(name)] = value
+
+    def check_options(self, options: Any) -> dict[str, Any]:
+        """Reset options as a dict, with keys, ``params`` and ``state`` type-checked."""
+        if options is None:
+            return {}
+        if not isinstance(options, Mapping):
+            raise TypeError(f"options must be a dict or None, got {type(options).__name__}")
+        options = dict(options)
         allowed = ("params", "state") + self.task_options
         unknown = set(options) - set(allowed)
         if unknown:
-            raise ValueError(f"unknown reset option(s) {sorted(unknown)}; allowed: {', '.join(allowed)}")
+            raise ValueError(f"unknown reset option(s) {sorted(map(str, unknown))}; allowed: {', '.join(allowed)}")
+        params = options.get("params")
+        if params is not None and not isinstance(params, Mapping):
+            raise TypeError(f"options['params'] must be a mapping of parameter name -> value, got {type(params).__name__}")
+        self.check_state_option(options)
+        return options
+
+    def snapshot(self) -> dict[str, Any]:
+        """Everything a reset changes (arrays, parameter list, generator states)."""
+        arrays = {k: v.copy() for k, v in vars(self).items() if isinstance(v, np.ndarray)}
+        rngs = [None if r is None else r.bit_generator.state for r in self.rngs]
+        return {"arrays": arrays, "params": list(self.params), "rngs": list(self.rngs), "rng_states": rngs}
+
+    def restore(self, snap: Mapping[str, Any]) -> None:
+        """Undo everything since :meth:`snapshot`."""
+        for k, v in snap["arrays"].items():
+            cur = getattr(self, k)
+            if cur.shape == v.shape and cur.flags.writeable:
+                cur[...] = v
+            else:
+                setattr(self, k, v)
+        self.params[:] = snap["params"]
+        self.rngs[:] = snap["rngs"]
+        for r, st in zip(self.rngs, snap["rng_states"]):
+            if r is not None:
+                r.bit_generator.state = st
+
+    def reset_copy(self, i: int, rng: np.random.Generator, options: Mapping[str, Any] | None) -> None:
+        """Draw copy ``i``'s episode from ``rng`` and put it at step 0."""
+        options = self.check_options(options)
         p = self.spec.sample(rng, self.base_params) if self.spec is not None else self.base_params
         if options.get("params"):
             p = self.params_cls.from_mapping(options["params"], base=p)
+        self._reset_params = p
         self.params[i] = p
         self.P[i] = p.to_array()
         self.NSUB[i] = self.substeps_for(p)
@@ -229,7 +459,14 @@ class PlantBatch:
 
 
 class BatchedEnv(gym.Env):
-    """A single environment: a view on a :class:`PlantBatch` of one copy (serial kernel)."""
+    """A single environment: a view on a :class:`PlantBatch` of one copy (serial kernel).
+
+    ``params`` given to ``gym.make`` are kept: with randomisation on, those the randomisation
+    would draw are held fixed at the given values (a ``UserWarning`` names them) and only the
+    others are drawn; ``randomize=False`` fixes every parameter. The episode length is
+    Gymnasium's ``TimeLimit`` (``gym.make(id, max_episode_steps=K)``; Gymnasium reads ``-1`` as
+    "no limit": the episode then never ends by itself, the reference holding its last value).
+    """
 
     batch_cls: ClassVar[type[PlantBatch]]
     metadata = {"render_modes": ["rgb_array"], "render_fps": 50}
@@ -239,6 +476,7 @@ class BatchedEnv(gym.Env):
             raise ValueError(f"render_mode = {render_mode!r}; allowed {self.metadata['render_modes']} or None")
         self.render_mode = render_mode
         self._batch = self.batch_cls(1, parallel=False, **kwargs)
+        self._batch.hold_params(given_param_names(kwargs.get("params"), self._batch.params_cls))
         self.action_space = self._batch.action_space()
         self.observation_space = self._batch.observation_space()
         self.dt = self._batch.dt
@@ -263,9 +501,16 @@ class BatchedEnv(gym.Env):
         return int(self._batch.clamps[0])
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
-        super().reset(seed=seed)
         b = self._batch
-        b.reset_copy(0, self.np_random, options)
+        options = b.check_options(options)
+        snap = b.snapshot() if options else None
+        super().reset(seed=seed)
+        try:
+            b.reset_copy(0, self.np_random, options)
+        except Exception:
+            if snap is not None:  # a bad option: the episode in progress is left as it was
+                b.restore(snap)
+            raise
         b.observe()
         self._params_info = b.params[0].as_dict()
         self._history = [b.render_sample(0)] if self.render_mode is not None else []
@@ -320,7 +565,9 @@ class BatchedVectorEnv(VectorEnv):
     ``info["final_obs"]`` under mask ``info["_final_obs"]``). Each copy is truncated after
     ``max_episode_steps``. ``info`` holds ``state`` and ``params`` as dicts of arrays (the
     ``params`` arrays are read-only). ``reset(options={"reset_mask": mask, ...})`` resets only
-    the masked copies.
+    the masked copies: ``mask`` a bool array of exactly ``num_envs`` entries, at least one
+    True, checked before any copy is reset (the first reset resets every copy).
+    ``max_episode_steps`` and ``num_envs`` are positive ints; ``params`` as for the single env.
     """
 
     batch_cls: ClassVar[type[PlantBatch]]
@@ -340,12 +587,13 @@ class BatchedVectorEnv(VectorEnv):
         if self.autoreset_mode not in (AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP):
             raise ValueError(f"autoreset_mode {self.autoreset_mode} not supported; use NEXT_STEP or SAME_STEP")
         self.metadata = {**type(self).metadata, "autoreset_mode": self.autoreset_mode}
-        self.num_envs = int(num_envs)
+        self.num_envs = check_positive_int("num_envs", num_envs)
         if max_episode_steps is None:
             max_episode_steps = self.batch_cls.episode_steps_default
-        self.max_episode_steps = int(max_episode_steps)
+        self.max_episode_steps = check_positive_int("max_episode_steps", max_episode_steps)
         kwargs.setdefault("episode_steps", self.max_episode_steps)
         self._batch = self.batch_cls(self.num_envs, parallel=True, **kwargs)
+        self._batch.hold_params(given_param_names(kwargs.get("params"), self._batch.params_cls))
         self.single_action_space = self._batch.action_space()
         self.single_observation_space = self._batch.observation_space()
         self.action_space = batch_space(self.single_action_space, self.num_envs)
@@ -373,8 +621,33 @@ class BatchedVectorEnv(VectorEnv):
     def _state_info(self) -> dict[str, np.ndarray]:
         return {name: self._batch.Y[:, j].copy() for j, name in enumerate(self._batch.plant.STATE_NAMES)}
 
+    def check_reset_mask(self, mask: Any) -> np.ndarray:
+        """``mask`` as a bool array of ``num_envs`` entries with at least one True
+        (``TypeError``/``ValueError`` otherwise); copies never reset cannot be left out."""
+        if isinstance(mask, (str, bytes)) or not isinstance(mask, (np.ndarray, list, tuple)):
+            raise TypeError(f"options['reset_mask'] must be a bool array of {self.num_envs} entries, "
+                            f"got {type(mask).__name__} {mask!r}")
+        arr = np.asarray(mask)
+        if arr.dtype != np.bool_:
+            raise TypeError(f"options['reset_mask'] must be a bool array of {self.num_envs} entries, got dtype {arr.dtype}")
+        if arr.shape != (self.num_envs,):
+            raise ValueError(f"options['reset_mask'] must have shape ({self.num_envs},) (one entry per copy), "
+                             f"got shape {arr.shape}")
+        if not arr.any():
+            raise ValueError("options['reset_mask'] selects no copy; at least one entry must be True")
+        never = [i for i in np.flatnonzero(~arr) if self._batch.rngs[i] is None]
+        if never:
+            raise ValueError(f"options['reset_mask'] leaves out copies {never} that were never reset; "
+                             "the first reset must reset every copy")
+        return arr
+
     def reset(self, *, seed: int | list[int | None] | None = None, options: dict[str, Any] | None = None):
         b = self._batch
+        if options is not None and not isinstance(options, Mapping):
+            raise TypeError(f"options must be a dict or None, got {type(options).__name__}")
+        mask = None if options is None or "reset_mask" not in options else self.check_reset_mask(options["reset_mask"])
+        opts = None if options is None else b.check_options({k: v for k, v in options.items() if k != "reset_mask"})
+        snap = b.snapshot() if opts else None
         # Copy i seeded with seed + i, as SyncVectorEnv seeds its sub-envs: copy i then equals
         # a single env reset with seed + i. Without a seed, each copy continues its own stream.
         if isinstance(seed, (list, tuple)):
@@ -389,12 +662,15 @@ class BatchedVectorEnv(VectorEnv):
         for i in range(self.num_envs):
             if rngs[i] is None:  # never seeded: a seed from the OS entropy pool
                 rngs[i] = seeding.np_random(None)[0]
-        mask = None if options is None else options.get("reset_mask")
-        opts = None if options is None else {k: v for k, v in options.items() if k != "reset_mask"}
-        for i in range(self.num_envs):
-            if mask is not None and not mask[i]:
-                continue
-            b.reset_copy(i, rngs[i], opts)
+        try:
+            for i in range(self.num_envs):
+                if mask is not None and not mask[i]:
+                    continue
+                b.reset_copy(i, rngs[i], opts)
+        except Exception:
+            if snap is not None:  # a bad option: no copy is left half reset
+                b.restore(snap)
+            raise
         b.observe()
         self._needs_reset[:] = False
         self._reset_done = True

@@ -205,6 +205,22 @@ class ForceActuatorBatch(PlantBatch):
     def observation_space(self) -> spaces.Box:
         return observation_space()
 
+    #: realisation states of the transport delay and the fluid resonances: no physical meaning
+    fixed_states = ("fa", "fb", "fc", "r1", "r2", "r3", "r4", "r5", "r6")
+
+    def state_limits(self, p: ForceActuatorParams) -> dict[str, tuple[float, float, str]]:
+        lim = super().state_limits(p)
+        # the relative velocity vp + vs within the bound the sub-step count is sized for
+        vmax = plant.velocity_bound(p)
+        for name in ("vs", "vp"):
+            self.narrow(lim, name, -0.5 * vmax, 0.5 * vmax, "half the relative-velocity bound of the sub-step count")
+        self.narrow(lim, "vf", -vmax, vmax, "the relative-velocity bound of the sub-step count")
+        xs = lim["fa"][1] / p.sensor_stiffness
+        self.narrow(lim, "xs", -xs, xs, "sensor deflection at most the largest force / sensor_stiffness")
+        g = max(p.coulomb_friction, p.stiction_retract, p.stiction_extend)
+        self.narrow(lim, "ff", -g, g, "friction force at most the largest static level (the guard's bound)")
+        return lim
+
     def reset_task(self, i: int, rng: np.random.Generator, p: ForceActuatorParams, options: Mapping[str, Any]) -> None:
         y = plant.rest_state(p)
         self.state_from_options(y, options)

@@ -65,7 +65,7 @@ import numba as nb
 import numpy as np
 from gymnasium import spaces
 
-from hydro_envs.envs.base import BatchedEnv, BatchedVectorEnv, PlantBatch, check_nonnegative
+from hydro_envs.envs.base import VELOCITY_FACTOR, BatchedEnv, BatchedVectorEnv, PlantBatch, check_nonnegative
 from hydro_envs.plants.load_sensing import model as plant
 from hydro_envs.plants.load_sensing.params import LoadSensingParams
 from hydro_envs.plants.load_sensing.spec import SPEC
@@ -187,6 +187,16 @@ class LoadSensingBatch(PlantBatch):
     n_inputs = 2
     obs_dim = OBS_DIM
     task_options = ("reference",)
+    state_limit_parameters = {"x": "spool_stroke", "y": "control_stroke"}
+
+    def state_limits(self, p: LoadSensingParams) -> dict[str, tuple[float, float, str]]:
+        lim = super().state_limits(p)
+        q = p.pump_displacement * p.pump_speed
+        vmax = VELOCITY_FACTOR * q / p.piston_area
+        self.narrow(lim, "va", -vmax, vmax, f"{VELOCITY_FACTOR:g} x the full pump flow's piston speed")
+        self.narrow(lim, "q_ls", -q, q, "at most the full pump flow")
+        self.narrow(lim, "f_sol", 0.0, p.solenoid_force_max, "solenoid force within [0, solenoid_force_max]")
+        return lim
 
     def __init__(
         self,

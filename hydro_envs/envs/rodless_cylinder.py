@@ -63,7 +63,7 @@ from typing import Any, Mapping
 import numba as nb
 import numpy as np
 
-from hydro_envs.envs.base import BatchedEnv, BatchedVectorEnv
+from hydro_envs.envs.base import VELOCITY_FACTOR, BatchedEnv, BatchedVectorEnv
 from hydro_envs.envs.friction_tasks import friction_task_classes
 from hydro_envs.envs.cylinder_tracking import (
     OBS_DIM,
@@ -146,6 +146,17 @@ class RodlessCylinderBatch(CylinderTrackingBatch):
         if self.task == "tracking":
             return _TRACKING_KINDS[int(rng.integers(len(_TRACKING_KINDS)))]
         return REFERENCE_KINDS[int(rng.integers(len(REFERENCE_KINDS)))]
+
+    def state_limits(self, p: RodlessCylinderParams) -> dict[str, tuple[float, float, str]]:
+        lim = super().state_limits(p)
+        vmax = VELOCITY_FACTOR * plant.speed_bound(p)
+        self.narrow(lim, "v", -vmax, vmax, f"{VELOCITY_FACTOR:g} x the speed bound of the plant model")
+        # LuGre: sigma0 z never exceeds the largest friction level when it starts inside it
+        if p.bristle_stiffness > 0.0:  # 0: no bristle state (friction-free carriage), z stays generic
+            zmax = max(p.static_friction, p.coulomb_friction) / p.bristle_stiffness
+            self.narrow(lim, "z", -zmax, zmax,
+                        "bristle deflection at most max(static, Coulomb friction) / bristle_stiffness")
+        return lim
 
     def reset_task(self, i: int, rng: np.random.Generator, p: RodlessCylinderParams, options: Mapping[str, Any]) -> None:
         L = p.stroke

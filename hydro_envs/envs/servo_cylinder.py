@@ -45,7 +45,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from hydro_envs.envs.base import BatchedEnv, BatchedVectorEnv
+from hydro_envs.envs.base import VELOCITY_FACTOR, BatchedEnv, BatchedVectorEnv
 from hydro_envs.envs.friction_tasks import friction_task_classes
 from hydro_envs.envs.cylinder_tracking import (
     OBS_DIM,
@@ -96,6 +96,12 @@ class ServoCylinderBatch(CylinderTrackingBatch):
             raise ValueError(f"reference = {reference!r}; allowed {REFERENCE_KINDS + ('mixed',)}")
         super().__init__(n, parallel=parallel, position_quantization=position_quantization, **kwargs)
         self.reference_kind = reference
+
+    def state_limits(self, p: ServoCylinderParams) -> dict[str, tuple[float, float, str]]:
+        lim = super().state_limits(p)
+        vmax = VELOCITY_FACTOR * plant.no_load_velocity(p)
+        self.narrow(lim, "v", -vmax, vmax, f"{VELOCITY_FACTOR:g} x the no-load velocity")
+        return lim
 
     def reset_task(self, i: int, rng: np.random.Generator, p: ServoCylinderParams, options: Mapping[str, Any]) -> None:
         L = p.stroke

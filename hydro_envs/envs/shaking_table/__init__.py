@@ -63,7 +63,7 @@ import numba as nb
 import numpy as np
 from gymnasium import spaces
 
-from hydro_envs.envs.base import BatchedEnv, BatchedVectorEnv, PlantBatch, check_nonnegative
+from hydro_envs.envs.base import VELOCITY_FACTOR, BatchedEnv, BatchedVectorEnv, PlantBatch, check_nonnegative
 from hydro_envs.envs.render import render_cylinder
 from hydro_envs.envs.shaking_table.references import (
     TABLE_REFERENCE_KINDS,
@@ -293,6 +293,12 @@ class ShakingTableBatch(PlantBatch):
 
     def observation_space(self) -> spaces.Box:
         return observation_space(self.error_scale, self.accel_scale, self.velocity_scale)
+
+    def state_limits(self, p: ShakingTableParams) -> dict[str, tuple[float, float, str]]:
+        lim = super().state_limits(p)
+        vmax = VELOCITY_FACTOR * plant.no_load_velocity(p)
+        self.narrow(lim, "v", -vmax, vmax, f"{VELOCITY_FACTOR:g} x the no-load velocity")
+        return lim
 
     def reset_task(self, i: int, rng: np.random.Generator, p: ShakingTableParams, options: Mapping[str, Any]) -> None:
         half = 0.5 * p.stroke

@@ -1,0 +1,140 @@
+"""Loading a policy folder never unpickles by default (agents.policies, hydro benchmark)."""
+
+from __future__ import annotations
+
+import base64
+import json
+import pickle
+import zipfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+pytest.importorskip("stable_baselines3")
+pytest.importorskip("torch")
+
+from agents import benchmark as bm  # noqa: E402
+from agents.policies import (  # noqa: E402
+    ARGS_FILE,
+    CONFIG_FILE,
+    MODEL_FILE,
+    OBS_NORM_FILE,
+    POLICY_FILE,
+    VECNORM_FILE,
+    UntrustedPickleError,
+    export_compact,
+    load_trained,
+)
+
+ENV = "hydro_envs/ServoCylinderPosition-v0"
+
+
+class _Payload:
+    """Unpickling this creates the file ``path``: a stand-in for arbitrary code."""
+
+    def __init__(self, path: Path) -> None:
+        self.path = str(path)
+
+    def __reduce__(self):
+        return (Path.write_text, (Path(self.path), "pwned"))
+
+
+def _malicious_run(folder: Path, marker: Path, *, zip_payload: bool = True, pkl_payload: bool = True) -> Path:
+    folder.mkdir(parents=True)
+    (folder / ARGS_FILE).write_text(json.dumps({"env_id": ENV, "algo": "ppo"}))
+    (folder / CONFIG_FILE).write_text(f"{ENV}:\n  policy: MlpPolicy\n")
+    blob = base64.b64encode(pickle.dumps(_Payload(marker))).decode()
+    data = {"policy_class": {":type:": "<class 'abc.ABCMeta'>", ":serialized:": blob}} if zip_payload else {}
+    with zipfile.ZipFile(folder / MODEL_FILE, "w") as z:
+        z.writestr("data", json.dumps(data))
+    if pkl_payload:
+        (folder / VECNORM_FILE).write_bytes(pickle.dumps(_Payload(marker.with_suffix(".pkl"))))
+    return folder
+
+
+def test_pickle_only_folder_is_refused_without_running_the_payload(tmp_path):
+    marker = tmp_path / "pwned.txt"
+    run = _malicious_run(tmp_path / "run", marker)
+    with pytest.raises(UntrustedPickleError) as err:
+        load_trained(run)
+    msg = str(err.value)
+    assert "--trust-pickle" in msg and "execute" in msg and "export_compact" in msg
+    with pytest.raises(UntrustedPickleError):
+        load_trained(run, which="final", trust_pickle=False)
+    with pytest.raises(UntrustedPickleError):
+        export_compact(run, tmp_path / "compact")
+    assert not marker.exists() and not marker.with_suffix(".pkl").exists()
+
+
+def test_the_payload_is_live_with_trust_pickle(tmp_path):
+    """The check above can fail: with the explicit flag the same folder runs the payload."""
+    marker = tmp_path / "pwned.txt"
+    run = _malicious_run(tmp_path / "run", marker)
+    with pytest.raises(Exception):
+        load_trained(run, trust_pickle=True)
+    assert marker.exists()
+
+
+def test_trust_pickle_must_be_a_bool(tmp_path):
+    run = _malicious_run(tmp_path / "run", tmp_path / "m.txt")
+    with pytest.raises(TypeError, match="trust_pickle"):
+        load_trained(run, trust_pickle="yes")
+    assert not (tmp_path / "m.txt").exists()
+
+
+def test_benchmark_cli_refuses_pickle_folders(tmp_path, capsys):
+    marker = tmp_path / "pwned.txt"
+    run = _malicious_run(tmp_path / "run", marker)
+    rc = bm.main(["--env", ENV, "--controllers", "pid", "--policy", str(run), "--n", "1", "--steps", "20",
+                  "--no-figures"])
+    assert rc == 2
+    assert "--trust-pickle" in capsys.readouterr().err
+    assert not marker.exists() and not marker.with_suffix(".pkl").exists()
+    # the config-file form sb3:RUN_DIR goes through the same loader
+    with pytest.raises(UntrustedPickleError):
+        bm.run_benchmark(ENV, [f"sb3:{run}"], "nominal", n=1, episode_steps=20, figures=False)
+    assert not marker.exists()
+    # and with --trust-pickle the loader does unpickle (payload runs, then the fake model fails)
+    try:
+        bm.main(["--env", ENV, "--controllers", "pid", "--policy", str(run), "--n", "1", "--steps", "20",
+                 "--no-figures", "--trust-pickle"])
+    except Exception:  # SB3 then rejects the fake model; the payload has already run
+        pass
+    assert marker.exists()
+
+
+@pytest.fixture(scope="module")
+def pickle_run(tmp_path_factory) -> Path:
+    """A genuine pickle-only run folder (an untrained PPO model and VecNormalize statistics)."""
+    import stable_baselines3 as sb3
+    from stable_baselines3.common.vec_env import VecNormalize
+
+    from hydro_envs.envs.sb3 import make_sb3_vec_env
+
+    run = tmp_path_factory.mktemp("runs") / "pickled"
+    run.mkdir()
+    venv = VecNormalize(make_sb3_vec_env(ENV, 2, seed=0), norm_reward=False)
+    venv.reset()
+    for _ in range(20):  # non-trivial statistics
+        venv.step(np.random.default_rng(0).uniform(-1, 1, (2, 1)).astype(np.float32))
+    model = sb3.PPO("MlpPolicy", venv, seed=0, n_steps=32, batch_size=32, device="cpu")
+    model.save(run / MODEL_FILE)
+    venv.save(str(run / VECNORM_FILE))
+    (run / ARGS_FILE).write_text(json.dumps({"env_id": ENV, "algo": "ppo"}))
+    (run / CONFIG_FILE).write_text(f"{ENV}:\n  policy: MlpPolicy\n")
+    return run
+
+
+def test_trusted_export_gives_the_same_actions_without_pickles(pickle_run, tmp_path):
+    with pytest.raises(UntrustedPickleError):
+        load_trained(pickle_run)
+    compact = export_compact(pickle_run, tmp_path / "compact", trust_pickle=True)
+    assert (compact / POLICY_FILE).is_file() and (compact / OBS_NORM_FILE).is_file()
+    assert not list(compact.glob("*.pkl")) and not list(compact.glob("*.zip"))
+    full, small = load_trained(pickle_run, trust_pickle=True), load_trained(compact)
+    obs = np.random.default_rng(1).normal(0.0, 2.0, (200, 11)).astype(np.float32)
+    assert np.array_equal(full.predict(obs)[0], small.predict(obs)[0])
+    assert np.array_equal(full.normalize(obs), small.normalize(obs))
+    # the loaded compact policy exposes model.policy like an SB3 model
+    assert set(small.model.policy.state_dict()) == set(full.model.policy.state_dict())
