@@ -468,6 +468,7 @@ def select_arx_order(
     validation_data: tuple[Any, Any] | None = None,
     method: str = "ls",
     fit_tolerance: float = 0.5,
+    progress: Any = None,
 ) -> ArxOrderSelection:
     """Fit every ARX(na, nb, nk) candidate on common samples and pick the best.
 
@@ -480,6 +481,7 @@ def select_arx_order(
     ``fit_one_step`` whatever the criterion. ``margin`` is how much the winner beats the
     runner-up: criterion units for the information criteria; for ``"validation"`` the
     winner's fit minus the best fit among candidates with fewer parameters (inf if none).
+    ``progress``: an optional callable ``progress(candidates_done, n_candidates)``.
     """
     y, u = _check_data(y, u)
     if criterion not in ("aic", "bic", "fpe", "validation"):
@@ -497,7 +499,9 @@ def select_arx_order(
         yv, uv = _check_data(*validation_data)
     rows: list[dict[str, float]] = []
     models: list[ArxModel] = []
-    for c in cands:
+    for i_c, c in enumerate(cands):
+        if progress is not None:
+            progress(i_c, len(cands))
         try:
             m = fit_arx(y, u, *c, dt=dt, method=method, start=start)
         except ArxError:

@@ -85,8 +85,63 @@ def _add_methods(p: argparse.ArgumentParser) -> None:
                             formatter_class=argparse.RawDescriptionHelpFormatter)
         m.add_arguments(mp)
         _add_record_options(mp)
+        _add_ranges_options(mp)
         mp.add_argument("--json", action="store_true",
-                        help="print one JSON object with parameters, std_errors, units, metrics")
+                        help="print one JSON object with parameters, std_errors, units, metrics "
+                        "(and, for arx, frf and greybox, the fit-quality flag 'quality')")
+
+
+def _add_ranges_options(mp: argparse.ArgumentParser) -> None:
+    """``--emit-ranges`` and its options: the fit as a randomisation spec of an env's plant."""
+    g = mp.add_argument_group("randomisation spec from the fit")
+    g.add_argument("--emit-ranges", default=None, metavar="FILE",
+                   help="write a randomisation spec (YAML, the schema of a plant's randomization.yaml) "
+                   "with ranges = estimate +- K standard errors, clipped to each parameter's allowed "
+                   "values; a nominal outside a range widens it (noted in the entry's source). Load it "
+                   "with gym.make(ENV_ID, randomization=FILE). See identification.ranges")
+    g.add_argument("--ranges-k", type=float, default=2.0, metavar="K",
+                   help="--emit-ranges half-width in standard errors (default 2)")
+    g.add_argument("--ranges-plant", default=None, metavar="PLANT",
+                   help="plant whose parameters the spec sets (default: --plant; required when the "
+                   "record's plant has no env: its friction then calibrates the cylinder plant named)")
+    g.add_argument("--ranges-map", action="append", default=[], metavar="NAME=FIELD",
+                   help="map a fitted parameter to a field of the plant's parameters (repeatable), "
+                   "e.g. mass=platform_mass for an FRF fit whose input is a force [N]")
+
+
+def _emit_ranges(name: str, args: argparse.Namespace, res: dict[str, Any]) -> None:
+    """Write ``--emit-ranges`` (if given) from the result and note it in ``res``."""
+    path = getattr(args, "emit_ranges", None)
+    if not path:
+        return
+    from identification import ranges
+
+    if name == "friction" and getattr(args, "asymmetric", False):
+        raise ValueError("--emit-ranges needs a symmetric friction fit (the plants' friction parameters "
+                         "are the same in both directions)")
+    plant = args.ranges_plant or getattr(args, "plant", None)
+    if not args.ranges_plant:
+        from hydro_envs import registry
+
+        if not registry.get(plant).envs:
+            with_env = [s.name for s in registry.specs() if s.envs]
+            raise ValueError(f"--emit-ranges: plant {plant!r} has no env; name the plant whose parameters "
+                             f"the fit calibrates with --ranges-plant (one of {', '.join(with_env)})")
+    fmap = {}
+    for item in args.ranges_map:
+        if "=" not in item:
+            raise ValueError(f"--ranges-map {item!r}: expected NAME=FIELD")
+        a, b = item.split("=", 1)
+        fmap[a.strip()] = b.strip()
+    desc = f"hydro identify {name}" + (f" --model {args.model}" if name == "friction" else "") \
+        + (" (weighted)" if res.get("weighted") else "")
+    out = ranges.write_spec_from_result(path, res, plant, method=name, field_map=fmap or None,
+                                        k=args.ranges_k, data_file=str(args.data), fit_description=desc)
+    res["ranges_file"] = str(out)
+    res["ranges_plant"] = plant
+    res.setdefault("notes", [])
+    res["notes"] = list(res["notes"]) + [f"randomisation spec of plant {plant} written to {out} "
+                                         "(gym.make(ENV_ID, randomization=FILE))"]
 
 
 def _add_record_options(mp: argparse.ArgumentParser) -> None:
@@ -171,6 +226,15 @@ def _print_text(res: Mapping[str, Any]) -> None:
         print("metrics: " + ", ".join(f"{k} = {_fmt(v)}" for k, v in metrics.items()))
     for note in res.get("notes", []):
         print(f"note: {note}")
+    if "quality" in res:
+        from identification.quality import warning_lines
+
+        for line in warning_lines(res["quality"]):
+            print(line)
+
+
+#: methods whose result carries the fit-quality flag (identification.quality)
+_GATED = ("arx", "frf", "greybox")
 
 
 def _err(msg: str) -> None:
@@ -196,6 +260,15 @@ def _cmd_identify(args: argparse.Namespace) -> int:
     record_notes = getattr(args, "record_notes", None)
     if record_notes:
         res["notes"] = list(res.get("notes") or []) + list(record_notes)
+    if name in _GATED:
+        from identification.quality import assess
+
+        res["quality"] = assess(res, name)
+    try:
+        _emit_ranges(name, args, res)
+    except ValueError as e:  # RangesError, RandomizationError
+        _err(f"--emit-ranges: {type(e).__name__}: {e}")
+        return EXIT_FAIL
     if getattr(args, "json", False):
         from hydro_envs.jsonutil import to_jsonable
 
@@ -262,13 +335,20 @@ def _friction_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--drop-rows", type=int, default=15, metavar="N",
                    help="seal_friction, original format: leading rows to drop (default 15, as "
                    "the original analysis; 5 for the every-third-row test subset)")
-    p.add_argument("--emit-ranges", default=None, metavar="FILE",
-                   help="servo_cylinder, static models: write a randomisation spec (YAML, schema "
-                   "of configs/randomization/) with ranges = estimate +- K standard errors, "
-                   "clipped to the allowed values; a nominal outside a range widens it (noted "
-                   "in the entry's source), see identification.ranges")
-    p.add_argument("--ranges-k", type=float, default=2.0, metavar="K",
-                   help="--emit-ranges half-width in standard errors (default 2)")
+
+
+def _check_seal_record(data: Any, args: argparse.Namespace) -> None:
+    """The registry's position and pressure checks of a seal-friction record.
+
+    Positions are checked against ``--stroke`` (the rig's stroke; the registry has none for this
+    test bench). The sampling is not checked: the logger's clock is irregular and each stroke
+    window is fitted on its own time stamps.
+    """
+    from hydro_envs import registry
+    from hydro_envs.data.checks import check_record
+
+    check_record(data, registry.get("seal_friction"), stroke=getattr(args, "record_stroke", None),
+                 max_jitter=math.inf, path=args.data)
 
 
 def _friction_run(args: argparse.Namespace) -> dict[str, Any]:
@@ -292,6 +372,7 @@ def _friction_run(args: argparse.Namespace) -> dict[str, Any]:
         if args.bore is not None and args.area is not None:
             raise ValueError(f"give --bore ({args.bore} m) or --area ({args.area} m^2), not both")
         data = load_seal_friction(args.data, drop_rows=args.drop_rows, bore=args.bore)
+        _check_seal_record(data, args)
         if args.area is None and "piston_area" not in data.metadata:
             raise ValueError(f"{args.data}: the piston area is unknown -- the file carries no "
                              "geometry; give --bore M (e.g. 0.025) or --area M2")
@@ -330,19 +411,6 @@ def _friction_run(args: argparse.Namespace) -> dict[str, Any]:
     res["weighted"] = sigma is not None
     if args.plant == "seal_friction":
         _refuse_clamped(fit.parameters, fit.std_errors, fit.units, args.model)
-    if getattr(args, "emit_ranges", None):
-        from identification import ranges
-
-        if args.plant != "servo_cylinder" or args.asymmetric:
-            raise ValueError("--emit-ranges needs --plant servo_cylinder and a symmetric fit")
-        from hydro_envs.plants.servo_cylinder.params import ServoCylinderParams
-
-        spec = ranges.ranges_from_fit(
-            fit.parameters, fit.std_errors, ServoCylinderParams, k=args.ranges_k,
-            data_file=str(args.data),
-            fit_description=f"hydro identify friction --model {args.model}"
-            + (" (weighted)" if sigma is not None else ""))
-        res["ranges_file"] = str(ranges.write_ranges(args.emit_ranges, spec, ServoCylinderParams))
     return res
 
 
@@ -416,6 +484,7 @@ def _arx_arguments(p: argparse.ArgumentParser) -> None:
 
 def _arx_run(args: argparse.Namespace) -> dict[str, Any]:
     from identification.arx import fit_arx, select_arx_order
+    from identification.quality import Progress
 
     data, u, y = _load_io(args)
     u = u - u.mean()  # ARX has no constant term: fit deviations from the mean
@@ -426,9 +495,11 @@ def _arx_run(args: argparse.Namespace) -> dict[str, Any]:
         model = fit_arx(y[:n_est], u[:n_est], *args.orders, dt=dt, method=args.estimator)
         notes = []
     else:
+        prog = Progress("arx order selection", unit="candidate orders")
         sel = select_arx_order(y[:n_est], u[:n_est], range(1, args.max_order + 1),
                                range(1, args.max_order + 1), range(0, args.max_delay + 1), dt,
-                               criterion=args.criterion, method=args.estimator)
+                               criterion=args.criterion, method=args.estimator, progress=prog)
+        prog.close()
         model = sel.best
         notes = [f"orders selected by {args.criterion}: margin over runner-up {sel.margin:.3g}"]
     res = model.to_json_dict(validation=model.validate(y[n_est:], u[n_est:]))
@@ -449,10 +520,13 @@ def _frf_arguments(p: argparse.ArgumentParser) -> None:
 
 def _frf_run(args: argparse.Namespace) -> dict[str, Any]:
     from identification.frf import identify_msd_from_time_series
+    from identification.quality import Progress
 
     data, u, y = _load_io(args)
+    prog = Progress("frf fit", unit="model evaluations (at most)")
     fit, est = identify_msd_from_time_series(u, y, 1.0 / data.sample_time, method=args.fit,
-                                             derivative=args.derivative)
+                                             derivative=args.derivative, progress=prog)
+    prog.close()
     res = fit.to_json_dict()
     res.update({"plant": args.plant, "data": str(args.data), "model": f"mass-spring-damper ({args.fit})"})
     return res
@@ -484,10 +558,19 @@ def _slider_run(args: argparse.Namespace) -> dict[str, Any]:
     return res
 
 
+_GATE_NOTE = ("Fit-quality gate (identification.quality): a fit below 50 % or a parameter whose relative "
+              "standard error exceeds 100 % prints a 'warning: poor fit' line and sets quality.ok = false "
+              "in the JSON.")
 register_method("arx", "ARX model with order/delay selection and held-out free-run fit",
-                _arx_arguments, _arx_run)
+                _arx_arguments, _arx_run,
+                description="Fit an ARX model on the first 70 % of the record (orders selected by an "
+                "information criterion unless --orders) and report the free-run fit on the last 30 %. "
+                + _GATE_NOTE)
 register_method("frf", "H1 frequency response and a mass-spring-damper fit",
-                _frf_arguments, _frf_run)
+                _frf_arguments, _frf_run,
+                description="H1 frequency-response estimate (Welch) of input -> output and a "
+                "mass-spring-damper fit to its points of coherence >= 0.9. " + _GATE_NOTE
+                + " An FRF fit on fewer than 10 such points is flagged too.")
 register_method("slider", "inverse-dynamics least squares of a slider (mass, friction, offset)",
                 _slider_arguments, _slider_run)
 
@@ -532,14 +615,20 @@ def _greybox_run(args: argparse.Namespace) -> dict[str, Any]:
     names = [n.strip() for n in args.fit.split(",") if n.strip()]
     chans = setup["channels"]
     default_out = setup["fit_outputs"]
-    data = _contiguous(load_measured(args.data, plant=args.plant, required=("u",), **_record_kwargs(args)),
-                       args)
+    from hydro_envs import registry
+
+    data = _contiguous(load_measured(args.data, plant=args.plant, required=tuple(registry.get(args.plant).inputs),
+                                     **_record_kwargs(args)), args)
     outs = ([c.strip() for c in args.outputs.split(",")] if args.outputs
             else [c for c in default_out if c in data])
     if not outs:
         raise ValueError(f"the file has none of the output channels {list(default_out)}")
     exp = gb.experiment_from_measured(data, args.plant, base, outs)
-    res = gb.fit_greybox(base, names, [exp], [chans[c] for c in outs])
+    from identification.quality import Progress
+
+    prog = Progress("greybox fit", unit="simulations (at most)")
+    res = gb.fit_greybox(base, names, [exp], [chans[c] for c in outs], progress=prog)
+    prog.close()
     d = res.to_json_dict()
     d.update({"plant": args.plant, "data": str(args.data), "model": type(base).__name__
               + (f" (preset {args.preset})" if args.preset else "")})
@@ -556,7 +645,7 @@ register_method(
     "normalised per channel (noise levels re-estimated after a first fit); the finite-"
     "difference Jacobian simulates all perturbed parameter sets in one batched kernel call. "
     "Prints values, standard errors (s^2 (J^T J)^-1), 95 % intervals, the identifiability "
-    "report (scaled condition number, correlated pairs) and NRMSE per channel.",
+    "report (scaled condition number, correlated pairs) and NRMSE per channel. " + _GATE_NOTE,
 )
 
 

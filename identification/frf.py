@@ -533,6 +533,7 @@ def fit_mass_spring_damper(
     f_range: tuple[float, float] | None = None,
     min_coherence: float | None = None,
     initial: tuple[float, float, float] | None = None,
+    progress: Any = None,
 ) -> MsdFit:
     """Fit ``m, c, k`` of ``s^p / (m s^2 + c s + k)`` to FRF data.
 
@@ -540,7 +541,9 @@ def fit_mass_spring_damper(
     as the only positional argument. ``method``: ``"zoh"`` (sampled model, needs ``fs``;
     taken from the estimate if given), ``"magnitude"`` or ``"continuous"`` (biased on sampled
     data; module docstring). ``weights``: per-point weights or ``"coherence"``.
-    ``f_range`` = (f_min, f_max) [Hz] and ``min_coherence`` select points.
+    ``f_range`` = (f_min, f_max) [Hz] and ``min_coherence`` select points. ``progress``: an
+    optional callable ``progress(evaluations, max_evaluations)`` called at every model
+    evaluation (e.g. :class:`identification.quality.Progress`).
     """
     coh = None
     if isinstance(frequencies, FrfEstimate):
@@ -605,8 +608,13 @@ def fit_mass_spring_damper(
         m0, c0, k0 = initial
     x0 = np.log([m0, c0, k0])
     absH = np.abs(H)
+    max_nfev = 2000
+    count = [0]
 
     def model(p: np.ndarray) -> np.ndarray:
+        if progress is not None:
+            count[0] += 1
+            progress(count[0], max_nfev)
         m, c, k = np.exp(p)
         return msd_response(f, m, c, k, model="zoh" if method == "zoh" else "continuous", fs=fs,
                             derivative=derivative)
@@ -623,7 +631,7 @@ def fit_mass_spring_damper(
             return np.concatenate([wts * r.real, wts * r.imag])
 
     sol = optimize.least_squares(resid, x0, method="trf", x_scale=1.0, xtol=1e-12, ftol=1e-12, gtol=1e-12,
-                                 max_nfev=2000)
+                                 max_nfev=max_nfev)
     p = sol.x
     m, c, k = np.exp(p)
     r = sol.fun
@@ -659,11 +667,12 @@ def identify_msd_from_time_series(
     f_range: tuple[float, float] | None = None,
     min_coherence: float | None = 0.9,
     weights: Any = None,
+    progress: Any = None,
 ) -> tuple[MsdFit, FrfEstimate]:
     """H1 estimate of ``u -> y`` sampled at ``fs``, then :func:`fit_mass_spring_damper`."""
     est = h1_estimate(u, y, fs, nperseg=nperseg)
     fit = fit_mass_spring_damper(est, method=method, derivative=derivative, f_range=f_range,
-                                 min_coherence=min_coherence, weights=weights)
+                                 min_coherence=min_coherence, weights=weights, progress=progress)
     return fit, est
 
 

@@ -182,6 +182,11 @@ def _plants() -> dict[str, dict[str, Any]]:
                  for name, i in getattr(model, "STATE_OUTPUTS", {}).items()}
         chans.update({name: OutputChannel(name, derivative=int(i), unit=units.get(name, ""))
                       for name, i in getattr(model, "DERIVATIVE_OUTPUTS", {}).items()})
+        computed = getattr(model, "computed_outputs", None)
+        if computed is not None:  # functions of the state trajectory (names from a trial call)
+            trial = computed(np.zeros((1, 1, len(spec.state_names))), spec.params_cls().to_array()[None, :])
+            chans.update({name: OutputChannel(name, func=_computed_channel(computed, name), unit=units.get(name, ""))
+                          for name in trial})
         if "v" in spec.state_names and "v" not in chans:
             chans["v"] = OutputChannel("v", state=spec.state_names.index("v"), unit="m/s")
         presets = getattr(model, "PRESETS", None)
@@ -189,6 +194,11 @@ def _plants() -> dict[str, dict[str, Any]]:
         out[spec.name] = {"params": spec.params_cls, "channels": chans,
                           "presets": tuple(presets) if presets else None, "fit_outputs": fit}
     return out
+
+
+def _computed_channel(computed: Callable, name: str) -> Callable[[np.ndarray, np.ndarray], np.ndarray]:
+    """Channel ``name`` of a model's ``computed_outputs(states, P)``."""
+    return lambda states, P: computed(states, P)[name]
 
 
 def plant_setup(plant: str) -> dict[str, Any]:
@@ -614,6 +624,7 @@ def fit_greybox(
     tie: Callable[[np.ndarray], None] | None = None,
     jacobian: str = "central",
     offsets: Sequence[str] = (),
+    progress: Callable[[int, int], None] | None = None,
 ) -> GreyboxResult:
     """Fit parameters ``fit`` of ``base`` to the experiments (see the module docstring).
 
@@ -638,6 +649,9 @@ def fit_greybox(
     (variable projection: at every parameter set the offsets take their least-squares values,
     the weighted mean residual of the group), reported in ``offsets`` of the result and
     counted in the degrees of freedom.
+
+    ``progress``: an optional callable ``progress(simulations, upper_bound)`` called at every
+    residual and Jacobian evaluation (e.g. :class:`identification.quality.Progress`).
     """
     if jacobian not in ("central", "forward"):
         raise GreyboxError(f"jacobian must be 'central' or 'forward', got {jacobian!r}")
@@ -660,8 +674,15 @@ def fit_greybox(
 
     last: dict[str, Any] = {}
 
+    n_solves = 2 if reweight else 1
+
+    def tick():
+        if progress is not None:
+            progress(state["nfev"] + state["njev"], n_solves * 2 * max_nfev + 1)
+
     def fun(theta):
         state["nfev"] += 1
+        tick()
         P = prob.param_arrays(theta[None, :])
         n = nsub_for(P)
         r, _ = prob.residuals(P, n)
@@ -670,6 +691,7 @@ def fit_greybox(
 
     def jac_forward(theta):
         state["njev"] += 1
+        tick()
         h = fd_step
         th = np.repeat(theta[None, :], p, axis=0)
         for i in range(p):  # forward step, backward where the upper bound leaves no room
@@ -689,6 +711,7 @@ def fit_greybox(
 
     def jac(theta):
         state["njev"] += 1
+        tick()
         h = fd_step
         th = np.repeat(theta[None, :], 2 * p, axis=0)
         for i in range(p):
@@ -826,21 +849,27 @@ def fit_greybox(
 
 
 def experiment_from_measured(data, plant: str, params: PhysicalParams, outputs: Sequence[str],
-                             input_channel: str = "u") -> Experiment:
+                             input_channel: str | Sequence[str] | None = None) -> Experiment:
     """An :class:`Experiment` from a :class:`hydro_envs.data.measured.MeasuredData` record.
 
     The sample time is the record's median step (the record must be uniformly sampled to
-    1e-6 relative); the initial state is the plant's rest state at the first measured
-    position (:func:`_initial_state`)."""
+    1e-6 relative); the input columns are ``input_channel`` (one name or several, in the
+    kernel's input order; default: the plant's registry inputs); the initial state is the
+    plant's rest state at the first measured values (:func:`_initial_state`)."""
     t = np.asarray(data.t, dtype=float)
     dt = float(np.median(np.diff(t)))
     if np.max(np.abs(np.diff(t) - dt)) > 1e-6 * dt + 1e-12:
         raise GreyboxError("grey-box fits need a uniformly sampled record (constant time step)")
-    if input_channel not in data:
-        raise GreyboxError(f"record has no input channel {input_channel!r}")
+    if input_channel is None:
+        inputs = list(registry.get(plant).inputs)
+    else:
+        inputs = [input_channel] if isinstance(input_channel, str) else list(input_channel)
+    for name in inputs:
+        if name not in data:
+            raise GreyboxError(f"record has no input channel {name!r}")
     meas = {k: np.asarray(data[k], dtype=float) for k in outputs}
     x0 = float(meas["x"][0]) if "x" in meas else None
-    return Experiment(dt=dt, u=np.asarray(data[input_channel], dtype=float),
+    return Experiment(dt=dt, u=np.stack([np.asarray(data[n], dtype=float) for n in inputs], axis=1),
                       y0=lambda prm: _initial_state(plant, prm, x0, meas), outputs=meas, name=str(data.metadata.get("name", "")))
 
 

@@ -1,7 +1,7 @@
 """From a fit to a randomisation spec and a plant preset.
 
 :func:`ranges_from_fit` turns parameter estimates with their covariance into the exact YAML
-schema of ``configs/randomization/*.yaml`` (:mod:`hydro_envs.randomization`): one entry per
+schema of a plant's ``randomization.yaml`` (:mod:`hydro_envs.randomization`): one entry per
 fitted parameter, ``distribution: uniform``, ``mode: absolute``, ``range: [est - k SE,
 est + k SE]`` (``SE = sqrt(diag(cov))``, default ``k = 2``: the marginal ~95 % confidence
 interval), clipped to the parameter's allowed interval, the unit of the parameter and a
@@ -15,6 +15,17 @@ the shift of the truth away from the nominal is recorded; ``"raise"`` raises
 :class:`RangesError` naming the parameter instead. A fit whose ranges give invalid corners
 (e.g. ``F_s`` and ``F_c`` overlapping, so a corner has ``F_s < F_c``) raises too (the spec
 loader's corner check, message naming the entry).
+
+*Any plant, any method.* :func:`spec_from_result` takes the result mapping of a ``hydro
+identify`` method (``parameters``, ``std_errors``, ``units``) and a target plant of the
+registry (:mod:`hydro_envs.registry`; the plant of an env, or a cylinder plant named for the
+friction of a rig without an env such as ``slider`` or ``seal_friction``), maps the result's
+names to the plant's parameter fields (:data:`METHOD_FIELDS`: the friction fit's ``F_c`` ...
+names, the slider's friction fields, the grey-box fit's own field names; a user mapping adds
+or replaces entries), refuses a unit that differs from the field's, and builds the spec with
+:func:`ranges_from_fit`. Methods whose parameters are not physical parameters of a plant (ARX
+coefficients; a mass-spring-damper whose input is a valve command) give a spec only through
+an explicit mapping.
 
 Plant presets (``configs/plants/<name>.yaml``)::
 
@@ -45,6 +56,9 @@ __all__ = [
     "FRICTION_FIELDS",
     "ranges_from_fit",
     "write_ranges",
+    "METHOD_FIELDS",
+    "spec_from_result",
+    "write_spec_from_result",
     "nominal_preset",
     "preset_mapping",
     "write_preset",
@@ -152,6 +166,92 @@ def write_ranges(path: str | os.PathLike[str], mapping: Mapping[str, Any], param
     RandomizationSpec.from_mapping(mapping, params_cls, source_file=str(path)).check_corners()
     return _dump(path, mapping, "Randomisation spec emitted by identification.ranges from a fit "
                  "(ranges = estimate +- k standard errors).")
+
+
+# ----------------------------------------------------------------------------- any plant
+#: identify method -> result name -> parameter field ("*": every result name is a field name;
+#: None: the method's parameters are not plant parameters, a spec needs an explicit mapping)
+METHOD_FIELDS: dict[str, Mapping[str, str] | str | None] = {
+    "friction": FRICTION_FIELDS,
+    "slider": {f: f for f in ("coulomb_friction", "static_friction", "stribeck_velocity", "viscous_friction")},
+    "greybox": "*",
+    "arx": None,
+    "frf": None,
+}
+
+
+def _params_cls_of(plant: str) -> type:
+    from hydro_envs import registry
+
+    spec = registry.get(plant)
+    if not spec.params_class:
+        with_env = [s.name for s in registry.specs() if s.envs]
+        raise RangesError(f"plant {plant!r} has no parameter class (measured channels only); name the "
+                          f"plant whose parameters the fit calibrates, one of {', '.join(with_env)}")
+    return spec.params_cls
+
+
+def spec_from_result(
+    result: Mapping[str, Any],
+    plant: str,
+    *,
+    method: str | None = None,
+    field_map: Mapping[str, str] | None = None,
+    k: float = 2.0,
+    data_file: str = "",
+    fit_description: str = "",
+    on_nominal_outside: str = "widen",
+) -> tuple[dict[str, Any], type]:
+    """Randomisation mapping of ``plant`` from an identify result, and the plant's parameter class.
+
+    ``method`` (default ``result["method"]``) picks the name map of :data:`METHOD_FIELDS`;
+    ``field_map`` (result name -> field) adds to it or replaces it. Raises :class:`RangesError`
+    naming the method, the plant and its fields when nothing maps, and naming the parameter
+    when a unit differs from the field's.
+    """
+    method = method or str(result.get("method", ""))
+    cls = _params_cls_of(plant)
+    meta = _field_meta(cls)
+    params = dict(result.get("parameters") or {})
+    se = dict(result.get("std_errors") or {})
+    units = dict(result.get("units") or {})
+    base = METHOD_FIELDS.get(method)
+    fmap: dict[str, str] = {}
+    if base == "*":
+        fmap = {n: n for n in params}
+    elif isinstance(base, Mapping):
+        fmap = {n: f for n, f in base.items() if n in params}
+    for n, f in (field_map or {}).items():
+        if n not in params:
+            raise RangesError(f"mapping {n}={f}: the {method} result has no parameter {n!r}; it has {sorted(params)}")
+        if f not in meta:
+            raise RangesError(f"mapping {n}={f}: {cls.__name__} ({plant}) has no field {f!r}")
+        fmap[n] = f
+    if not fmap:
+        why = ("its parameters are not parameters of a plant" if base is None and method in METHOD_FIELDS
+               else f"none of its parameters {sorted(params)} is a field of {cls.__name__}")
+        raise RangesError(f"{method or 'this'} result gives no randomisation spec for plant {plant!r}: {why}; "
+                          "map a result name to a field explicitly (NAME=FIELD)")
+    names = [n for n in fmap if fmap[n] in meta and params.get(n) is not None and se.get(n) is not None]
+    if not names:
+        raise RangesError(f"{method} result: no parameter of {sorted(fmap)} maps to a field of {cls.__name__} "
+                          f"({plant}) with a standard error")
+    for n in names:
+        want = meta[fmap[n]]["unit"]
+        if n in units and str(units[n]) != want:
+            raise RangesError(f"{n}: the fit's unit {units[n]!r} differs from {fmap[n]!r}'s {want!r} in "
+                              f"{cls.__name__}; the estimate is not that parameter")
+    spec = ranges_from_fit({n: float(params[n]) for n in names}, {n: float(se[n]) for n in names}, cls,
+                           names=names, field_map=fmap, k=k, data_file=data_file,
+                           fit_description=fit_description, on_nominal_outside=on_nominal_outside)
+    return spec, cls
+
+
+def write_spec_from_result(path: str | os.PathLike[str], result: Mapping[str, Any], plant: str,
+                           **kwargs: Any) -> Path:
+    """:func:`spec_from_result`, checked and written to ``path`` (see :func:`write_ranges`)."""
+    spec, cls = spec_from_result(result, plant, **kwargs)
+    return write_ranges(path, spec, cls)
 
 
 # ----------------------------------------------------------------------------- presets

@@ -159,6 +159,8 @@ XS, VS, XP, VP, FF, VF, FM, FMD = range(R0 + 6, R0 + 14)
 #: channel -> the state index whose time derivative it reads
 STATE_OUTPUTS: dict[str, int] = {}
 DERIVATIVE_OUTPUTS: dict[str, int] = {}
+#: channels a grey-box fit uses by default (``f`` is a computed output, see computed_outputs)
+FIT_OUTPUTS = ("f",)
 
 
 def computed_outputs(states, params_rows):
@@ -522,3 +524,10 @@ def rest_state(params: ForceActuatorParams, x_piston: float | None = None) -> np
     y = np.zeros(N_STATES)
     y[XP] = 0.5 * params.stroke if x_piston is None else x_piston
     return y
+
+
+def rest_state_from_measurement(params: ForceActuatorParams, first: dict) -> np.ndarray:
+    """State at a record's first sample: :func:`rest_state` (zero current, demagnetised
+    hysteresis, no force, piston at mid-stroke). The blocked-force record must start there: the
+    internal valve and fluid states are not measured, so a first force reading is not used."""
+    return rest_state(params)

@@ -70,6 +70,8 @@ from hydro_envs.plants.load_sensing.params import (  # noqa: F401  (re-exported)
     I_VS, I_VSC, I_VX0, I_W, I_WP, I_XLAP, I_XMAX, I_YMAX, LoadSensingParams, N_FIELDS, N_PARAMS,
     PLANT, _ATM, _BAR, _DERIVED, derived,
 )
+from hydro_envs.sim.rk4 import rk4_advance
+from hydro_envs.sim.stiffness import substeps_from_stiffness
 
 __all__ = [
     "LoadSensingParams",
@@ -81,6 +83,7 @@ __all__ = [
     "derived",
     "margin",
     "standby_state",
+    "settled_standby_state",
     "cv_area_for_velocity",
 ]
 
@@ -93,6 +96,14 @@ X, V, PS, PX, Y, VY, PL, XA, VA, QLS, PLS, FSOL = range(N_STATES)
 #: channel -> the state index whose time derivative it reads
 STATE_OUTPUTS: dict[str, int] = {"p_s": PS, "p_l": PL, "p_ls": PLS, "xa": XA, "va": VA}
 DERIVATIVE_OUTPUTS: dict[str, int] = {}
+#: channels a grey-box fit uses by default
+FIT_OUTPUTS = ("p_s", "p_l", "p_ls", "xa", "va")
+#: standby settling before a record starts [s]: CV closed, no solenoid force (the
+#: LoadSensing-v0 reset; the circuit is then near, not at, rest: the FC spool still moves)
+STANDBY_SETTLE_TIME = 0.1
+#: sub-interval of the settling integration [s] (the env's control period; the RK4 sub-steps
+#: per sub-interval follow from :func:`stiffness_modes`)
+STANDBY_SETTLE_STEP = 1e-3
 
 
 @nb.njit(cache=True, error_model="numpy")
@@ -269,3 +280,29 @@ def stiffness_modes(params: LoadSensingParams) -> dict[str, float]:
         "ls_line": math.sqrt(omega_ls2) + (d["ls_resistance"] + p.ls_damping_resistance) / d["ls_inductance"],
         "solenoid": 1.0 / p.solenoid_time_constant,
     }
+
+
+def settled_standby_state(params: LoadSensingParams, xa: float) -> np.ndarray:
+    """:func:`standby_state` integrated for ``STANDBY_SETTLE_TIME`` with the CV closed and no
+    solenoid force (RK4, sub-steps from :func:`stiffness_modes` per ``STANDBY_SETTLE_STEP``),
+    then the actuator put back at ``xa`` at rest: the state a LoadSensing-v0 episode starts in."""
+    n_int = int(round(STANDBY_SETTLE_TIME / STANDBY_SETTLE_STEP))
+    nsub = substeps_from_stiffness(stiffness_modes(params), STANDBY_SETTLE_STEP)[0] * n_int
+    y = standby_state(params, xa)
+    _settle(y, np.zeros(2), params.to_array(), STANDBY_SETTLE_TIME / nsub, nsub, np.zeros((5, N_STATES)))
+    y[XA] = xa
+    y[VA] = 0.0
+    return y
+
+
+@nb.njit(cache=True, error_model="numpy")
+def _settle(y, u, p, h, n_sub, work):
+    """``n_sub`` RK4 steps of ``h`` under constant input ``u`` (the kernels' sub-step loop)."""
+    return rk4_advance(load_sensing_rhs, load_sensing_guard, y, u, p, h, n_sub, work)
+
+
+def rest_state_from_measurement(params: LoadSensingParams, first: dict) -> np.ndarray:
+    """State at a record's first sample: :func:`settled_standby_state` at the measured
+    actuator position ``xa`` (5 cm if not measured). The pump, FC and LS-line states are not
+    measured, so the record must start from that standby (as LoadSensing-v0 episodes do)."""
+    return settled_standby_state(params, first.get("xa", 0.05))

@@ -130,6 +130,8 @@ Y, V, PA, PB, MA, MB, XV, VV, Z = range(N_STATES)
 #: channel -> the state index whose time derivative it reads
 STATE_OUTPUTS: dict[str, int] = {"y": Y, "pa": PA, "pb": PB}
 DERIVATIVE_OUTPUTS: dict[str, int] = {}
+#: channels a grey-box fit uses by default
+FIT_OUTPUTS = ("y", "pa", "pb")
 
 
 @nb.njit(cache=True, error_model="numpy")
@@ -535,3 +537,10 @@ def linearize_mid_stroke(params: RodlessCylinderParams) -> MidStrokeLinearizatio
     c2_energy = c2 + (kappa - 1.0) / (2.0 * kappa) * m_out / p0
     zeta_energy = c2_energy * rt / (2.0 * a) * math.sqrt(kappa * m / (2.0 * v0 * p0))
     return MidStrokeLinearization(p0, c1, c2, v0, a, m, rt, kappa, k_t, zeta, omega_n, k_v, zeta_energy)
+
+
+def rest_state_from_measurement(params: RodlessCylinderParams, first: dict) -> np.ndarray:
+    """State at a record's first sample: :func:`rest_state` at the measured slider position
+    (mid-stroke if not measured) and chamber pressures (the valve's centre pressure p_0 where
+    not measured), gas at the supply temperature, spool centred, unloaded seals (z = 0)."""
+    return rest_state(params, first.get("y", 0.5 * params.stroke), pa=first.get("pa"), pb=first.get("pb"))
