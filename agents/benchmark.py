@@ -177,11 +177,13 @@ def _vector_env(env_id: str, n: int, steps: int | None, randomize: bool, **kwarg
 
 # ------------------------------------------------------------------ parameter draws
 def draw_parameters(env_id: str, params: str, n: int, seed: int = 0,
-                    factor: float = OUT_FACTOR) -> list[dict[str, float]]:
+                    factor: float = OUT_FACTOR, env_kwargs: Mapping[str, Any] | None = None) -> list[dict[str, float]]:
     """``n`` frozen parameter draws (dicts of the randomised parameters; ``{}`` = nominal).
 
     ``params`` in :data:`PARAM_SETS`. The draws come from ``default_rng([seed, 7])``, so they
-    do not depend on the controllers, the episode seeds or the reference.
+    do not depend on the controllers, the episode seeds or the reference. ``env_kwargs`` reach
+    the env that holds the randomisation spec (e.g. ``randomization=FILE``: a calibrated spec
+    written by ``hydro identify ... --emit-ranges``).
     """
     if params not in PARAM_SETS:
         raise ValueError(f"params = {params!r}; allowed {PARAM_SETS}")
@@ -191,7 +193,7 @@ def draw_parameters(env_id: str, params: str, n: int, seed: int = 0,
         return [{} for _ in range(n)]
     if not (math.isfinite(factor) and factor > 1.0):
         raise ValueError(f"factor must be > 1, got {factor}")
-    venv = _vector_env(env_id, 1, None, True)
+    venv = _vector_env(env_id, 1, None, True, **dict(env_kwargs or {}))
     batch = venv._batch
     spec, base = batch.spec, batch.base_params
     venv.close()
@@ -543,7 +545,7 @@ def run_benchmark(
     if check_backend(backend) == "ray":
         import_ray()  # fail before any work when the extra is missing
     specs = parse_controllers(env_id, controllers)
-    draws = draw_parameters(env_id, params, n, seed)
+    draws = draw_parameters(env_id, params, n, seed, env_kwargs=env_kwargs)
     step_kind = ADAPTERS[env_id].step_reference if step_reference == "auto" else step_reference
     loader = policy_loader or (functools.partial(_load_policy, trust_pickle=True) if trust_pickle else _load_policy)
     say = progress or (lambda msg: None)
@@ -780,6 +782,9 @@ def add_cli(subparsers: Any) -> argparse.ArgumentParser:
                    help="also read run folders that have only SB3's pickled files (model.zip, vecnormalize.pkl); "
                         "a pickle can run code on load, so only for folders you trust (default: the safe "
                         "policy.pt + obs_normalization.npz layout only)")
+    p.add_argument("--randomization", metavar="FILE",
+                   help="randomisation spec of the 'in'/'out' draws instead of the plant's default (e.g. one "
+                        "written by hydro identify ... --emit-ranges)")
     p.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
     add_backend_args(p)
     p.add_argument("--chunk-size", type=int, metavar="N", default=None,
@@ -789,7 +794,7 @@ def add_cli(subparsers: Any) -> argparse.ArgumentParser:
 
 
 _CONFIG_KEYS = {"env", "controllers", "n", "params", "episode_steps", "seed", "out", "reference",
-                "step_reference", "policies", "figures", "note"}
+                "step_reference", "policies", "figures", "randomization", "note"}
 
 
 #: folder of the shipped benchmark configs (package data)
@@ -857,6 +862,8 @@ def cli_benchmark(args: argparse.Namespace) -> int:
         figures = (not args.no_figures) and bool(cfg.get("figures", True))
         backend = getattr(args, "backend", "serial")
         chunk = getattr(args, "chunk_size", None)
+        rand = getattr(args, "randomization", None) or cfg.get("randomization")
+        env_kwargs = {"randomization": str(rand)} if rand else None
         if chunk is not None and chunk < 1:
             raise ValueError(f"--chunk-size must be >= 1, got {chunk}")
         for s in psets:
@@ -864,7 +871,7 @@ def cli_benchmark(args: argparse.Namespace) -> int:
                                 step_reference=cfg.get("step_reference", "auto"), figures=figures,
                                 progress=lambda msg: print(msg, file=sys.stderr, flush=True),
                                 backend=backend, chunk_size=chunk, ray_address=getattr(args, "ray_address", None),
-                                trust_pickle=bool(getattr(args, "trust_pickle", False)),
+                                trust_pickle=bool(getattr(args, "trust_pickle", False)), env_kwargs=env_kwargs,
                                 num_cpus=getattr(args, "num_cpus", None))
             print(res.markdown())
             print(f"({res.seconds:.1f} s)" + (f"; wrote {', '.join(str(f) for f in res.files)}" if res.files else ""))

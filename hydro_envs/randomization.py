@@ -14,6 +14,11 @@ keeps its nominal value::
         unit: "1"                    # unit of the draw: the parameter's unit, or "1" for scale
         source: "002 Table 1 (m = 12.3 kg); range assumed: +-load variation"
 
+An absolute entry may also give ``nominal: VALUE`` (in the parameter's unit): the value the
+spec is centred on when it is not the plant's default -- typically an identified estimate
+(``hydro identify ... --emit-ranges``), whose confidence range need not contain the seed's
+value. It replaces the default in the containment check below; the draws do not depend on it.
+
 Draws are *never* offsets added to the nominal value (a well-known suite adds draws while its
 comments read as absolute ranges). The file is checked when loaded: unknown parameters,
 unknown keys, empty or inverted ranges, a unit that differs from the parameter's, a range that
@@ -47,7 +52,7 @@ __all__ = [
 
 _DISTRIBUTIONS = ("uniform", "loguniform")
 _MODES = ("absolute", "scale")
-_KEYS = {"distribution", "mode", "range", "unit", "source", "note"}
+_KEYS = {"distribution", "mode", "range", "unit", "source", "note", "nominal"}
 _TOP_KEYS = {"plant", "parameters", "note"}
 
 
@@ -90,6 +95,8 @@ class ParameterDistribution:
     high: float
     unit: str
     source: str
+    #: the value this entry is centred on when it is not the plant's default (absolute mode)
+    nominal: float | None = None
 
     def sample(self, rng: np.random.Generator, nominal: float) -> float:
         if self.distribution == "uniform":
@@ -193,13 +200,21 @@ class RandomizationSpec:
                 raise RandomizationError(
                     f"{ew}.unit = {entry['unit']!r}, but a {mode} draw of {name} is in {want_unit!r}"
                 )
-            d = ParameterDistribution(name, dist, mode, low, high, want_unit, str(entry["source"]))
-            nom = getattr(nominal, name)
+            own = _as_number(entry.get("nominal"))
+            if own is not None:
+                if mode != "absolute":
+                    raise RandomizationError(f"{ew}.nominal is only allowed with mode: absolute (a scale "
+                                             "draw multiplies the plant's default)")
+                if not (isinstance(own, (int, float)) and not isinstance(own, bool) and math.isfinite(own)):
+                    raise RandomizationError(f"{ew}.nominal must be a finite number in {units[name]}, got {own!r}")
+                own = float(own)
+            d = ParameterDistribution(name, dist, mode, low, high, want_unit, str(entry["source"]), own)
+            nom = getattr(nominal, name) if own is None else own
             lo_v, hi_v = d.value_range(nom)
             if not lo_v <= nom <= hi_v:
                 raise RandomizationError(
-                    f"{ew}: nominal value {nom:g} {units[name]} lies outside the drawn range "
-                    f"[{lo_v:g}, {hi_v:g}]"
+                    f"{ew}: {'nominal' if own is None else 'the entry' + chr(39) + 's nominal'} value {nom:g} "
+                    f"{units[name]} lies outside the drawn range [{lo_v:g}, {hi_v:g}]"
                 )
             entries.append(d)
         spec = cls(params_cls, tuple(entries), source_file)

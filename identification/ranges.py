@@ -7,12 +7,13 @@ est + k SE]`` (``SE = sqrt(diag(cov))``, default ``k = 2``: the marginal ~95 % c
 interval), clipped to the parameter's allowed interval, the unit of the parameter and a
 ``source`` naming the data file and the fit.
 
-*Nominal outside the confidence region (decision).* The loader requires the nominal (the
-dataclass default) inside every range. If a fitted region excludes it, the default policy
-``on_nominal_outside="widen"`` extends the range to just include the nominal and says so in
-that entry's ``source`` ("widened to include the nominal ..."), so the emitted spec loads and
-the shift of the truth away from the nominal is recorded; ``"raise"`` raises
-:class:`RangesError` naming the parameter instead. A fit whose ranges give invalid corners
+*Nominal outside the confidence region (decision).* The loader requires each entry's nominal
+inside its range. Every emitted entry declares the estimate as its own ``nominal`` (the
+schema's key for a spec centred on something other than the plant's default), so a fitted
+region that excludes the seed's default still loads unchanged, and the ``source`` records the
+default it departs from. ``on_nominal_outside="widen"`` instead extends the range to include
+the default (and says so in the ``source``); ``"raise"`` raises :class:`RangesError` naming the
+parameter. A fit whose ranges give invalid corners
 (e.g. ``F_s`` and ``F_c`` overlapping, so a corner has ``F_s < F_c``) raises too (the spec
 loader's corner check, message naming the entry).
 
@@ -92,7 +93,7 @@ def ranges_from_fit(
     k: float = 2.0,
     data_file: str = "",
     fit_description: str = "",
-    on_nominal_outside: str = "widen",
+    on_nominal_outside: str = "declare",
 ) -> dict[str, Any]:
     """Randomisation mapping (plant, parameters) from a fit.
 
@@ -103,8 +104,8 @@ def ranges_from_fit(
     """
     if not (math.isfinite(k) and k > 0):
         raise RangesError(f"k must be > 0, got {k}")
-    if on_nominal_outside not in ("widen", "raise"):
-        raise RangesError(f"on_nominal_outside must be 'widen' or 'raise', got {on_nominal_outside!r}")
+    if on_nominal_outside not in ("declare", "widen", "raise"):
+        raise RangesError(f"on_nominal_outside must be 'declare', 'widen' or 'raise', got {on_nominal_outside!r}")
     names = list(estimates) if names is None else list(names)
     if isinstance(covariance, Mapping):
         se = {n: float(covariance[n]) for n in names}
@@ -132,7 +133,9 @@ def ranges_from_fit(
         src = (f"fit: {fit_description or 'parameter estimate'} of {data_file or '<data>'}: "
                f"{est:.6g} +- {k:g} x SE {s:.3g} {unit}, clipped to the allowed [{lo_a:g}, {hi_a:g}]")
         nominal = float(getattr(defaults, field))
-        if not (lo <= nominal <= hi):
+        if not (lo <= nominal <= hi) and on_nominal_outside == "declare":
+            src += f"; the plant's default {nominal:.6g} {unit} lies outside this range"
+        elif not (lo <= nominal <= hi):
             if on_nominal_outside == "raise":
                 raise RangesError(
                     f"{field} ({n}): the fit's confidence region [{lo:.6g}, {hi:.6g}] {unit} "
@@ -146,6 +149,8 @@ def ranges_from_fit(
             raise RangesError(f"{field} ({n}): empty range [{lo}, {hi}] (zero standard error?)")
         out[field] = {"distribution": "uniform", "mode": "absolute", "range": [float(lo), float(hi)],
                       "unit": unit, "source": src}
+        if on_nominal_outside == "declare":
+            out[field]["nominal"] = min(max(est, float(lo)), float(hi))
     if not out:
         raise RangesError(f"no estimate of {list(estimates)} matches a field of {params_cls.__name__}")
     return {"plant": params_cls.plant, "parameters": out}
@@ -200,7 +205,7 @@ def spec_from_result(
     k: float = 2.0,
     data_file: str = "",
     fit_description: str = "",
-    on_nominal_outside: str = "widen",
+    on_nominal_outside: str = "declare",
 ) -> tuple[dict[str, Any], type]:
     """Randomisation mapping of ``plant`` from an identify result, and the plant's parameter class.
 

@@ -350,3 +350,19 @@ def test_figures_are_wide_with_large_fonts_few_lines_and_units(tmp_path):
     assert sum(ax.axison for ax in box.axes) == len(keys)
     ylabels = {ax.get_title(): ax.get_ylabel() for ax in box.axes if ax.axison}
     assert ylabels["reversal error"] == "reversal error [m]" and ylabels["overshoot"] == "overshoot [%]"
+
+
+def test_draws_come_from_a_given_randomisation_spec(tmp_path):
+    """``--randomization FILE``: the 'in' draws follow the calibrated spec, not the training ranges."""
+    spec = tmp_path / "calibrated.yaml"
+    spec.write_text(
+        "plant: rodless_cylinder\nparameters:\n  coulomb_friction:\n    distribution: uniform\n"
+        "    mode: absolute\n    range: [5.0, 6.0]\n    unit: N\n    nominal: 5.5\n"
+        "    source: 'fit of a seal record (test)'\n")
+    from agents.benchmark import draw_parameters
+
+    draws = draw_parameters("hydro_envs/RodlessCylinder-v0", "in", 6, seed=0,
+                            env_kwargs={"randomization": str(spec)})
+    assert all(set(d) == {"coulomb_friction"} and 5.0 <= d["coulomb_friction"] <= 6.0 for d in draws)
+    default = draw_parameters("hydro_envs/RodlessCylinder-v0", "in", 6, seed=0)
+    assert len(default[0]) > 1

@@ -186,7 +186,8 @@ def test_slider_friction_maps_to_the_named_cylinder_but_not_its_mass(tmp_path):
     spec, _ = ranges.spec_from_result(res, "servo_cylinder")
     assert set(spec["parameters"]) == {"coulomb_friction", "viscous_friction"}
     spec, _ = ranges.spec_from_result(res, "servo_cylinder", field_map={"mass": "mass"})
-    assert spec["parameters"]["mass"]["range"] == [nom.mass, 96.0]  # 95 +- 1, widened to the nominal
+    e = spec["parameters"]["mass"]
+    assert e["range"] == [94.0, 96.0] and e["nominal"] == 95.0  # 95 +- 1, centred on the estimate
 
 
 def test_greybox_cli_record_to_spec_to_env(tmp_path):
@@ -232,4 +233,6 @@ def test_frf_needs_an_explicit_map_then_calibrates(tmp_path):
     assert res["parameters"]["mass"] == pytest.approx(m, rel=0.02)
     spec = _env_draws_inside("hydro_envs/ShakingTable-v0", tmp_path / "f.yaml", n=2)
     lo, hi = spec["parameters"]["platform_mass"]["range"]
-    assert lo <= res["parameters"]["mass"] <= hi and lo <= 650.0 <= hi
+    assert lo <= res["parameters"]["mass"] <= hi
+    assert spec["parameters"]["platform_mass"].get("nominal", 650.0) == pytest.approx(
+        min(max(res["parameters"]["mass"], lo), hi))

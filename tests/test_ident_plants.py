@@ -118,11 +118,20 @@ def test_ranges_from_fit_load_and_env_draws_inside(tmp_path):
     env.close()
 
 
-def test_nominal_outside_the_confidence_region_widens_or_raises():
+def test_nominal_outside_the_confidence_region_is_declared_widened_or_raises(tmp_path):
     from hydro_envs.plants.servo_cylinder.params import ServoCylinderParams
+    from hydro_envs.randomization import RandomizationError, RandomizationSpec
 
     est = dict(EST, F_s=58.0)  # 58 +- 0.94 excludes the nominal 60 N
     spec = ranges.ranges_from_fit(est, SE, ServoCylinderParams)
+    e = spec["parameters"]["static_friction"]
+    assert e["range"][1] < 60.0 and e["nominal"] == 58.0 and "default 60 N lies outside" in e["source"]
+    loaded = RandomizationSpec.from_mapping(spec, ServoCylinderParams)  # loads with its own nominal
+    assert loaded.entries[[x.name for x in loaded.entries].index("static_friction")].nominal == 58.0
+    bad = {**spec, "parameters": {**spec["parameters"], "static_friction": {**e, "nominal": 61.0}}}
+    with pytest.raises(RandomizationError, match="static_friction.*61"):
+        RandomizationSpec.from_mapping(bad, ServoCylinderParams)
+    spec = ranges.ranges_from_fit(est, SE, ServoCylinderParams, on_nominal_outside="widen")
     e = spec["parameters"]["static_friction"]
     assert e["range"][1] == 60.0 and "widened to include the nominal 60" in e["source"]
     with pytest.raises(ranges.RangesError, match="static_friction"):

@@ -31,7 +31,8 @@ def add_record_arguments(parser: argparse.ArgumentParser) -> None:
     g.add_argument("--max-jitter", dest="record_max_jitter", type=float, default=None, metavar="REL",
                    help="accepted relative sample-time irregularity (default 1e-3)")
     g.add_argument("--stroke", dest="record_stroke", type=float, default=None, metavar="M",
-                   help="the rig's stroke [m] for the position check (default: the plant's)")
+                   help="the rig's stroke [m] for the position check (default: the plant's stroke parameter; plants "
+                        "without one, such as the seal-friction bench, are checked only when it is given)")
 
 
 def record_kwargs(args: argparse.Namespace) -> dict[str, Any]:
