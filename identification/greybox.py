@@ -607,6 +607,166 @@ class GreyboxResult:
 # ======================================================================================
 
 
+class _Evaluator:
+    """Residuals and finite-difference Jacobians of a grey-box problem for the solver, with the
+    sub-step bookkeeping (the largest count any candidate so far needed) and call counts."""
+
+    def __init__(self, prob: _Problem, base: PhysicalParams, fd_step: float,
+                 progress: Callable[[int, int], None] | None, max_calls: int) -> None:
+        self.prob, self.fd_step, self.progress, self.max_calls = prob, fd_step, progress, max_calls
+        self.p = len(prob.names)
+        # the start values' sub-steps; a stiffer candidate raises it (per-call maximum)
+        self.nsub = prob.nsub(base.to_array()[None, :]) if prob.fixed_nsub is None else prob.fixed_nsub
+        self.nfev = 0
+        self.njev = 0
+        self.last: dict[str, Any] = {}
+
+    def nsub_for(self, P: np.ndarray) -> int:
+        prob = self.prob
+        n = max(self.nsub, prob.nsub(P)) if prob.fixed_nsub is None else prob.fixed_nsub
+        self.nsub = n
+        return n
+
+    def _tick(self) -> None:
+        if self.progress is not None:
+            self.progress(self.nfev + self.njev, self.max_calls)
+
+    def fun(self, theta: np.ndarray) -> np.ndarray:
+        self.nfev += 1
+        self._tick()
+        P = self.prob.param_arrays(theta[None, :])
+        n = self.nsub_for(P)
+        r, _ = self.prob.residuals(P, n)
+        self.last.update(theta=theta.copy(), r=r[0], nsub=n)
+        return r[0]
+
+    def jac_forward(self, theta: np.ndarray) -> np.ndarray:
+        """Forward differences re-using the residual just evaluated at ``theta`` (``p`` copies)."""
+        self.njev += 1
+        self._tick()
+        prob, p, h, last = self.prob, self.p, self.fd_step, self.last
+        th = np.repeat(theta[None, :], p, axis=0)
+        for i in range(p):  # forward step, backward where the upper bound leaves no room
+            th[i, i] += h if prob.hi[i] - theta[i] >= h else -min(h, max(theta[i] - prob.lo[i], 0.0))
+        P = prob.param_arrays(th)
+        n = self.nsub_for(P)
+        r, _ = prob.residuals(P, n)
+        if "theta" in last and last["nsub"] == n and np.array_equal(last["theta"], theta):
+            r0 = last["r"]
+        else:  # residual at theta on the same integration grid
+            r0 = prob.residuals(prob.param_arrays(theta[None, :]), n)[0][0]
+        J = np.empty((r.shape[1], p))
+        for i in range(p):
+            step = th[i, i] - theta[i]
+            J[:, i] = (r[i] - r0) / step if step != 0 else 0.0
+        return J
+
+    def jac(self, theta: np.ndarray) -> np.ndarray:
+        """Central differences (``2 p`` copies), one-sided at a bound."""
+        self.njev += 1
+        self._tick()
+        prob, p, h = self.prob, self.p, self.fd_step
+        th = np.repeat(theta[None, :], 2 * p, axis=0)
+        for i in range(p):
+            hi = min(h, (prob.hi[i] - theta[i])) if prob.hi[i] - theta[i] > 1e-12 else 0.0
+            lo = min(h, (theta[i] - prob.lo[i])) if theta[i] - prob.lo[i] > 1e-12 else 0.0
+            th[2 * i, i] += hi
+            th[2 * i + 1, i] -= lo
+        P = prob.param_arrays(th)
+        r, _ = prob.residuals(P, self.nsub_for(P))
+        J = np.empty((r.shape[1], p))
+        for i in range(p):
+            step = th[2 * i, i] - th[2 * i + 1, i]
+            J[:, i] = (r[2 * i] - r[2 * i + 1]) / step if step > 0 else 0.0
+        return J
+
+
+def _reestimate_sigma(prob: _Problem, theta: np.ndarray, nsub: int, given: set[str]) -> bool:
+    """Channel weights from the residual RMS at ``theta`` (channels not in ``given``); True if
+    any changed."""
+    outs, _ = prob.outputs(prob.param_arrays(theta[None, :]), nsub)
+    changed = False
+    for name in prob.sigma:
+        if name in given:
+            continue
+        rr = np.concatenate([(e.outputs[name] - o[name][0])[slice(None) if e.weights is None else e.weights > 0]
+                             for e, o in zip(prob.experiments, outs) if name in o])
+        s = float(np.sqrt(np.mean(rr**2)))
+        if s > 0 and math.isfinite(s):
+            prob.sigma[name] = s
+            changed = True
+    return changed
+
+
+def _statistics(prob: _Problem, theta: np.ndarray, J: np.ndarray, r: np.ndarray) -> dict[str, Any]:
+    """Covariance (scaled Gauss-Newton, ``s^2 (J'J)^-1`` in theta, mapped to values), standard
+    errors, t-based 95 % intervals, correlation, scaled condition number, correlated pairs."""
+    p = len(prob.names)
+    n_res = r.size
+    n_off = len({(e.group, k) for e in prob.experiments for k in e.outputs if k in prob.offsets})
+    dof = max(n_res - p - n_off, 1)
+    s2 = float(r @ r) / dof
+    norms = np.linalg.norm(J, axis=0)
+    safe = np.where(norms > 0, norms, 1.0)
+    Js = J / safe
+    sv = np.linalg.svd(Js, compute_uv=False)
+    cond = float(sv[0] / sv[-1]) if sv[-1] > 0 else math.inf
+    lam, V = np.linalg.eigh(Js.T @ Js)
+    lam_f = np.maximum(lam, max(lam.max(), 1e-300) * 1e-14)
+    cov_s = (V / lam_f) @ V.T
+    cov_theta = s2 * cov_s / np.outer(safe, safe)
+    cov_theta[norms == 0, :] = np.inf
+    cov_theta[:, norms == 0] = np.inf
+    se_theta = np.sqrt(np.diag(cov_theta))
+    d = np.sqrt(np.diag(cov_s))
+    corr = cov_s / np.outer(d, d)
+    vals = prob.to_values(theta)
+    dvdt = np.where(prob.log, vals, prob.scale)  # d value / d theta
+    tq = float(stats.t.ppf(0.975, dof))
+    lo_t, hi_t = theta - tq * se_theta, theta + tq * se_theta
+    ci = {}
+    for i, n in enumerate(prob.names):
+        if prob.log[i]:
+            ci[n] = (float(math.exp(min(lo_t[i], 700))), float(math.exp(min(hi_t[i], 700))))
+        else:
+            ci[n] = (float(lo_t[i] * prob.scale[i]), float(hi_t[i] * prob.scale[i]))
+    pairs = [(prob.names[i], prob.names[j], float(corr[i, j])) for i in range(p) for j in range(i + 1, p)
+             if abs(corr[i, j]) > CORRELATION_LIMIT]
+    return {"values": vals, "cov": cov_theta * np.outer(dvdt, dvdt), "se": se_theta * np.abs(dvdt), "ci": ci,
+            "corr": corr, "cond": cond, "pairs": pairs, "s2": s2, "n_res": n_res}
+
+
+def _fit_metrics(prob: _Problem, theta: np.ndarray, nsub: int) -> dict[str, Any]:
+    """NRMSE and MSE per channel (pooled and per experiment) and the profiled sensor offsets."""
+    P = prob.param_arrays(theta[None, :])
+    outs, _ = prob.outputs(P, nsub)
+    offs = {f"{k}@{g}" if g else k: float(v[0])
+            for (g, k), v in prob.offset_estimates(prob._raw_outputs(P, nsub)[0]).items()}
+    nr_e, mse_e = [], []
+    pooled: dict[str, tuple[list, list]] = {}
+    for e, o in zip(prob.experiments, outs):
+        nr, ms = {}, {}
+        for k, yhat in o.items():
+            y = e.outputs[k]
+            err = y - yhat[0]
+            den = float(np.linalg.norm(y - y.mean()))
+            nr[k] = float(np.linalg.norm(err)) / den if den > 0 else math.inf
+            ms[k] = float(np.mean(err**2))
+            pooled.setdefault(k, ([], []))
+            pooled[k][0].append(y)
+            pooled[k][1].append(yhat[0])
+        nr_e.append(nr)
+        mse_e.append(ms)
+    nrmse, mse = {}, {}
+    for k, (ys, yh) in pooled.items():
+        y = np.concatenate(ys)
+        err = y - np.concatenate(yh)
+        den = float(np.linalg.norm(y - y.mean()))
+        nrmse[k] = float(np.linalg.norm(err)) / den if den > 0 else math.inf
+        mse[k] = float(np.mean(err**2))
+    return {"nrmse": nrmse, "mse": mse, "nrmse_e": nr_e, "mse_e": mse_e, "offsets": offs}
+
+
 def fit_greybox(
     base: PhysicalParams,
     fit: Sequence[str],
@@ -658,173 +818,28 @@ def fit_greybox(
     t0 = time.perf_counter()
     prob = _build_problem(base, fit, experiments, channels, sigma,
                           True if log_scale is None else log_scale, bounds, n_substeps, tie, offsets)
-    p = len(prob.names)
     theta0 = prob.to_theta(np.array([getattr(base, n) for n in prob.names]))
-    if prob.fixed_nsub is None:
-        # the start values' sub-steps; a stiffer candidate raises it (per-call maximum below)
-        nsub_start = prob.nsub(base.to_array()[None, :])
-    else:
-        nsub_start = prob.fixed_nsub
-    state = {"nsub": nsub_start, "nfev": 0, "njev": 0}
-
-    def nsub_for(P):
-        n = max(state["nsub"], prob.nsub(P)) if prob.fixed_nsub is None else prob.fixed_nsub
-        state["nsub"] = n
-        return n
-
-    last: dict[str, Any] = {}
-
-    n_solves = 2 if reweight else 1
-
-    def tick():
-        if progress is not None:
-            progress(state["nfev"] + state["njev"], n_solves * 2 * max_nfev + 1)
-
-    def fun(theta):
-        state["nfev"] += 1
-        tick()
-        P = prob.param_arrays(theta[None, :])
-        n = nsub_for(P)
-        r, _ = prob.residuals(P, n)
-        last.update(theta=theta.copy(), r=r[0], nsub=n)
-        return r[0]
-
-    def jac_forward(theta):
-        state["njev"] += 1
-        tick()
-        h = fd_step
-        th = np.repeat(theta[None, :], p, axis=0)
-        for i in range(p):  # forward step, backward where the upper bound leaves no room
-            th[i, i] += h if prob.hi[i] - theta[i] >= h else -min(h, max(theta[i] - prob.lo[i], 0.0))
-        P = prob.param_arrays(th)
-        n = nsub_for(P)
-        r, _ = prob.residuals(P, n)
-        if "theta" in last and last["nsub"] == n and np.array_equal(last["theta"], theta):
-            r0 = last["r"]
-        else:  # residual at theta on the same integration grid
-            r0 = prob.residuals(prob.param_arrays(theta[None, :]), n)[0][0]
-        J = np.empty((r.shape[1], p))
-        for i in range(p):
-            step = th[i, i] - theta[i]
-            J[:, i] = (r[i] - r0) / step if step != 0 else 0.0
-        return J
-
-    def jac(theta):
-        state["njev"] += 1
-        tick()
-        h = fd_step
-        th = np.repeat(theta[None, :], 2 * p, axis=0)
-        for i in range(p):
-            hi = min(h, (prob.hi[i] - theta[i])) if prob.hi[i] - theta[i] > 1e-12 else 0.0
-            lo = min(h, (theta[i] - prob.lo[i])) if theta[i] - prob.lo[i] > 1e-12 else 0.0
-            th[2 * i, i] += hi
-            th[2 * i + 1, i] -= lo
-        P = prob.param_arrays(th)
-        r, _ = prob.residuals(P, nsub_for(P))
-        J = np.empty((r.shape[1], p))
-        for i in range(p):
-            step = th[2 * i, i] - th[2 * i + 1, i]
-            J[:, i] = (r[2 * i] - r[2 * i + 1]) / step if step > 0 else 0.0
-        return J
+    ev = _Evaluator(prob, base, fd_step, progress, (2 if reweight else 1) * 2 * max_nfev + 1)
 
     def solve(theta_start):
-        return optimize.least_squares(fun, theta_start, jac=jac_forward if jacobian == "forward" else jac,
+        return optimize.least_squares(ev.fun, theta_start, jac=ev.jac_forward if jacobian == "forward" else ev.jac,
                                       bounds=(prob.lo, prob.hi), method="trf",
                                       x_scale=1.0, ftol=tol, xtol=tol, gtol=tol, max_nfev=max_nfev)
 
     sol = solve(np.clip(theta0, prob.lo, prob.hi))
     notes: list[str] = []
-    if reweight:
-        P = prob.param_arrays(sol.x[None, :])
-        outs, _ = prob.outputs(P, state["nsub"])
-        changed = False
-        given = set(sigma or {})
-        for name in prob.sigma:
-            if name in given:
-                continue
-            rr = np.concatenate([(e.outputs[name] - o[name][0])[slice(None) if e.weights is None else e.weights > 0]
-                                 for e, o in zip(prob.experiments, outs) if name in o])
-            s = float(np.sqrt(np.mean(rr**2)))
-            if s > 0 and math.isfinite(s):
-                prob.sigma[name] = s
-                changed = True
-        if changed:
-            sol = solve(sol.x)
-            notes.append("channel weights re-estimated from the residual RMS of a first fit (noise levels)")
+    if reweight and _reestimate_sigma(prob, sol.x, ev.nsub, set(sigma or {})):
+        sol = solve(sol.x)
+        notes.append("channel weights re-estimated from the residual RMS of a first fit (noise levels)")
 
     theta = sol.x
-    J = jac(theta)
-    r = sol.fun
-    n_res = r.size
-    n_off = len({(e.group, k) for e in prob.experiments for k in e.outputs if k in prob.offsets})
-    dof = max(n_res - p - n_off, 1)
-    s2 = float(r @ r) / dof
-    norms = np.linalg.norm(J, axis=0)
-    safe = np.where(norms > 0, norms, 1.0)
-    Js = J / safe
-    sv = np.linalg.svd(Js, compute_uv=False)
-    cond = float(sv[0] / sv[-1]) if sv[-1] > 0 else math.inf
-    A = Js.T @ Js
-    lam, V = np.linalg.eigh(A)
-    lam_f = np.maximum(lam, max(lam.max(), 1e-300) * 1e-14)
-    cov_s = (V / lam_f) @ V.T
-    cov_theta = s2 * cov_s / np.outer(safe, safe)
-    cov_theta[norms == 0, :] = np.inf
-    cov_theta[:, norms == 0] = np.inf
-    se_theta = np.sqrt(np.diag(cov_theta))
-    d = np.sqrt(np.diag(cov_s))
-    corr = cov_s / np.outer(d, d)
-    vals = prob.to_values(theta)
-    dvdt = np.where(prob.log, vals, prob.scale)  # d value / d theta
-    cov = cov_theta * np.outer(dvdt, dvdt)
-    se = se_theta * np.abs(dvdt)
-    tq = float(stats.t.ppf(0.975, dof))
-    lo_t, hi_t = theta - tq * se_theta, theta + tq * se_theta
-    ci = {}
-    for i, n in enumerate(prob.names):
-        if prob.log[i]:
-            ci[n] = (float(math.exp(min(lo_t[i], 700))), float(math.exp(min(hi_t[i], 700))))
-        else:
-            ci[n] = (float(lo_t[i] * prob.scale[i]), float(hi_t[i] * prob.scale[i]))
-    pairs = []
-    for i in range(p):
-        for j in range(i + 1, p):
-            if abs(corr[i, j]) > CORRELATION_LIMIT:
-                pairs.append((prob.names[i], prob.names[j], float(corr[i, j])))
-    if cond >= CONDITION_LIMIT:
-        notes.append(f"scaled condition number {cond:.3g} >= {CONDITION_LIMIT:g}: the data do not determine "
+    st = _statistics(prob, theta, ev.jac(theta), sol.fun)
+    if st["cond"] >= CONDITION_LIMIT:
+        notes.append(f"scaled condition number {st['cond']:.3g} >= {CONDITION_LIMIT:g}: the data do not determine "
                      "all fitted parameters (see correlated_pairs)")
-    for a, b, rho in pairs:
+    for a, b, rho in st["pairs"]:
         notes.append(f"{a} and {b} are correlated (rho = {rho:+.4f}): only a combination is identified")
-
-    # metrics
-    P = prob.param_arrays(theta[None, :])
-    outs, _ = prob.outputs(P, state["nsub"])
-    offs = {f"{k}@{g}" if g else k: float(v[0])
-            for (g, k), v in prob.offset_estimates(prob._raw_outputs(P, state["nsub"])[0]).items()}
-    nr_e, mse_e = [], []
-    pooled: dict[str, tuple[list, list]] = {}
-    for e, o in zip(prob.experiments, outs):
-        nr, ms = {}, {}
-        for k, yhat in o.items():
-            y = e.outputs[k]
-            err = y - yhat[0]
-            den = float(np.linalg.norm(y - y.mean()))
-            nr[k] = float(np.linalg.norm(err)) / den if den > 0 else math.inf
-            ms[k] = float(np.mean(err**2))
-            pooled.setdefault(k, ([], []))
-            pooled[k][0].append(y)
-            pooled[k][1].append(yhat[0])
-        nr_e.append(nr)
-        mse_e.append(ms)
-    nrmse, mse = {}, {}
-    for k, (ys, yh) in pooled.items():
-        y = np.concatenate(ys)
-        err = y - np.concatenate(yh)
-        den = float(np.linalg.norm(y - y.mean()))
-        nrmse[k] = float(np.linalg.norm(err)) / den if den > 0 else math.inf
-        mse[k] = float(np.mean(err**2))
-    values = {n: float(v) for n, v in zip(prob.names, vals)}
+    m = _fit_metrics(prob, theta, ev.nsub)
     try:
         row = prob.param_arrays(theta[None, :])[0]  # fitted and tied columns
         fitted = dataclasses.replace(base, **{n: float(v) for n, v in zip(type(base).names(), row)
@@ -835,16 +850,16 @@ def fit_greybox(
     fields = {f.name: f for f in dataclasses.fields(base)}
     plant = getattr(type(base), "plant", "") or type(base).__name__
     return GreyboxResult(
-        plant=plant, names=prob.names, values=values,
+        plant=plant, names=prob.names, values={n: float(v) for n, v in zip(prob.names, st["values"])},
         initial={n: float(getattr(base, n)) for n in prob.names},
-        std_errors={n: float(s) for n, s in zip(prob.names, se)}, ci95=ci,
+        std_errors={n: float(s) for n, s in zip(prob.names, st["se"])}, ci95=st["ci"],
         units={n: fields[n].metadata["unit"] for n in prob.names},
         log_scaled={n: bool(b) for n, b in zip(prob.names, prob.log)},
-        covariance=cov, correlation=corr, condition_number=cond, correlated_pairs=pairs,
-        nrmse=nrmse, mse=mse, nrmse_per_experiment=nr_e, mse_per_experiment=mse_e,
-        sigma=dict(prob.sigma), cost=float(sol.cost), noise_variance=s2, n_residuals=int(n_res),
-        n_substeps=int(state["nsub"]), nfev=state["nfev"], njev=state["njev"], success=bool(sol.success),
-        message=str(sol.message), seconds=time.perf_counter() - t0, params=fitted, notes=notes, offsets=offs,
+        covariance=st["cov"], correlation=st["corr"], condition_number=st["cond"], correlated_pairs=st["pairs"],
+        nrmse=m["nrmse"], mse=m["mse"], nrmse_per_experiment=m["nrmse_e"], mse_per_experiment=m["mse_e"],
+        sigma=dict(prob.sigma), cost=float(sol.cost), noise_variance=st["s2"], n_residuals=int(st["n_res"]),
+        n_substeps=int(ev.nsub), nfev=ev.nfev, njev=ev.njev, success=bool(sol.success),
+        message=str(sol.message), seconds=time.perf_counter() - t0, params=fitted, notes=notes, offsets=m["offsets"],
     )
 
 
