@@ -54,14 +54,12 @@ into one row (``n`` = draws x seeds).
 
 from __future__ import annotations
 
-import argparse
 import csv
 import dataclasses
 import functools
 import json
 import math
 import re
-import sys
 import time
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
@@ -70,8 +68,8 @@ from typing import Any
 import numpy as np
 
 from agents import metrics as fm
-from agents.adapters import PRESSURE_MAX_FACTOR, EnvAdapter
-from agents.backend import add_backend_args, check_backend, import_ray
+from agents.adapters import EnvAdapter
+from agents.backend import check_backend, import_ray
 from agents.benchmark_stats import bootstrap_ci, cvar, draw_bootstrap_ci, wilson_ci
 from agents.benchmark_stats import summarize as _summarize
 from hydro_envs import registry
@@ -82,12 +80,10 @@ __all__ = [
     "OUT_FACTOR",
     "PARAM_SETS",
     "BenchmarkResult",
-    "add_cli",
     "bootstrap_ci",
     "cvar",
     "draw_bootstrap_ci",
     "draw_parameters",
-    "main",
     "rollout",
     "run_benchmark",
     "step_metrics",
@@ -756,139 +752,3 @@ def result_json(res: BenchmarkResult) -> dict[str, Any]:
                                                            "n": int(m)} for k, (v, lo, hi, m) in s.items()}}
                         for c, s in res.summary.items()},
     }
-
-
-# ------------------------------------------------------------------ command line
-def add_cli(subparsers: Any) -> argparse.ArgumentParser:
-    """Register ``hydro benchmark`` on an argparse subparsers object."""
-    p = subparsers.add_parser(
-        "benchmark",
-        help="evaluate classical and learned controllers on frozen parameter draws",
-        description="Evaluate controllers on the same seeded parameter draws (nominal, the training "
-                    "ranges 'in', or outside them 'out') and write markdown/CSV tables and figures.",
-    )
-    p.add_argument("--config", metavar="FILE", help="YAML with env, controllers, n, params, episode_steps, ...")
-    p.add_argument("--env", metavar="ID", help="env id, e.g. hydro_envs/ServoCylinderPosition-v0")
-    p.add_argument("--controllers", metavar="LIST",
-                   help="comma-separated: classical names and/or sb3:RUN_DIR (NAME=sb3:RUN_DIR)")
-    p.add_argument("--params", metavar="SET", help="nominal|in|out, or a comma-separated list")
-    p.add_argument("--n", type=int, metavar="N", help="number of parameter draws (default 20)")
-    p.add_argument("--seed", type=int, metavar="S", help="seed of draws and episodes (default 0)")
-    p.add_argument("--out", metavar="DIR", help="output folder (tables, figures)")
-    p.add_argument("--steps", type=int, metavar="K", help="episode length in env steps")
-    p.add_argument("--policy", nargs="+", action="extend", metavar="RUN_DIR", default=[],
-                   help="trained run folder(s) (several training seeds pool by name)")
-    p.add_argument("--trust-pickle", action="store_true",
-                   help="also read run folders that have only SB3's pickled files (model.zip, vecnormalize.pkl); "
-                        "a pickle can run code on load, so only for folders you trust (default: the safe "
-                        "policy.pt + obs_normalization.npz layout only)")
-    p.add_argument("--randomization", metavar="FILE",
-                   help="randomisation spec of the 'in'/'out' draws instead of the plant's default (e.g. one "
-                        "written by hydro identify ... --emit-ranges)")
-    p.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
-    add_backend_args(p)
-    p.add_argument("--chunk-size", type=int, metavar="N", default=None,
-                   help="draws per Ray task for classical controllers (default: one task per CPU)")
-    p.set_defaults(func=cli_benchmark)
-    return p
-
-
-_CONFIG_KEYS = {"env", "controllers", "n", "params", "episode_steps", "seed", "out", "reference",
-                "step_reference", "policies", "figures", "randomization", "note"}
-
-
-#: folder of the shipped benchmark configs (package data)
-SHIPPED_CONFIGS = Path(__file__).resolve().parent / "configs" / "benchmarks"
-
-
-def config_path(name: str | Path) -> Path:
-    """A benchmark config: an existing file, else a shipped one by name (``servo_cylinder`` or
-    ``servo_cylinder.yaml``, from any working directory)."""
-    path = Path(name)
-    if path.is_file():
-        return path
-    shipped = SHIPPED_CONFIGS / (path.name if path.suffix in (".yaml", ".yml") else f"{path.name}.yaml")
-    if shipped.is_file():
-        return shipped
-    names = sorted(f.stem for f in SHIPPED_CONFIGS.glob("*.yaml"))
-    raise FileNotFoundError(f"benchmark config {str(name)!r}: no such file, and no shipped config of that name; "
-                            f"shipped: {', '.join(names)}")
-
-
-def _policy_path(entry: str) -> str:
-    """A policy run folder named in a config: as given, else relative to the repository/package root."""
-    if Path(entry).exists():
-        return entry
-    rooted = Path(__file__).resolve().parents[1] / entry
-    return str(rooted) if rooted.exists() else entry
-
-
-def load_config(path: str | Path) -> dict[str, Any]:
-    import yaml
-
-    path = config_path(path)
-    data = yaml.safe_load(path.read_text(encoding="utf-8"))
-    if not isinstance(data, dict):
-        raise ValueError(f"benchmark config {path}: top level must be a mapping")  # noqa: TRY004
-    extra = set(data) - _CONFIG_KEYS
-    if extra:
-        raise ValueError(f"benchmark config {path}: unknown key(s) {sorted(extra)}; allowed {sorted(_CONFIG_KEYS)}")
-    return data
-
-
-def cli_benchmark(args: argparse.Namespace) -> int:
-    cfg: dict[str, Any] = {}
-    try:
-        if args.config:
-            cfg = load_config(args.config)
-        env = args.env or cfg.get("env")
-        if not env:
-            raise ValueError("--env (or 'env' in --config) is required")
-        ctrls = args.controllers if args.controllers is not None else cfg.get("controllers", "pid")
-        ctrls = [c.strip() for c in (ctrls.split(",") if isinstance(ctrls, str) else ctrls) if str(c).strip()]
-        ctrls += [f"sb3:{_policy_path(str(r))}" for r in list(cfg.get("policies") or [])]
-        ctrls += [f"sb3:{r}" for r in args.policy]
-        psets = args.params if args.params is not None else cfg.get("params", "nominal")
-        psets = [s.strip() for s in (psets.split(",") if isinstance(psets, str) else psets)]
-        for s in psets:
-            if s not in PARAM_SETS:
-                raise ValueError(f"--params: {s!r} is not allowed; allowed {', '.join(PARAM_SETS)}")
-        n = args.n if args.n is not None else int(cfg.get("n", 20))
-        if n < 1:
-            raise ValueError(f"--n must be >= 1, got {n}")
-        seed = args.seed if args.seed is not None else int(cfg.get("seed", 0))
-        out = args.out or cfg.get("out")
-        steps = args.steps if args.steps is not None else cfg.get("episode_steps")
-        figures = (not args.no_figures) and bool(cfg.get("figures", True))
-        backend = getattr(args, "backend", "serial")
-        chunk = getattr(args, "chunk_size", None)
-        rand = getattr(args, "randomization", None) or cfg.get("randomization")
-        env_kwargs = {"randomization": str(rand)} if rand else None
-        if chunk is not None and chunk < 1:
-            raise ValueError(f"--chunk-size must be >= 1, got {chunk}")
-        for s in psets:
-            res = run_benchmark(env, ctrls, s, n, seed, out, episode_steps=steps, reference=cfg.get("reference"),
-                                step_reference=cfg.get("step_reference", "auto"), figures=figures,
-                                progress=lambda msg: print(msg, file=sys.stderr, flush=True),
-                                backend=backend, chunk_size=chunk, ray_address=getattr(args, "ray_address", None),
-                                trust_pickle=bool(getattr(args, "trust_pickle", False)), env_kwargs=env_kwargs,
-                                num_cpus=getattr(args, "num_cpus", None))
-            print(res.markdown())
-            print(f"({res.seconds:.1f} s)" + (f"; wrote {', '.join(str(f) for f in res.files)}" if res.files else ""))
-    except (ValueError, OSError, ImportError) as e:
-        print(f"hydro: error: {e}", file=sys.stderr)
-        return 2
-    return 0
-
-
-def main(argv: Sequence[str] | None = None) -> int:
-    """``python -m agents.benchmark [options]`` (the same options as ``hydro benchmark``)."""
-    sub = argparse.ArgumentParser().add_subparsers()
-    parser = add_cli(sub)
-    parser.prog = "python -m agents.benchmark"
-    args = parser.parse_args(sys.argv[1:] if argv is None else list(argv))
-    return int(args.func(args))
-
-
-if __name__ == "__main__":  # pragma: no cover
-    sys.exit(main())

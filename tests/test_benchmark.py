@@ -8,6 +8,7 @@ import pytest
 
 import hydro_envs  # noqa: F401
 from agents import benchmark as bm
+from agents import benchmark_cli as bcli
 from hydro_envs.cli import main as hydro_main
 from hydro_envs.plants.servo_cylinder.params import ServoCylinderParams
 from hydro_envs.randomization import load_randomization
@@ -229,7 +230,7 @@ def test_shipped_configs_are_valid():
     assert len(files) == 9
     envs = set()
     for f in files:
-        c = bm.load_config(f)
+        c = bcli.load_config(f)
         envs.add(c["env"])
         assert set(c["controllers"]) <= set(controller_names(c["env"]))
         assert set(c["params"]) == set(bm.PARAM_SETS)
@@ -256,10 +257,10 @@ def test_every_env_runs_with_same_draws(env_id):
 def test_configs_resolve_by_name_from_any_directory(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     for name in ("servo_cylinder", "rodless_cylinder_slow_sine.yaml"):
-        assert bm.load_config(name)["env"].startswith("hydro_envs/")
-    assert bm._policy_path("agents/pretrained/servo_cylinder/ppo_s0").startswith(str(bm.Path(bm.__file__).resolve().parents[1]))
+        assert bcli.load_config(name)["env"].startswith("hydro_envs/")
+    assert bcli._policy_path("agents/pretrained/servo_cylinder/ppo_s0").startswith(str(bcli.Path(bcli.__file__).resolve().parents[1]))
     with pytest.raises(FileNotFoundError, match="shipped: force_actuator"):
-        bm.load_config("no_such_config")
+        bcli.load_config("no_such_config")
 
 
 # ------------------------------------------------------------------ friction metrics, JSON, figures

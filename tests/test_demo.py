@@ -140,7 +140,7 @@ def test_importing_the_package_sets_a_passive_omp_wait_policy_unless_the_user_ch
 
 
 def test_benchmark_configs_list_existing_baselines_of_their_env():
-    from agents.benchmark import load_config
+    from agents.benchmark_cli import load_config
 
     root = Path(__file__).resolve().parents[1]
     for f in sorted((root / "configs" / "benchmarks").glob("*.yaml")):

@@ -15,6 +15,7 @@ pytest.importorskip("stable_baselines3")
 pytest.importorskip("torch")
 
 from agents import benchmark as bm  # noqa: E402
+from agents import benchmark_cli  # noqa: E402
 from agents.policies import (  # noqa: E402
     ARGS_FILE,
     CONFIG_FILE,
@@ -86,7 +87,7 @@ def test_trust_pickle_must_be_a_bool(tmp_path):
 def test_benchmark_cli_refuses_pickle_folders(tmp_path, capsys):
     marker = tmp_path / "pwned.txt"
     run = _malicious_run(tmp_path / "run", marker)
-    rc = bm.main(["--env", ENV, "--controllers", "pid", "--policy", str(run), "--n", "1", "--steps", "20",
+    rc = benchmark_cli.main(["--env", ENV, "--controllers", "pid", "--policy", str(run), "--n", "1", "--steps", "20",
                   "--no-figures"])
     assert rc == 2
     assert "--trust-pickle" in capsys.readouterr().err
@@ -97,7 +98,7 @@ def test_benchmark_cli_refuses_pickle_folders(tmp_path, capsys):
     assert not marker.exists()
     # and with --trust-pickle the loader does unpickle (payload runs, then the fake model fails)
     try:
-        bm.main(["--env", ENV, "--controllers", "pid", "--policy", str(run), "--n", "1", "--steps", "20",
+        benchmark_cli.main(["--env", ENV, "--controllers", "pid", "--policy", str(run), "--n", "1", "--steps", "20",
                  "--no-figures", "--trust-pickle"])
     except Exception:  # SB3 then rejects the fake model; the payload has already run
         pass
