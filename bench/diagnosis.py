@@ -43,10 +43,12 @@ def run_case(plant: str, eff: str | None, seed: int, duration: float, max_effect
     t0 = time.perf_counter()
     res = diagnose(plant, [case.fit], [case.holdout], base=case.base.params, max_effects=max_effects, maps=False,
                    effects=None if candidates is None else list(candidates))
-    named = res.effects[0]["name"] if res.effects else ("ambiguous" if res.verdict == "ambiguous" else "none")
+    # the first effect named (also under an unexplained verdict); else the verdict
+    named = res.effects[0]["name"] if res.effects else res.verdict
     shrink = res.effects[0]["shrink"] if res.effects else float("nan")
-    return {"plant": plant, "true": eff or "none", "named": named, "shrink": shrink,
-            "seconds": time.perf_counter() - t0, "detail": res.ambiguous, "drawn": case.drawn}
+    floors = max(res.residual[-1]["floors"].values(), default=float("nan")) if res.residual else float("nan")
+    return {"plant": plant, "true": eff or "none", "named": named, "shrink": shrink, "verdict": res.verdict,
+            "floors": floors, "seconds": time.perf_counter() - t0, "detail": res.ambiguous, "drawn": case.drawn}
 
 
 def case_row(plant: str, eff: str | None, seed: int, duration: float, max_effects: int,
@@ -99,7 +101,7 @@ def matrix(plants, seeds, duration, max_effects, seed0=0, *, backend="serial", a
 def summary(rows) -> dict:
     eff_rows = [r for r in rows if r["true"] != "none"]
     none_rows = [r for r in rows if r["true"] == "none"]
-    named_rows = [r for r in rows if r["named"] not in ("none", "ambiguous")]
+    named_rows = [r for r in rows if r["named"] not in ("none", "ambiguous", "unexplained", "error")]
     top1 = np.mean([r["named"] == r["true"] for r in eff_rows]) if eff_rows else float("nan")
     none = np.mean([r["named"] == "none" for r in none_rows]) if none_rows else float("nan")
     shrink = np.mean([r["shrink"] >= 0.5 for r in named_rows]) if named_rows else float("nan")
@@ -111,7 +113,7 @@ def print_confusion(rows) -> None:
     for plant in sorted({r["plant"] for r in rows}):
         pr = [r for r in rows if r["plant"] == plant]
         labels = [e.name for e in effects_for(plant, diagnosable_only=True)] + ["none"]
-        cols = labels + ["ambiguous"]
+        cols = labels + ["ambiguous", "unexplained"]
         print(f"\nconfusion matrix, {plant} (rows: hidden effect, columns: named)")
         w = max(len(c) for c in cols) + 1
         print(" " * w + "".join(f"{c[:10]:>11s}" for c in cols))

@@ -4,7 +4,8 @@ physical effect from the catalogue, add it, show the held-out gap shrink.
 Modules: :mod:`.catalogue` (effects), :mod:`.plants` (what the workflow needs per plant),
 :mod:`.records` (data checks, windows), :mod:`.models` (base models, thresholds),
 :mod:`.fitting` (fits, held-out scores), :mod:`.residuals` (residual maps, signature ranking),
-:mod:`.candidates` (candidate refits and judgement), :mod:`.workflow` (the loop), :mod:`.synthetic`
+:mod:`.candidates` (candidate refits and judgement), :mod:`.floor` (noise floor of the held-out
+residual, where a mismatch remains), :mod:`.workflow` (the loop and the verdict), :mod:`.synthetic`
 (hidden-effect data), :mod:`.report` (markdown + figures), :mod:`.cli` (``hydro diagnose``).
 
 Names are imported lazily (``hydro --help`` must not load numba and scipy through the
@@ -19,7 +20,7 @@ from typing import Any
 _EXPORTS = {
     "CATALOGUE": "catalogue", "Effect": "catalogue", "effect": "catalogue", "effects_for": "catalogue",
     "PLANTS": "plants", "diagnosis_plant": "plants",
-    "DiagnosisDataError": "records", "Record": "records", "record_from_measured": "records",
+    "DiagnosisError": "records", "DiagnosisDataError": "records", "DiagnosisFitError": "records", "Record": "records", "record_from_measured": "records",
     "DiagnosisResult": "workflow", "Model": "workflow", "diagnose": "workflow",
 }
 __all__ = sorted(_EXPORTS)

@@ -308,6 +308,10 @@ def _judge(spec: DiagnosisPlant, e: Effect, fit: FitOutcome) -> tuple[dict, dict
         if near:
             plausible = False
             reasons.append(f"{p.field} = {v:.4g} on its plausibility bound [{lo:.3g}, {hi:.3g}]")
+        elif p.plausible is not None and not p.plausible[0] <= v <= p.plausible[1]:
+            plausible = False
+            reasons.append(f"{p.field} = {v:.4g} outside its plausible range [{p.plausible[0]:.3g}, "
+                           f"{p.plausible[1]:.3g}] ({r.source})")
     ident = True
     for p in r.parameters:
         null = r.null.get(p.field, None)

@@ -46,6 +46,8 @@ class EffectParameter:
     """One fitted field of an effect.
 
     ``bounds``: physical plausibility (fit bounds; a fit that ends on a bound is implausible);
+    ``plausible``: where the fit needs room beyond what a working rig can have, the narrower range
+    of plausible values (a fit outside it is not named; None: the bounds);
     ``start``: start value of the fit; ``draw``: range of the hidden-effect tests; with
     ``relative_to`` both ``start`` and ``draw`` are factors times the current value of that
     field (bounds stay absolute); ``log``: fit log(value).
@@ -57,11 +59,20 @@ class EffectParameter:
     draw: tuple[float, float]
     relative_to: str | None = None
     log: bool = True
+    plausible: tuple[float, float] | None = None
 
     def __post_init__(self) -> None:
         lo, hi = self.bounds
         if not lo < hi:
             raise ValueError(f"EffectParameter {self.field}: bounds {self.bounds} must have lo < hi")
+        if self.plausible is not None:
+            a, b = self.plausible
+            if not lo <= a < b <= hi:
+                raise ValueError(f"EffectParameter {self.field}: plausible range {self.plausible} must lie inside "
+                                 f"the bounds {self.bounds}")
+            if self.relative_to is None and not a <= self.draw[0] <= self.draw[1] <= b:
+                raise ValueError(f"EffectParameter {self.field}: draw range {self.draw} outside the plausible "
+                                 f"range {self.plausible}")
         if self.relative_to is None and not (lo < self.start < hi):
             raise ValueError(f"EffectParameter {self.field}: start {self.start} outside bounds {self.bounds}")
         if self.relative_to is None and not (lo <= self.draw[0] <= self.draw[1] <= hi):

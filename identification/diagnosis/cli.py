@@ -5,7 +5,8 @@
 
 ``--base`` is a YAML preset (``configs/plants/*.yaml`` format: ``plant:`` and ``parameters:``)
 or omitted for the plant's nominal parameters with every catalogue effect at its null value.
-Exit codes: 0 done (any verdict), 2 usage / bad input, 3 the data cannot support a conclusion.
+Exit codes: 0 done (any verdict: named, none, ambiguous, unexplained), 2 usage / bad input, 3 the
+data cannot support a conclusion or the base model cannot be fitted to them.
 """
 
 from __future__ import annotations
@@ -51,7 +52,7 @@ def _load_base(path: str, plant: str):
 def _cmd_diagnose(args: argparse.Namespace) -> int:
     from hydro_envs.data.measured import MeasuredDataError, load_measured
     from hydro_envs.params import ParameterError
-    from identification.diagnosis import DiagnosisDataError, diagnose, diagnosis_plant, record_from_measured
+    from identification.diagnosis import DiagnosisDataError, DiagnosisFitError, diagnose, diagnosis_plant, record_from_measured
     from identification.ranges import RangesError
 
     try:
@@ -76,6 +77,8 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
         if isinstance(e, DiagnosisDataError):
             msg = f"the data cannot support a conclusion: {e}"
             code = EXIT_DATA
+        elif isinstance(e, DiagnosisFitError):
+            msg, code = str(e), EXIT_DATA
         else:
             msg, code = str(e), EXIT_USAGE
         if args.json:
@@ -96,8 +99,22 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def _fmt(values: dict, floor: dict) -> str:
+    return ", ".join(f"{k} {v:.3g} {floor.get(k, {}).get('unit', '')}".rstrip() for k, v in values.items())
+
+
 def summary_text(res) -> str:
+    """The verdict, its reason, the noise floor, the held-out residual after each step (channel
+    units and noise floors) and the effects found."""
     lines = [f"verdict: {res.verdict}" + (f" ({res.ambiguous})" if res.ambiguous else "")]
+    if res.reason:
+        lines.append(f"  reason: {res.reason}")
+    if res.noise_floor:
+        lines.append("  noise floor (held-out, in the score band): " + _fmt(
+            {k: v["floor"] for k, v in res.noise_floor.items()}, res.noise_floor))
+    for r in res.residual:
+        lines.append(f"  held-out residual RMS, {r['step']}: {_fmt(r['rms'], res.noise_floor)} ("
+                     + ", ".join(f"{k} {v:.2f}" for k, v in r["floors"].items()) + " noise floors)")
     for e in res.effects:
         ps = ", ".join(f"{k} = {v:.4g} +- {e['std_errors'].get(k, float('nan')):.2g}" for k, v in e["parameters"].items())
         lines.append(f"  {e['name']}: {ps}; held-out NRMSE {e['nrmse_before']:.4f} -> {e['nrmse_after']:.4f} "

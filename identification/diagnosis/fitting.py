@@ -15,7 +15,7 @@ from scipy import signal
 from hydro_envs.params import PhysicalParams
 from identification import greybox as gb
 from identification.diagnosis.plants import DiagnosisPlant
-from identification.diagnosis.records import Record, noise_estimate, segments
+from identification.diagnosis.records import DiagnosisDataError, Record, noise_estimate, segments
 from identification.diagnosis.models import Model, _channels, _delayed_channels, _fit_names, _scored, _tie_function, present_effects
 
 @dataclasses.dataclass
@@ -99,7 +99,8 @@ def _band_limited(err: np.ndarray, dt: float, band: float) -> np.ndarray:
 def _nrmse(exps, outs, band: float = 0.0) -> dict[str, float]:
     """Free-run NRMSE per channel over the scored samples of every window:
     ``||LP(y - y_hat)|| / ||y - mean_window(y)||`` with the error low-passed (zero phase) at
-    ``band`` Hz (0: raw), pooled over windows."""
+    ``band`` Hz (0: raw), pooled over windows. A free run that is not finite scores ``inf``; a
+    channel that is constant over the scored samples raises :class:`DiagnosisDataError`."""
     num: dict[str, float] = {}
     den: dict[str, float] = {}
     for e, o in zip(exps, outs):
@@ -111,9 +112,10 @@ def _nrmse(exps, outs, band: float = 0.0) -> dict[str, float]:
             den[k] = den.get(k, 0.0) + float(np.sum((y - y.mean()) ** 2))
     nr = {}
     for k in num:
-        nr[k] = math.sqrt(num[k] / den[k]) if den[k] > 0 else math.inf
-        if not math.isfinite(nr[k]):
-            nr[k] = 1e6
+        if not den[k] > 0:
+            raise DiagnosisDataError(f"channel {k!r} is constant over the scored samples of the windows "
+                                     f"({', '.join(e.name for e in exps)}): nothing to score it against")
+        nr[k] = math.sqrt(num[k] / den[k]) if math.isfinite(num[k]) else math.inf
     return nr
 
 
@@ -200,12 +202,18 @@ def _window_sums(spec: DiagnosisPlant, models: Sequence[Model], records: Sequenc
 
 
 def _pooled_score(wins: Sequence[dict[str, tuple[float, float]]], drop: int = -1) -> float:
-    """:func:`_mean` of the NRMSE pooled over the windows except window ``drop``."""
+    """:func:`_mean` of the NRMSE pooled over the windows except window ``drop`` (``inf`` for a
+    free run that is not finite; a channel constant over those windows raises
+    :class:`DiagnosisDataError`)."""
     nr = {}
     for k in wins[0]:
         num = sum(w[k][0] for i, w in enumerate(wins) if i != drop)
         den = sum(w[k][1] for i, w in enumerate(wins) if i != drop)
-        nr[k] = math.sqrt(num / den) if den > 0 else 1e6
+        if not den > 0:
+            raise DiagnosisDataError(f"channel {k!r} is constant over the held-out windows"
+                                     + (f" other than window {drop + 1}" if drop >= 0 else "")
+                                     + ": nothing to score it against")
+        nr[k] = math.sqrt(num / den) if math.isfinite(num) else math.inf
     return _mean(nr)
 
 

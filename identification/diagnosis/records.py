@@ -23,12 +23,21 @@ from scipy import signal
 from identification.diagnosis.plants import DiagnosisPlant
 from identification.greybox import Experiment
 
-__all__ = ["DiagnosisDataError", "Record", "record_from_measured", "check_records", "segments",
+__all__ = ["DiagnosisError", "DiagnosisDataError", "DiagnosisFitError", "Record", "record_from_measured", "check_records", "segments",
            "velocity_estimate", "shifted"]
 
 
-class DiagnosisDataError(ValueError):
+class DiagnosisError(ValueError):
+    """The diagnosis cannot reach a verdict (the message says why and what is needed)."""
+
+
+class DiagnosisDataError(DiagnosisError):
     """The data cannot support a diagnosis (the message says why and what is needed)."""
+
+
+class DiagnosisFitError(DiagnosisError):
+    """The base model cannot be fitted to the data: its fit or its free run on the windows is not
+    finite (the message names the channel, the windows and the base model's parameters)."""
 
 
 @dataclasses.dataclass

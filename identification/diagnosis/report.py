@@ -1,6 +1,8 @@
 """Human-readable diagnosis report: markdown plus PNG figures (matplotlib, Agg).
 
-``report.md`` holds the verdict, the effects found with their parameters and the held-out
+``report.md`` holds the verdict and its reason, the noise floor per channel and the held-out
+residual after each step (channel units and floors), where a mismatch above the floor remains,
+the effects found with their parameters and the held-out
 NRMSE before/after, every round's candidate table (signature score, held-out NRMSE, gain,
 plausibility, identifiability, reasons) and the notes; the figures are the residual maps of
 the base and the final model (RMS weighted residual binned by velocity, position, pressure
@@ -114,8 +116,33 @@ def write_report(res: DiagnosisResult, spec: DiagnosisPlant, records: Sequence[R
         pass
     lines = [f"# Diagnosis of `{res.plant}`", "", f"**Verdict: {res.verdict}**"
              + (f" ({res.ambiguous})" if res.ambiguous else ""), ""]
+    if res.reason:
+        lines += [f"Reason: {res.reason}", ""]
     lines.append("Base-model fit: " + ", ".join(f"{k} = {v:.4g}" for k, v in res.base_fit.items()))
     lines.append("")
+    if res.noise_floor:
+        lines += ["## Noise floor and held-out residual", "",
+                  "Noise floor per channel (estimated from the held-out data: white sensor noise inside the score "
+                  f"band, plus the spread the noise of measured inputs causes); verdict `unexplained` above "
+                  f"{res.unexplained_factor:g} floors.", "",
+                  "| channel | unit | sensor noise | in score band | from input noise | floor |", "|---|---|---|---|---|---|"]
+        for k, v in res.noise_floor.items():
+            lines.append(f"| {k} | {v['unit']} | {v['sensor_noise']:.3g} | {v['sensor']:.3g} | {v['input']:.3g} "
+                         f"| {v['floor']:.3g} |")
+        lines += ["", "| step | " + " | ".join(f"{k} RMS [{v['unit']}] (floors)" for k, v in res.noise_floor.items())
+                  + " |", "|---|" + "---|" * len(res.noise_floor)]
+        for r in res.residual:
+            lines.append(f"| {r['step']} | " + " | ".join(
+                f"{r['rms'].get(k, float('nan')):.3g} ({r['floors'].get(k, float('nan')):.2f})" for k in res.noise_floor)
+                + " |")
+        lines.append("")
+    if res.mismatch:
+        m = res.mismatch
+        lines += [f"Where the mismatch remains: channel `{m['channel']}` ({m['ratio']:.1f} floors); by operating "
+                  "region (median speed {:.3g} {}): ".format(m["median_speed"], m.get("speed_unit", "")) + ", ".join(
+                      f"{k} {v['rms']:.3g} {m['unit']} ({v['floors']:.1f} floors)" for k, v in m["regions"].items())
+                  + "; share of the residual power above the noise by band: " + ", ".join(
+                      f"{k} {v:.0%}" for k, v in m["bands"].items()), ""]
     if res.effects:
         lines += ["## Effects found (in order)", "", "| effect | parameters | held-out NRMSE before | after | shrink (channels) |",
                   "|---|---|---|---|---|"]

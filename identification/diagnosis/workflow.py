@@ -25,9 +25,13 @@ One round (:func:`diagnose`)::
        model's by more than the input's own noise moves it, :func:`input_noise_floor`, and a
        held-out gain that survives leaving out any one held-out window, ``LOO_GAIN_FRACTION``);
        candidates that fail (c) or (d) are set aside with the reason. No winner -> ``none``; a
-       winner that does not beat the runner-up -> ``ambiguous: A vs B`` with the experiment
-       that separates them.
+       winner that does not beat the runner-up, or whose parameters correlate with those of an
+       effect named earlier in the run by more than ``AMBIGUOUS_CORRELATION`` in the joint fit,
+       -> ``ambiguous: A vs B`` with the experiment that separates them.
     Repeat with the accepted effect added until nothing more is accepted (``max_effects``).
+    One verdict for the run: ``unexplained`` when the last model leaves more than the plant's
+    ``unexplained_factor`` noise floors of held-out residual in some channel (:mod:`.floor`), else
+    ``ambiguous`` when any round was, else ``named`` or ``none``.
     The gap shrink reported for a named effect is the fall of the held-out score over the
     channels it acts on (:func:`effect_channels`); the base-fit parameters are refined within
     ``BASE_FIT_FACTOR`` of the start model's values.
@@ -68,7 +72,7 @@ from identification import greybox as gb
 from hydro_envs.jsonutil import to_jsonable as jsonable
 from identification.diagnosis.catalogue import effect, effects_for
 from identification.diagnosis.plants import DiagnosisPlant, diagnosis_plant
-from identification.diagnosis.records import Record, check_records
+from identification.diagnosis.records import DiagnosisFitError, Record, check_records
 
 __all__ = ["Model", "Candidate", "Round", "DiagnosisResult", "diagnose", "fit_model", "heldout_nrmse",
            "present_effects", "with_effect", "null_base"]
@@ -128,6 +132,7 @@ from identification.diagnosis.residuals import (  # noqa: F401
     residual_maps,
     signature_scores,
 )
+from identification.diagnosis.floor import UNEXPLAINED_FACTOR, heldout_rms, noise_floor, ratios, where_mismatch
 from identification.diagnosis.candidates import (  # noqa: F401
     Candidate,
     START_GRID_POINTS,
@@ -168,7 +173,7 @@ class DiagnosisResult:
     """Outcome of :func:`diagnose` (``to_json_dict`` is what ``hydro diagnose --json`` prints)."""
 
     plant: str
-    verdict: str  # "named", "none" or "ambiguous"
+    verdict: str  # "named", "none", "ambiguous" or "unexplained"
     effects: list[dict[str, Any]]
     rounds: list[Round]
     base_model: Model
@@ -178,6 +183,13 @@ class DiagnosisResult:
     seconds: float
     sigma: dict[str, float]  # channel weights of the base fit (noise-level estimates)
     ambiguous: str = ""
+    # per channel: unit, white-noise level, its part in the score band, input-noise part, floor
+    noise_floor: dict[str, dict[str, Any]] = dataclasses.field(default_factory=dict)
+    # held-out residual after each step: {"step", "rms" [channel unit], "floors" (rms / floor)}
+    residual: list[dict[str, Any]] = dataclasses.field(default_factory=list)
+    mismatch: dict[str, Any] = dataclasses.field(default_factory=dict)  # where it remains (unexplained)
+    reason: str = ""  # why this verdict
+    unexplained_factor: float = UNEXPLAINED_FACTOR  # the plant's threshold of the verdict, in noise floors
 
     def to_json_dict(self) -> dict[str, Any]:
         cands = []
@@ -187,7 +199,9 @@ class DiagnosisResult:
                 d["round"] = i + 1
                 cands.append(d)
         return jsonable({
-            "plant": self.plant, "verdict": self.verdict, "effects": self.effects, "candidates": cands,
+            "plant": self.plant, "verdict": self.verdict, "reason": self.reason, "effects": self.effects,
+            "noise_floor": self.noise_floor, "residual": self.residual, "mismatch": self.mismatch,
+            "unexplained_factor": self.unexplained_factor, "candidates": cands,
             "ambiguous": self.ambiguous, "base_fit": self.base_fit,
             "rounds": [r.to_json_dict() for r in self.rounds], "notes": self.notes, "seconds": self.seconds,
         })
@@ -223,19 +237,31 @@ def diagnose(plant: str | DiagnosisPlant, records: Sequence[Record], holdout: Se
 
     model = Model(base if base is not None else null_base(spec))
     model = model.copy(base_bounds=base_fit_bounds(spec, model.params))
+    notes += _stroke_notes(spec, model.params, list(records) + list(holdout))
     start_model = model
     say(f"fit base model of {spec.name} ({', '.join(spec.base_fit)})")
-    cur = fit_model(spec, model, records)
+    try:
+        cur = fit_model(spec, model, records)
+    except (ParameterError, gb.GreyboxError) as err:
+        raise DiagnosisFitError(f"the base fit of {spec.name} failed: {err} -- base model "
+                                f"{_describe_params(spec, model.params)}; give a base model that matches the rig "
+                                "(--base preset)") from err
+    _check_base_fit(spec, cur, model, records, "fit")
     base_model = cur.model
     sigma = dict(cur.result.sigma)
     base_fit = dict(cur.result.values)
     (h_nr,) = heldout_nrmse(spec, [cur.model], holdout)
+    _check_base_fit(spec, cur, model, holdout, "held-out", h_nr)
     h_cur = _mean(h_nr)
+    floor = noise_floor(spec, base_model, holdout)
+    say("noise floor: " + ", ".join(f"{k} {v['floor']:.3g} {v['unit']}" for k, v in floor.items()))
+    steps: list[tuple[str, Model]] = [("base model", base_model)]
+    ambiguous_model: Model | None = None
     rounds: list[Round] = []
     accepted: list[dict[str, Any]] = []
     ambiguous = ""
     while len(accepted) < max_effects and len(rounds) <= max_effects:
-        floor: dict[str, float] | None = None
+        in_floor: dict[str, float] | None = None
         locate = residual_maps(spec, cur.model, records, sigma) if maps else {}
         pred = prediction_residual(spec, cur.model, records, sigma) if maps else {}
         cands = _candidates(spec, cur.model, effects)
@@ -261,23 +287,29 @@ def diagnose(plant: str | DiagnosisPlant, records: Sequence[Record], holdout: Se
             (nr,) = heldout_nrmse(spec, [fit.model], holdout)
             h = _mean(nr)
             vals, ses, plausible, ident, reasons = _judge(spec, e, fit)
+            if not math.isfinite(h):
+                reasons.append("its free run is not finite on the held-out windows")
             results.append(Candidate(
                 e.name, scores.get(e.name, 0.0), vals, ses, dict(fit.result.nrmse) if fit.result else {}, nr, h,
                 (h_cur - h) / h_cur, plausible, ident, reasons, time.perf_counter() - tc, fit.model, fit))
-        if floor is None:
-            floor = input_noise_floor(spec, cur.model, holdout)
-        if floor:
-            _check_distinct(spec, cur.model, results, holdout, floor)
+        if in_floor is None:
+            in_floor = input_noise_floor(spec, cur.model, holdout)
+        if in_floor:
+            _check_distinct(spec, cur.model, results, holdout, in_floor)
         if cur.model.offsets is None and any(c in r.channels for r in records for c in spec.sensor_offsets):
             say(f"  candidate {SENSOR_OFFSETS} (measuring chain: {', '.join(spec.sensor_offsets)})")
             results.append(_offset_candidate(spec, cur, records, holdout, sigma, h_cur))
         _check_windows(spec, cur.model, results, holdout, accept_gain)
         results.sort(key=lambda c: c.heldout)
         decision, sep = _decide(spec, results, accept_gain, margin)
+        if decision not in ("none", SENSOR_OFFSETS) and not decision.startswith("ambiguous"):
+            decision, sep = _check_correlated(spec, next(c for c in results if c.name == decision),
+                                              [a["name"] for a in accepted], decision, sep)
         rounds.append(Round(h_cur, h_nr, locate, pred, results, decision, sep))
         say(f"  -> {decision}")
         if decision.startswith("ambiguous"):
             ambiguous = decision
+            ambiguous_model = next(c for c in results if c.name == decision.split(": ")[1].split(" vs ")[0]).model
             break
         if decision == "none":
             break
@@ -285,6 +317,7 @@ def diagnose(plant: str | DiagnosisPlant, records: Sequence[Record], holdout: Se
         if decision == SENSOR_OFFSETS:  # a measuring-chain correction, not a physical effect:
             cur = best.fit  # keep it and look for effects again (this round does not count)
             h_cur, h_nr = best.heldout, best.nrmse_heldout
+            steps.append((SENSOR_OFFSETS, cur.model))
             continue
         chans = effect_channels(spec, decision, h_nr)
         shrink = 1 - _mean({k: best.nrmse_heldout[k] for k in chans}) / _mean({k: h_nr[k] for k in chans})
@@ -294,16 +327,93 @@ def diagnose(plant: str | DiagnosisPlant, records: Sequence[Record], holdout: Se
                          "shrink": shrink, "shrink_channels": list(chans)})
         cur = best.fit
         h_cur, h_nr = best.heldout, best.nrmse_heldout
-    if accepted:
-        verdict = "named"
-    elif ambiguous:
-        verdict = "ambiguous"
-    else:
-        verdict = "none"
+        steps.append((decision, cur.model))
+    if ambiguous_model is not None:
+        steps.append((f"best of the {ambiguous} (not added)", ambiguous_model))
+    rms = heldout_rms(spec, [m for _, m in steps], holdout)
+    residual = [{"step": name, "rms": r, "floors": ratios(r, floor)} for (name, _), r in zip(steps, rms)]
+    final = residual[-1]["floors"]
+    worst = max(final.values(), default=0.0)
+    factor = spec.unexplained_factor
+    mismatch = where_mismatch(spec, steps[-1][1], holdout, floor) if worst > factor else {}
+    verdict, reason = _verdict(accepted, ambiguous, worst, mismatch, residual[-1]["step"], factor)
     notes += _sensor_notes(spec, cur, records, sigma)
     notes += _base_bound_notes(base_model, "base fit") + _base_bound_notes(cur.model, "final model")
     return DiagnosisResult(spec.name, verdict, accepted, rounds, base_model, cur.model, base_fit, notes,
-                           time.perf_counter() - t0, sigma, ambiguous)
+                           time.perf_counter() - t0, sigma, ambiguous, floor, residual, mismatch, reason, factor)
+
+
+def _verdict(accepted: Sequence[dict[str, Any]], ambiguous: str, worst: float, mismatch: dict[str, Any],
+             last: str, factor: float = UNEXPLAINED_FACTOR) -> tuple[str, str]:
+    """The one verdict of a run and its reason: ``unexplained`` when the last model's held-out
+    residual stays above ``factor`` (the plant's ``unexplained_factor``) noise floors in some channel (whatever was named
+    or left ambiguous before: the catalogue does not explain the data); else ``ambiguous`` when
+    any round was; else ``named`` or ``none``."""
+    names = ", ".join(e["name"] for e in accepted)
+    if worst > factor:
+        where = (f"channel {mismatch['channel']!r}: {mismatch['rms']:.3g} {mismatch['unit']} RMS = "
+                 f"{mismatch['ratio']:.1f} noise floors of {mismatch['floor']:.3g} {mismatch['unit']}")
+        if mismatch.get("worst_region"):
+            reg = mismatch["regions"][mismatch["worst_region"]]
+            where += f"; largest while {mismatch['worst_region']} ({reg['floors']:.1f} floors)"
+        if mismatch.get("worst_band"):
+            where += (f"; {mismatch['bands'][mismatch['worst_band']]:.0%} of the excess residual power in "
+                      f"{mismatch['worst_band']}")
+        after = f"after {last}" if accepted or ambiguous else "with no catalogue effect accepted"
+        return "unexplained", (f"the held-out residual {after} stays above {factor:g} noise floors "
+                               f"({where}): an effect outside the catalogue, or a base model that does not match the "
+                               "rig" + (f"; named so far: {names}" if names else "")
+                               + (f"; {ambiguous}" if ambiguous else ""))
+    if ambiguous:
+        return "ambiguous", (f"{ambiguous}: both explain the held-out data (residual {worst:.1f} noise floors with the "
+                             "better one) and the data cannot tell them apart" + (f"; named before: {names}" if names
+                                                                                  else ""))
+    if accepted:
+        return "named", (f"{names} lowered the held-out error and the residual left is {worst:.1f} noise floors "
+                         f"(<= {factor:g})")
+    return "none", (f"no catalogue effect clearly lowers the held-out error and the base model's residual is "
+                    f"{worst:.1f} noise floors (<= {factor:g})")
+
+
+def _stroke_notes(spec: DiagnosisPlant, params: PhysicalParams, records: Sequence[Record]) -> list[str]:
+    """A note when the recorded position leaves the base model's travel (a base model of another
+    rig: its end stops act inside the recorded motion). The travel is ``[0, stroke]``, or
+    ``[-stroke/2, stroke/2]`` for plants whose position is zero at mid-stroke (test motion
+    centred at 0)."""
+    if spec.units.get(spec.position_channel) != "m" or "stroke" not in type(params).names():
+        return []
+    pos = [r.channels[spec.position_channel] for r in records if spec.position_channel in r.channels]
+    if not pos:
+        return []
+    lo, hi = min(float(p.min()) for p in pos), max(float(p.max()) for p in pos)
+    stroke = float(params.stroke)
+    a, b = (-0.5 * stroke, 0.5 * stroke) if spec.reference_centre(params) == 0.0 else (0.0, stroke)
+    if lo < a or hi > b:
+        return [f"the recorded position {spec.position_channel!r} spans [{lo:.4g}, {hi:.4g}] m, outside the base "
+                f"model's travel [{a:.4g}, {b:.4g}] m: the base model is not this rig's (give its stroke and mass, "
+                "--base), or the position's zero is elsewhere"]
+    return []
+
+
+def _describe_params(spec: DiagnosisPlant, params: PhysicalParams) -> str:
+    """The base-fit parameters and, where the plant has them, mass and stroke of ``params``."""
+    names = list(spec.base_fit) + [n for n in ("mass", "stroke") if n in type(params).names()
+                                   and n not in spec.base_fit]
+    return "(" + ", ".join(f"{n} = {float(getattr(params, n)):.4g}" for n in names) + ")"
+
+
+def _check_base_fit(spec: DiagnosisPlant, fit: FitOutcome, start: Model, records: Sequence[Record], role: str,
+                    nrmse: dict[str, float] | None = None) -> None:
+    """Raise :class:`DiagnosisFitError` when the fitted base model's free run is not finite on the
+    ``role`` windows (fit NRMSE from the fit result, or ``nrmse`` of the held-out windows)."""
+    nr = nrmse if nrmse is not None else dict(fit.result.nrmse)
+    bad = sorted(k for k, v in nr.items() if not math.isfinite(v))
+    if bad:
+        raise DiagnosisFitError(
+            f"the base fit of {spec.name} failed: the fitted base model has no finite score in channel(s) {bad} on "
+            f"the {role} windows (its free run diverges there, or the channel is constant) -- start model {_describe_params(spec, start.params)}, fitted "
+            f"{_describe_params(spec, fit.model.params)}; give a base model that matches the rig (--base preset: "
+            "mass, stroke and geometry of the record)")
 
 
 def _check_distinct(spec: DiagnosisPlant, current: Model, results: Sequence[Candidate], holdout: Sequence[Record],
@@ -361,6 +471,47 @@ def _offset_candidate(spec: DiagnosisPlant, cur: FitOutcome, records: Sequence[R
     return Candidate(SENSOR_OFFSETS, 0.0, dict(fit.model.offsets or {}), {}, dict(fit.result.nrmse), nr, h,
                      (h_cur - h) / h_cur, not any("beyond" in r_ for r_ in reasons), ident, reasons,
                      time.perf_counter() - tc, fit.model, fit)
+
+
+# a winner whose parameter correlates with a parameter of an effect named earlier in the run by
+# more than this (the joint fit's parameter correlation, identification.greybox) cannot be told
+# apart from it on these data: the decision is "ambiguous: winner vs earlier effect"; pairs above
+# greybox's CORRELATION_LIMIT (0.95) are noted in the candidate's reasons
+AMBIGUOUS_CORRELATION = 0.99
+
+
+def _prerequisites(spec: DiagnosisPlant, name: str) -> set[str]:
+    out, todo = set(), list(effect(name).on(spec.name).requires)
+    while todo:
+        n = todo.pop()
+        if n not in out:
+            out.add(n)
+            todo += list(effect(n).on(spec.name).requires)
+    return out
+
+
+def _check_correlated(spec: DiagnosisPlant, winner: Candidate, earlier: Sequence[str], decision: str,
+                      sep: str) -> tuple[str, str]:
+    """The decision after the identifiability check of the winner against the effects named
+    earlier in the run (not its prerequisites): a parameter pair correlated above
+    ``AMBIGUOUS_CORRELATION`` in the joint fit makes the round ``ambiguous: winner vs earlier``."""
+    res = getattr(winner.fit, "result", None)
+    if res is None or effect(winner.name).kind != "plant":
+        return decision, sep
+    own = {p.field for p in effect(winner.name).on(spec.name).parameters}
+    skip = _prerequisites(spec, winner.name)
+    fields = {p.field: e for e in earlier if e not in skip and effect(e).kind == "plant"
+              for p in effect(e).on(spec.name).parameters}
+    worst = None
+    for a, b, rho in res.correlated_pairs:
+        for x, y in ((a, b), (b, a)):
+            if x in own and y in fields:
+                winner.reasons.append(f"{x} correlated with {y} of {fields[y]} (rho {rho:+.3f}) in the joint fit")
+                if abs(rho) > AMBIGUOUS_CORRELATION and (worst is None or abs(rho) > abs(worst[1])):
+                    worst = (fields[y], rho)
+    if worst is None:
+        return decision, sep
+    return f"ambiguous: {winner.name} vs {worst[0]}", f"{_describe(winner.name)} | {_describe(worst[0])}"
 
 
 def _describe(name: str) -> str:

@@ -93,6 +93,9 @@ BASES = {
         # warm-up: covers the friction-damped air spring
         segment_seconds=0.7, warmup_seconds=0.3, score_bandwidth=50.0,
         offset_free=("y",), sensor_offsets=("pa", "pb"),
+        # verdict unexplained above 140 noise floors: the correct model (hidden Coulomb friction, named) left
+        # 69 floors on y (start-state errors of the friction-damped air spring; measured on one 5 s record)
+        unexplained_factor=140.0,
         effects=_EFFECTS,
     ),
 }
