@@ -246,6 +246,11 @@ def diagnose(plant: str | DiagnosisPlant, records: Sequence[Record], holdout: Se
         raise DiagnosisFitError(f"the base fit of {spec.name} failed: {err} -- base model "
                                 f"{_describe_params(spec, model.params)}; give a base model that matches the rig "
                                 "(--base preset)") from err
+    if cur.result.params is None:  # the fitted values break a parameter relation (e.g. F_S < F_C)
+        why = "; ".join(n for n in cur.result.notes if "relation" in n)
+        raise DiagnosisFitError(f"the base fit of {spec.name} gives an impossible parameter set ({why}) -- "
+                                f"fitted {_describe_params(spec, cur.model.params)}; the base model carries an "
+                                "effect the data do not support: give a base model without it (--base preset)")
     _check_base_fit(spec, cur, model, records, "fit")
     base_model = cur.model
     sigma = dict(cur.result.sigma)
