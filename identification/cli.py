@@ -359,6 +359,9 @@ def _friction_run(args: argparse.Namespace) -> dict[str, Any]:
     from identification import friction as fr
     from hydro_envs.data.measured import load_measured
 
+    for flag, value, unit in (("--area", args.area, "m^2"), ("--bore", args.bore, "m")):
+        if value is not None and not (np.isfinite(value) and value > 0):
+            raise ValueError(f"{flag} = {value} {unit}: the piston {flag[2:]} must be a finite number > 0 {unit}")
     if args.plant == "servo_cylinder":
         from hydro_envs.plants.servo_cylinder.params import ServoCylinderParams
 

@@ -242,3 +242,23 @@ def test_fuzz_reset_and_step_no_nan_no_undocumented_error(env_id):
             with pytest.raises(ValueError, match="action"):
                 env.step(bad)
     assert accepted > 0 and refused > 0
+
+
+@pytest.mark.parametrize("env_id,value", [
+    ("hydro_envs/ServoCylinderPosition-v0", 0.03),
+    ("hydro_envs/RodlessCylinder-v0", 0.05),
+    ("hydro_envs/ForceActuator-v0", 10.0),
+    ("hydro_envs/LoadSensing-v0", 0.05),
+    ("hydro_envs/ShakingTable-v0", 0.0),
+])
+def test_reference_array_shorter_than_the_episode_is_refused(env_id, value):
+    """A user's reference must cover the episode; it is never silently held at its last value."""
+    import gymnasium as gym
+    import numpy as np
+
+    env = gym.make(env_id, randomize=False)
+    n = env.unwrapped.max_episode_steps if hasattr(env.unwrapped, "max_episode_steps") else env.spec.max_episode_steps
+    with pytest.raises(ValueError, match=r"options\['reference'\] has 10 samples"):
+        env.reset(seed=0, options={"reference": np.full(10, value)})
+    env.reset(seed=0, options={"reference": np.full(env.spec.max_episode_steps, value)})  # a full one is taken
+    env.close()

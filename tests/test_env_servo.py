@@ -24,6 +24,14 @@ from hydro_envs.plants.servo_cylinder.params import ServoCylinderParams
 from hydro_envs.plants.servo_cylinder.model import no_load_velocity
 from hydro_envs.randomization import load_randomization
 
+
+def _padded(ref):
+    """A short test reference held at its last value to cover any episode (an env refuses a
+    reference shorter than its episode)."""
+    ref = np.asarray(ref, dtype=float)
+    return np.pad(ref, (0, max(0, 10_000 - ref.size)), mode="edge")
+
+
 ENV_ID = "hydro_envs/ServoCylinderPosition-v0"
 NOMINAL = ServoCylinderParams()
 L = NOMINAL.stroke
@@ -551,8 +559,8 @@ def test_reset_reference_unknown_kind_raises():
 
 def test_reset_reference_array():
     env = gym.make(ENV_ID, randomize=False).unwrapped
-    ref = np.linspace(0.02, 0.05, 300)
-    obs, _ = env.reset(seed=0, options={"reference": ref})
+    ref = np.linspace(0.02, 0.05, 2000)  # one sample per step of the 2000-step episode
+    obs, _ = env.reset(seed=0, options={"reference": _padded(ref)})
     assert obs[1] == np.float32((ref[0] - HALF) / HALF)
     for m, d in enumerate((10, 20, 30, 40, 50)):  # preview at +10..+50 ms
         assert obs[2 + m] == np.float32((ref[d] - HALF) / HALF)
@@ -560,9 +568,10 @@ def test_reset_reference_array():
         obs, *_ = env.step(_a(0.0))
         assert obs[1] == np.float32((ref[k] - HALF) / HALF)
         assert obs[6] == np.float32((ref[k + 50] - HALF) / HALF)
-    # a short array is held at its last value
-    obs, _ = env.reset(seed=0, options={"reference": [0.03, 0.04]})
-    np.testing.assert_array_equal(obs[2:7], np.float32((0.04 - HALF) / HALF))
+    # an array shorter than the episode is refused (never silently held); past the episode's
+    # last step the preview repeats the last sample
+    with pytest.raises(ValueError, match="has 2 samples"):
+        env.reset(seed=0, options={"reference": [0.03, 0.04]})
     with pytest.raises(ValueError, match="stroke"):
         env.reset(seed=0, options={"reference": [0.03, L + 0.01]})
     with pytest.raises(ValueError):
@@ -583,7 +592,7 @@ def test_reset_unknown_option_raises():
 def test_observation_semantics_from_known_state():
     env = gym.make(ENV_ID, randomize=False).unwrapped
     ref = np.full(50, HALF + 0.005)
-    obs, info = env.reset(seed=0, options={"state": {"x": HALF}, "reference": ref})
+    obs, info = env.reset(seed=0, options={"state": {"x": HALF}, "reference": _padded(ref)})
     assert info["state"]["x"] == HALF
     # error (r - x_meas)/0.01 with the encoder's 3e-5 m quantisation
     assert abs(obs[0] - 0.5) <= 3e-3 + 1e-6
@@ -609,7 +618,7 @@ def test_reward_formula():
     env = gym.make(ENV_ID).unwrapped
     ref = 0.035 + 0.01 * np.sin(np.linspace(0.0, 6.0, 400))
     actions = _random_actions(200, seed=6)
-    _, info = env.reset(seed=2, options={"reference": ref})
+    _, info = env.reset(seed=2, options={"reference": _padded(ref)})
     prev = 0.0
     for k, a in enumerate(actions, start=1):
         obs, reward, _, _, info = env.step(a)
@@ -620,7 +629,7 @@ def test_reward_formula():
         prev = a_k
     # custom scales enter the same formula
     env = gym.make(ENV_ID, error_scale=0.002, action_rate_penalty=0.5).unwrapped
-    _, info = env.reset(seed=2, options={"reference": ref})
+    _, info = env.reset(seed=2, options={"reference": _padded(ref)})
     _, r1, _, _, info = env.step(_a(0.8))
     e = ref[1] - info["state"]["x"]
     assert r1 == pytest.approx(-((e / 0.002) ** 2) - 0.5 * float(np.float32(0.8)) ** 2, abs=1e-9, rel=0)
@@ -757,7 +766,7 @@ def test_reward_ignores_sensor_noise():
     rewards = []
     for kw in ({}, {"position_noise_std": 1e-3, "pressure_noise_std": 1e5}):
         env = gym.make(ENV_ID, randomize=False, **kw).unwrapped
-        env.reset(seed=1, options={"state": {"x": HALF}, "reference": ref})
+        env.reset(seed=1, options={"state": {"x": HALF}, "reference": _padded(ref)})
         rewards.append([env.step(_a(0.2))[1] for _ in range(30)])
     np.testing.assert_array_equal(rewards[0], rewards[1])
 

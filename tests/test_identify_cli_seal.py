@@ -68,3 +68,14 @@ def test_clamped_coefficient_is_an_error(capsys):
         _refuse_clamped({"F_c_neg": 3.0, "F_v_neg": 0.0}, {"F_c_neg": 0.1, "F_v_neg": 50.0},
                         {"F_v_neg": "N s/m"}, "coulomb_viscous")
     _refuse_clamped({"F_c": 3.0, "F_v": 12.0}, {"F_c": 0.1, "F_v": 5.0}, {}, "coulomb_viscous")
+
+
+@pytest.mark.parametrize("flag,value", [("--area", "-1"), ("--area", "0"), ("--bore", "-0.025"), ("--bore", "nan")])
+def test_nonpositive_geometry_is_refused_naming_the_flag(flag, value, capsys):
+    from hydro_envs.cli import main as hydro
+
+    record = Path(__file__).parent / "data" / "seal_friction_oring" / "O-ring_5bar_3cycles.csv"
+    code = hydro(["identify", "friction", "--plant", "seal_friction", "--data", str(record), flag, value,
+                  "--model", "coulomb"])
+    err = capsys.readouterr().err
+    assert code != 0 and f"{flag} = " in err and "must be a finite number > 0" in err

@@ -35,6 +35,14 @@ from hydro_envs import registry
 from hydro_envs.sim.reference import reference_rollout
 from hydro_envs.sim.stiffness import DEFAULT_SAFETY, RK4_REAL_STABILITY_LIMIT, substeps_from_stiffness
 
+
+def _padded(ref):
+    """A short test reference held at its last value to cover any episode (an env refuses a
+    reference shorter than its episode)."""
+    ref = np.asarray(ref, dtype=float)
+    return np.pad(ref, (0, max(0, 10_000 - ref.size)), mode="edge")
+
+
 ENV_ID = "hydro_envs/RodlessCylinder-v0"
 NOMINAL = RodlessCylinderParams()
 L = NOMINAL.stroke
@@ -752,7 +760,7 @@ def test_reset_options():
     with pytest.raises(ParameterError, match="mass"):
         env.reset(seed=0, options={"params": {"mass": -1.0}})
     ref = np.linspace(0.03, 0.07, 100)
-    obs, _ = env.reset(seed=0, options={"reference": ref})
+    obs, _ = env.reset(seed=0, options={"reference": _padded(ref)})
     assert obs[1] == np.float32((ref[0] - HALF) / HALF)
     assert obs[2] == np.float32((ref[10] - HALF) / HALF)
     with pytest.raises(ValueError, match="stroke"):
@@ -784,7 +792,7 @@ def test_constructor_validation():
 def test_reward_formula():
     env = gym.make(ENV_ID).unwrapped
     ref = 0.05 + 0.02 * np.sin(np.linspace(0.0, 6.0, 300))
-    env.reset(seed=2, options={"reference": ref})
+    env.reset(seed=2, options={"reference": _padded(ref)})
     prev = 0.0
     for k, a in enumerate(_random_actions(100, seed=6), start=1):
         _, reward, _, _, info = env.step(a)
@@ -814,7 +822,7 @@ def test_constant_action_gives_constant_speed_and_eq1_friction():
 def test_observation_semantics_and_noise():
     env = gym.make(ENV_ID, randomize=False).unwrapped
     ref = np.full(100, HALF + 0.004)
-    obs, info = env.reset(seed=0, options={"state": {"y": HALF}, "reference": ref})
+    obs, info = env.reset(seed=0, options={"state": {"y": HALF}, "reference": _padded(ref)})
     p0 = rc.centre_pressure(NOMINAL)
     assert obs[0] == pytest.approx(0.4, abs=1e-5) and obs[7] == pytest.approx(0.0, abs=1e-4)
     assert obs[8] == pytest.approx(p0 / NOMINAL.supply_pressure, rel=1e-6) and obs[10] == 0.0

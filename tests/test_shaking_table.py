@@ -45,6 +45,14 @@ from hydro_envs.sim.reference import reference_rollout
 from hydro_envs.sim.stiffness import DEFAULT_SAFETY, RK4_REAL_STABILITY_LIMIT, substeps_from_stiffness
 from hydro_envs.validation import ValidationRow
 
+
+def _padded(ref):
+    """A short test reference held at its last value to cover any episode (an env refuses a
+    reference shorter than its episode)."""
+    ref = np.asarray(ref, dtype=float)
+    return np.pad(ref, (0, max(0, 10_000 - ref.size)), mode="edge")
+
+
 ENV_ID = "hydro_envs/ShakingTable-v0"
 DT = 1e-3
 NOMINAL = ShakingTableParams()
@@ -800,7 +808,7 @@ def test_reset_options():
     with pytest.raises(ValueError, match="accelerometer"):
         env.reset(seed=0, options={"reference": [0.0, 60.0]})
     ref = np.linspace(0.0, 2.0, 300)
-    obs, _ = env.reset(seed=0, options={"reference": ref})
+    obs, _ = env.reset(seed=0, options={"reference": _padded(ref)})
     assert obs[1] == 0.0 and obs[2] == np.float32(ref[10] / 10.0) and obs[6] == np.float32(ref[50] / 10.0)
     obs, *_ = env.step(_a(0.0))
     assert obs[1] == np.float32(ref[1] / 10.0)
@@ -812,7 +820,7 @@ def test_reset_options():
 def test_reward_formula():
     env = gym.make(ENV_ID, randomize=False).unwrapped
     ref = 2.0 * np.sin(np.linspace(0.0, 12.0, 400))
-    _, info = env.reset(seed=2, options={"reference": ref})
+    _, info = env.reset(seed=2, options={"reference": _padded(ref)})
     prev = 0.0
     for k, a in enumerate(_random_actions(200, seed=6), start=1):
         _, reward, _, _, info = env.step(a)
@@ -828,7 +836,7 @@ def test_reward_ignores_sensor_noise_and_noise_is_seeded():
     rewards = []
     for kw in ({}, {"position_noise_std": 1e-4, "acceleration_noise_std": 0.1}):
         env = gym.make(ENV_ID, randomize=False, **kw).unwrapped
-        env.reset(seed=1, options={"reference": ref})
+        env.reset(seed=1, options={"reference": _padded(ref)})
         rewards.append([env.step(_a(0.2))[1] for _ in range(30)])
     np.testing.assert_array_equal(rewards[0], rewards[1])
     kw = {"acceleration_noise_std": 0.1, "randomize": False}

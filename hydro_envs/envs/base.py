@@ -111,6 +111,21 @@ def given_param_names(params: Any, params_cls: type) -> tuple[str, ...]:
                     f"got {type(params).__name__}")
 
 
+def fill_reference(row: np.ndarray, arr: np.ndarray, episode_steps: int, unit: str) -> None:
+    """Copy a user's reference array ``arr`` (one sample per env step) into the episode's
+    reference ``row``. It must cover the episode: an array shorter than ``episode_steps`` is an
+    error, never silently held. Samples past its end feed only the preview beyond the episode's
+    last step and repeat its last value."""
+    if arr.size < episode_steps:
+        raise ValueError(
+            f"options['reference'] has {arr.size} samples [{unit}], the episode runs {episode_steps} steps: "
+            f"give at least {episode_steps} (one per step), or a reference kind"
+        )
+    m = min(arr.size, row.size)
+    row[:m] = arr[:m]
+    row[m:] = arr[m - 1]
+
+
 def check_nonnegative(**values: float) -> None:
     """Raise ``ValueError`` naming the first argument that is negative or not finite."""
     for name, value in values.items():

@@ -29,7 +29,7 @@ import numba as nb
 import numpy as np
 from gymnasium import spaces
 
-from hydro_envs.envs.base import PlantBatch, check_nonnegative
+from hydro_envs.envs.base import PlantBatch, check_nonnegative, fill_reference
 from hydro_envs.envs.render import render_cylinder
 
 __all__ = ["PREVIEW_STEPS", "OBS_DIM", "CylinderTrackingBatch", "observation_space", "check_reference_array"]
@@ -182,15 +182,13 @@ class CylinderTrackingBatch(PlantBatch):
 
     def set_reference(self, i: int, ref_opt: Any, generate) -> None:
         """Copy ``i``'s reference: ``generate(kind_or_None, n)`` for a kind name or None,
-        else the user's array (checked; held at its last value beyond its end)."""
+        else the user's array (checked; at least one sample per episode step)."""
         n_ref = self.REF.shape[1]
         if ref_opt is None or isinstance(ref_opt, str):
             self.REF[i] = generate(ref_opt, n_ref)
         else:
             arr = check_reference_array(ref_opt, self.params[i].stroke)
-            m = min(arr.size, n_ref)
-            self.REF[i, :m] = arr[:m]
-            self.REF[i, m:] = arr[m - 1]
+            fill_reference(self.REF[i], arr, self.episode_steps, "m")
 
     def draw_noise(self, i: int, rng: np.random.Generator) -> None:
         """Pre-draw copy ``i``'s sensor noise for the whole episode (same seed, same noise)."""

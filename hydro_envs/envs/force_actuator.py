@@ -54,7 +54,7 @@ import numba as nb
 import numpy as np
 from gymnasium import spaces
 
-from hydro_envs.envs.base import BatchedEnv, BatchedVectorEnv, PlantBatch, check_nonnegative
+from hydro_envs.envs.base import BatchedEnv, BatchedVectorEnv, PlantBatch, check_nonnegative, fill_reference
 from hydro_envs.envs.render import render_cylinder
 from hydro_envs.plants.force_actuator import model as plant
 from hydro_envs.plants.force_actuator.params import ForceActuatorParams
@@ -245,9 +245,7 @@ class ForceActuatorBatch(PlantBatch):
                     f"options['reference'] must lie inside the blocked-force range [{p.min_thrust:.0f}, "
                     f"{p.max_thrust:.0f}] N, got [{arr.min():g}, {arr.max():g}]"
                 )
-            m = min(arr.size, n_ref)
-            self.REF[i, :m] = arr[:m]
-            self.REF[i, m:] = arr[m - 1]
+            fill_reference(self.REF[i], arr, self.episode_steps, "N")
         if self.NOISE.shape[1] > 1:
             self.NOISE[i] = rng.standard_normal(self.NOISE.shape[1]) * self.noise_std
 

@@ -65,7 +65,7 @@ import numba as nb
 import numpy as np
 from gymnasium import spaces
 
-from hydro_envs.envs.base import VELOCITY_FACTOR, BatchedEnv, BatchedVectorEnv, PlantBatch, check_nonnegative
+from hydro_envs.envs.base import VELOCITY_FACTOR, BatchedEnv, BatchedVectorEnv, PlantBatch, check_nonnegative, fill_reference
 from hydro_envs.plants.load_sensing import model as plant
 from hydro_envs.plants.load_sensing.params import LoadSensingParams
 from hydro_envs.plants.load_sensing.spec import SPEC
@@ -264,9 +264,7 @@ class LoadSensingBatch(PlantBatch):
             if arr.min() < 0.0 or arr.max() > V_MAX_DEMAND:
                 raise ValueError(f"options['reference'] velocities must lie in [0, {V_MAX_DEMAND}] m/s, got "
                                  f"[{arr.min():g}, {arr.max():g}]")
-            m = min(arr.size, n_ref)
-            self.REF[i, :m] = arr[:m]
-            self.REF[i, m:] = arr[m - 1]
+            fill_reference(self.REF[i], arr, self.episode_steps, "m/s")
         self.FF[i] = np.minimum(self._ff_gain * self.REF[i], self.base_params.cv_area_max)
         if self.NOISE.shape[1] > 1:
             self.NOISE[i] = rng.standard_normal((self.NOISE.shape[1], 3)) * self.noise_std

@@ -63,7 +63,7 @@ import numba as nb
 import numpy as np
 from gymnasium import spaces
 
-from hydro_envs.envs.base import VELOCITY_FACTOR, BatchedEnv, BatchedVectorEnv, PlantBatch, check_nonnegative
+from hydro_envs.envs.base import VELOCITY_FACTOR, BatchedEnv, BatchedVectorEnv, PlantBatch, check_nonnegative, fill_reference
 from hydro_envs.envs.render import render_cylinder
 from hydro_envs.envs.shaking_table.references import (
     TABLE_REFERENCE_KINDS,
@@ -323,9 +323,7 @@ class ShakingTableBatch(PlantBatch):
             self.REF[i] = generate_table_reference(kind, rng, n_ref, DT, reference_limits(p))[0]
         else:
             arr = _check_reference_array(ref_opt)
-            m = min(arr.size, n_ref)
-            self.REF[i, :m] = arr[:m]
-            self.REF[i, m:] = arr[m - 1]
+            fill_reference(self.REF[i], arr, self.episode_steps, "m/s^2")
         if self.NOISE.shape[1] > 1:
             self.NOISE[i] = rng.standard_normal((self.NOISE.shape[1], 2)) * self.noise_std
         self.KOBS[i] = -1
