@@ -171,8 +171,15 @@ def _contiguous(data: Any, args: argparse.Namespace) -> Any:
     """:func:`_longest_segment` with its note kept in ``args.record_notes`` for the report."""
     notes: list[str] = []
     out = _longest_segment(data, notes)
-    args.record_notes = notes
+    args.record_notes = notes + units_note(data)
     return out
+
+
+def units_note(data: Any) -> list[str]:
+    """The note that a header without units was read in the registered (SI) units."""
+    assumed = getattr(data, "units_assumed", ())
+    return [f"the header gives no unit for {len(assumed)} column(s); read as the registered SI "
+            f"units: {', '.join(assumed)}"] if assumed else []
 
 
 def _longest_segment(data: Any, notes: list[str]) -> Any:
@@ -370,6 +377,7 @@ def _friction_run(args: argparse.Namespace) -> dict[str, Any]:
         area = args.area
         if area is None:
             area = float(data.metadata.get("piston_area", ServoCylinderParams().piston_area))
+        args.record_notes = units_note(data)
         pts = friction_points_from_square_wave(data, area)
     else:
         if args.bore is not None and args.area is not None:

@@ -268,3 +268,19 @@ def test_cli_options_reach_the_loader(tmp_path):
     args = ap.parse_args(["--delimiter", "semicolon", "--allow-gaps", "--units", "x=m"])
     d = load_measured(p, plant=SERVO, **record_kwargs(args))
     assert d.segments == [(0, 80), (80, N)]
+
+
+def test_a_header_without_units_is_read_as_si_and_says_so(tmp_path):
+    """Not silent: the record carries which columns had no unit; identify prints it as a note."""
+    from hydro_envs.data.measured import load_measured
+    from identification.cli import units_note
+
+    f = tmp_path / "nounits.csv"
+    f.write_text("# plant: servo_cylinder\nt,u,x [m],p1,p2\n0,0,0.03,5e6,5e6\n0.001,0,0.03,5e6,5e6\n")
+    data = load_measured(f)
+    assert data.units_assumed == ("t [s]", "u [V]", "p1 [Pa]", "p2 [Pa]") and "units_assumed" not in data.metadata
+    (note,) = units_note(data)
+    assert "4 column(s)" in note and "p1 [Pa]" in note
+    g = tmp_path / "units.csv"
+    g.write_text("# plant: servo_cylinder\nt [s],u [V],x [m],p1 [Pa],p2 [Pa]\n0,0,0.03,5e6,5e6\n0.001,0,0.03,5e6,5e6\n")
+    assert load_measured(g).units_assumed == () and units_note(load_measured(g)) == []

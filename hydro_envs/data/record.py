@@ -51,6 +51,9 @@ class MeasuredData:
     #: index ranges ``(start, stop)`` (stop exclusive) of the gap-free parts, set when a
     #: record with gaps was loaded with ``allow_gaps=True``; ``None``: one segment
     segments: list[tuple[int, int]] | None = None
+    #: columns whose header gave no unit, read in the registered unit ("x [m]", ...); readers
+    #: report them (nothing is assumed silently)
+    units_assumed: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         self.t = np.asarray(self.t, dtype=np.float64)

@@ -161,6 +161,7 @@ def _load_csv(
         allow_extra,
         lambda j: f"line {hline}, header column {j + 1}",
     )
+    assumed = tuple(f"{n} [{units[n]}]" for n, u in zip(names, hunits) if u is None and units.get(n))
 
     # --- data rows -------------------------------------------------------------------
     ncol = len(names)
@@ -190,7 +191,9 @@ def _load_csv(
         columns,
         lambda i: (f"line {linenos[i]}", linenos[i]),
     )
-    return _build(path, plant_name, names, columns, units, order, metadata)
+    out = _build(path, plant_name, names, columns, units, order, metadata)
+    out.units_assumed = assumed  # said, not silent: readers report it (identify notes)
+    return out
 
 
 def _row_regex(ncol: int) -> re.Pattern[str]:
@@ -318,4 +321,6 @@ def _load_parquet(
             )
         columns.append(np.asarray(col.to_numpy(), dtype=np.float64))
     _check_values(path, names, columns, lambda i: (f"data row {i + 1}", i + 1))
-    return _build(path, plant_name, names, columns, units, order, metadata)
+    out = _build(path, plant_name, names, columns, units, order, metadata)
+    out.units_assumed = tuple(f"{n} [{units[n]}]" for n, u in zip(names, hunits) if u is None and units.get(n))
+    return out
