@@ -51,7 +51,8 @@ from typing import Any
 
 import numpy as np
 
-from agents.controllers.tracking import ANTI_WINDUP, TrackingPID  # noqa: F401  (re-exported)
+from agents.controllers.core import BaseController
+from agents.controllers.tracking import TrackingPID
 
 from hydro_envs.plants.servo_cylinder.params import ServoCylinderParams
 from hydro_envs.plants.servo_cylinder.model import hydraulic_natural_frequency, no_load_velocity
@@ -155,7 +156,7 @@ class PIDFrictionFeedforwardController(PIDController):
         return np.asarray(self.compensator.action(self.reference_velocity(obs)), dtype=float)
 
 
-class ServoFlowController:
+class ServoFlowController(BaseController):
     r"""Model-based nonlinear controller: velocity feedforward through the inverse orifice law
     with measured load-pressure feedback (flow feedback linearisation, 002 eqs (3)-(7)).
 
@@ -182,6 +183,7 @@ class ServoFlowController:
 
     def __init__(self, params: ServoCylinderParams | None = None, *, zeta_h: float = ZETA_H,
                  error_scale: float = 0.01, dt: float = DT) -> None:
+        super().__init__()
         p = params if params is not None else ServoCylinderParams()
         t = pid_tuning(p, zeta_h)
         self.params = p
@@ -191,25 +193,15 @@ class ServoFlowController:
         self.dt = float(dt)
         self.half = 0.5 * p.stroke
         self._gain = p.spool_gain * p.discharge_coefficient * p.area_gradient * math.sqrt(2.0 / p.oil_density)
-        self._n = -1
         self.reset()
 
-    def reset(self, n: int | None = None) -> None:
-        self._n = -1 if n is None else int(n)
-        self.integral = np.zeros(max(self._n, 0))
+    def _allocate(self, n: int) -> None:
+        self.integral = np.zeros(n)
 
-    def predict(self, obs, state=None, episode_start=None, deterministic=True):
-        obs = np.asarray(obs, dtype=np.float64)
-        single = obs.ndim == 1
-        o = obs[None, :] if single else obs
-        if o.ndim != 2 or o.shape[1] != self.obs_dim:
-            raise ValueError(f"obs must have shape (11,) or (n, 11), got {obs.shape}")
-        n = o.shape[0]
-        if n != self._n:
-            self.reset(n)
-        if episode_start is not None:
-            mask = np.broadcast_to(np.asarray(episode_start, dtype=bool).reshape(-1), (n,))
-            self.integral[mask] = 0.0
+    def _reset_rows(self, mask: np.ndarray) -> None:
+        self.integral[mask] = 0.0
+
+    def _act(self, o: np.ndarray) -> np.ndarray:
         p = self.params
         e = o[:, 0] * self.error_scale
         v_ref = self.half * (o[:, 2] - o[:, 1]) / PREVIEW_DT
@@ -222,8 +214,7 @@ class ServoFlowController:
         a = np.clip(v_cmd, -1.0, 1.0)
         grow = (a == v_cmd) | (np.sign(e) != np.sign(v_cmd))
         self.integral = self.integral + np.where(grow, self.dt * self.omega_c / self.ti * e, 0.0)
-        act = a.astype(np.float32)[:, None]
-        return (act[0] if single else act), state
+        return a
 
 
 #: bandwidth of :class:`ProportionalPositionController`'s loop [1/s]
