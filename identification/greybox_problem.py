@@ -247,19 +247,32 @@ class _Problem:
         n = self.nsub(P) if nsub is None else nsub
         T = int(self.n_steps.max())
         want_d = any(ch.derivative is not None for ch in self.channels)
-        res = []
+        res: list = [None] * n_exp
+        # experiments of equal sample time and length run in one batched (threaded) call
+        groups: dict[tuple[float, int], list[int]] = {}
         for e_i in range(n_exp):
-            sel = exp_idx == e_i
-            k = int(self.n_steps[e_i])
-            Pe = np.ascontiguousarray(Pall[sel])
-            out = np.zeros((Pe.shape[0], T + 1, self.n_states))  # rows past the record stay 0
-            out[:, : k + 1] = simulate(self.spec, Pe, self.U[e_i, :k], Y0[sel], float(self.dts[e_i]), n_sub=n)
-            dout = None
+            groups.setdefault((float(self.dts[e_i]), int(self.n_steps[e_i])), []).append(e_i)
+        for (dt, k), members in groups.items():
+            sels = [np.flatnonzero(exp_idx == e_i) for e_i in members]
+            Pg = np.ascontiguousarray(np.concatenate([Pall[s] for s in sels]))
+            Ug = np.concatenate([np.broadcast_to(self.U[e_i, :k], (s.size, k, self.U.shape[2]))
+                                 for e_i, s in zip(members, sels)])
+            Yg = np.concatenate([Y0[s] for s in sels])
+            Sg = simulate(self.spec, Pg, np.ascontiguousarray(Ug), Yg, dt, n_sub=n)
+            Dg = None
             if want_d:
-                dout = np.zeros_like(out)
-                Ue = np.ascontiguousarray(np.broadcast_to(self.U[e_i], (Pe.shape[0],) + self.U.shape[1:]))
-                self.spec.kernels.derivatives(np.ascontiguousarray(out[:, : k + 1]), Ue, Pe, dout[:, : k + 1])
-            res.append((out, dout, Pe))
+                Dg = np.zeros_like(Sg)
+                self.spec.kernels.derivatives(Sg, np.ascontiguousarray(Ug), Pg, Dg)
+            j = 0
+            for e_i, s in zip(members, sels):
+                out = np.zeros((s.size, T + 1, self.n_states))  # rows past the record stay 0
+                out[:, : k + 1] = Sg[j : j + s.size]
+                dout = None
+                if want_d:
+                    dout = np.zeros_like(out)
+                    dout[:, : k + 1] = Dg[j : j + s.size]
+                res[e_i] = (out, dout, np.ascontiguousarray(Pg[j : j + s.size]))
+                j += s.size
         return res, n
 
     def offset_estimates(self, outs) -> dict[tuple[str, str], np.ndarray]:
