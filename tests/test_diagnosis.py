@@ -190,12 +190,12 @@ def test_base_fit_refines_within_an_order_of_magnitude():
     # a hidden force offset the base model lacks: unbounded, the base fit ran the mass to 0.036
     # kg (a 28 times stiffer, slower model); bounded, it stops at 0.1 kg, is flagged, and the
     # offset is still named
-    case = hidden_effect_records("slider", "asymmetric_friction", 3001, duration=8.0)
+    case = hidden_effect_records("slider", "force_offset", 3001, duration=8.0)
     res = diagnose("slider", [case.fit], [case.holdout], base=case.base.params, max_effects=1, maps=False)
     assert res.base_fit["mass"] >= 0.1 * (1 - 1e-9)
     assert any(n.startswith("base fit: base-fit parameter mass") for n in res.notes), res.notes
     assert not any(n.startswith("final model") for n in res.notes), res.notes  # the offset freed it
-    assert [e["name"] for e in res.effects] == ["asymmetric_friction"]
+    assert [e["name"] for e in res.effects] == ["force_offset"]
 
 
 def test_an_effect_the_input_noise_could_mimic_is_not_named():
@@ -206,7 +206,7 @@ def test_an_effect_the_input_noise_could_mimic_is_not_named():
     case = hidden_effect_records("slider", None, 5002, duration=8.0)
     res = diagnose("slider", [case.fit], [case.holdout], base=case.base.params, max_effects=1, maps=False)
     assert res.verdict == "none", (res.verdict, res.effects)
-    asym = next(c for c in res.rounds[0].candidates if c.name == "asymmetric_friction")
+    asym = next(c for c in res.rounds[0].candidates if c.name == "force_offset")
     assert asym.gain >= ACCEPT_GAIN  # would have been named on the held-out gain alone
     assert asym.distinct < DISTINCT_MIN and not asym.identifiable
     # the floor itself: without measured-input noise there is none

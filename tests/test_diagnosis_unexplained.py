@@ -195,20 +195,22 @@ def test_a_base_fit_that_does_not_run_is_an_error_that_says_why():
 def test_a_winner_correlated_with_an_earlier_effect_is_ambiguous():
     """Identifiability of a multi-effect model: the winner's parameter correlated at 0.999 with
     one of an effect named earlier (not its prerequisite) -> ambiguous, both listed; with its
-    prerequisite (Coulomb for the force offset) or at 0.96 -> kept, the pair noted."""
+    prerequisite (Coulomb for the Stribeck levels) or at 0.96 -> kept, the pair noted."""
     from identification.diagnosis.workflow import _check_correlated
 
     spec = diagnosis_plant("slider")
 
-    def winner(pairs):
+    def winner(name, pairs):
         fit = SimpleNamespace(result=SimpleNamespace(correlated_pairs=pairs))
-        return SimpleNamespace(name="asymmetric_friction", fit=fit, reasons=[])
+        return SimpleNamespace(name=name, fit=fit, reasons=[])
 
-    w = winner([("force_offset", "stribeck_velocity", 0.999)])
-    dec, sep = _check_correlated(spec, w, ["stribeck"], "asymmetric_friction", "")
-    assert dec == "ambiguous: asymmetric_friction vs stribeck" and "stribeck" in sep
-    w = winner([("coulomb_friction", "force_offset", -0.999)])
-    assert _check_correlated(spec, w, ["coulomb"], "asymmetric_friction", "")[0] == "asymmetric_friction"
-    w = winner([("force_offset", "stribeck_velocity", 0.96)])
-    assert _check_correlated(spec, w, ["stribeck"], "asymmetric_friction", "")[0] == "asymmetric_friction"
+    w = winner("force_offset", [("force_offset", "stribeck_velocity", 0.999)])
+    dec, sep = _check_correlated(spec, w, ["stribeck"], "force_offset", "")
+    assert dec == "ambiguous: force_offset vs stribeck" and "stribeck" in sep
+    w = winner("force_offset", [("coulomb_friction", "force_offset", -0.999)])
+    assert _check_correlated(spec, w, ["coulomb"], "force_offset", "")[0] == "ambiguous: force_offset vs coulomb"
+    w = winner("stribeck", [("coulomb_friction", "static_friction", 0.999)])
+    assert _check_correlated(spec, w, ["coulomb"], "stribeck", "")[0] == "stribeck"
+    w = winner("force_offset", [("force_offset", "stribeck_velocity", 0.96)])
+    assert _check_correlated(spec, w, ["stribeck"], "force_offset", "")[0] == "force_offset"
     assert "correlated with stribeck_velocity of stribeck" in w.reasons[0]

@@ -154,6 +154,15 @@ _EFFECTS: list[Effect] = [
         separating_experiment="constant-velocity passes at the same speed in both directions",
     ),
     Effect(
+        "force_offset", "Constant force on the axis (force-sensor bias, gravity, cable drag)",
+        "a force of one sign whatever the motion: residual vs velocity even, present at rest "
+        "(a force-sensor zero error, gravity on an inclined axis and cable-chain drag are one "
+        "constant in force and position data)",
+        separating_experiment="force reading with the axis at rest and unloaded (sensor bias), or "
+        "the axis tilted (gravity); a direction-dependent friction level differs from it only "
+        "near standstill",
+    ),
+    Effect(
         "pressure_friction", "Pressure-dependent friction",
         "friction residual growing with the pressure difference across the piston seal "
         "(residual vs |p1 - p2|)",

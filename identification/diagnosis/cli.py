@@ -116,7 +116,10 @@ def summary_text(res) -> str:
         lines.append(f"  held-out residual RMS, {r['step']}: {_fmt(r['rms'], res.noise_floor)} ("
                      + ", ".join(f"{k} {v:.2f}" for k, v in r["floors"].items()) + " noise floors)")
     for e in res.effects:
-        ps = ", ".join(f"{k} = {v:.4g} +- {e['std_errors'].get(k, float('nan')):.2g}" for k, v in e["parameters"].items())
+        fin = e.get("final_parameters", {})
+        ps = ", ".join(f"{k} = {v:.4g} +- {e['std_errors'].get(k, float('nan')):.2g}"
+                       + (f" (final model: {fin[k]:.4g})" if k in fin and abs(fin[k] - v) > 1e-3 * max(abs(v), 1e-12)
+                          else "") for k, v in e["parameters"].items())
         lines.append(f"  {e['name']}: {ps}; held-out NRMSE {e['nrmse_before']:.4f} -> {e['nrmse_after']:.4f} "
                      f"(gap shrink {e['shrink']:.0%} on {', '.join(e['shrink_channels'])})")
     for n in res.notes:

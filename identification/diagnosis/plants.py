@@ -83,6 +83,12 @@ class DiagnosisPlant:
     # default, or per plant where correct models leave more (start-state errors of stiff or
     # slow plants, measured on the hidden-effect records; the setting's comment gives the value)
     unexplained_factor: float = 10.0
+    # time constant [s] of the slowest start-state error of a base model (a rigid axis: m / b);
+    # windows warm up for at least 3 of them and score at least 5 (None: the fixed settings)
+    settling_time: Callable[[PhysicalParams], float] | None = None
+    # name of the estimator (identification.diagnosis.base_estimates.ESTIMATORS) that reads the
+    # base model's calibration (mass, damping, stroke) off the records when no preset is given
+    base_from_data: str | None = None
 
     @property
     def params_cls(self) -> type:

@@ -70,6 +70,7 @@ import numpy as np
 from hydro_envs.params import ParameterError, PhysicalParams
 from identification import greybox as gb
 from hydro_envs.jsonutil import to_jsonable as jsonable
+from identification.diagnosis.base_estimates import estimate_base
 from identification.diagnosis.catalogue import effect, effects_for
 from identification.diagnosis.plants import DiagnosisPlant, diagnosis_plant
 from identification.diagnosis.records import DiagnosisFitError, Record, check_records
@@ -232,6 +233,15 @@ def diagnose(plant: str | DiagnosisPlant, records: Sequence[Record], holdout: Se
         notes.append(f"held-out data: the last {holdout_fraction:.0%} of each record")
     else:
         holdout = list(holdout)
+    if base is None and spec.base_from_data:
+        base, note = estimate_base(spec, null_base(spec), records)
+        notes.append(note)
+    if spec.settling_time is not None:
+        tau = float(spec.settling_time(base if base is not None else null_base(spec)))
+        if 3 * tau > spec.warmup_seconds:
+            spec = dataclasses.replace(spec, warmup_seconds=3 * tau, segment_seconds=max(spec.segment_seconds, 5 * tau))
+            notes.append(f"windows: {spec.warmup_seconds:.3g} s unscored warm-up and {spec.segment_seconds:.3g} s "
+                         f"scored (3 and 5 start-error time constants of the base model, {tau:.3g} s)")
     notes += check_records(records, spec, role="fit data", min_segments=3)
     notes += check_records(holdout, spec, role="held-out data", min_segments=1)
 
@@ -342,6 +352,9 @@ def diagnose(plant: str | DiagnosisPlant, records: Sequence[Record], holdout: Se
     factor = spec.unexplained_factor
     mismatch = where_mismatch(spec, steps[-1][1], holdout, floor) if worst > factor else {}
     verdict, reason = _verdict(accepted, ambiguous, worst, mismatch, residual[-1]["step"], factor)
+    for a in accepted:  # every named effect's values in the final model (later rounds refit them)
+        a["final_parameters"] = {k: (float(cur.model.delay) if k == "delay" else float(getattr(cur.model.params, k)))
+                                 for k in a["parameters"]}
     notes += _sensor_notes(spec, cur, records, sigma)
     notes += _base_bound_notes(base_model, "base fit") + _base_bound_notes(cur.model, "final model")
     return DiagnosisResult(spec.name, verdict, accepted, rounds, base_model, cur.model, base_fit, notes,

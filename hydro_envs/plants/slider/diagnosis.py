@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["BASES", "initial_state", "controller"]
+__all__ = ["BASES", "initial_state", "controller", "settling_time"]
 
 _SERVO = "002_af30b681d6ccfd6c.txt"
 
@@ -27,6 +27,11 @@ def controller(meas, ref, params):
     e = ref[0] - meas["x"]
     f = params.mass * (40.0**2 * e + 2 * 0.7 * 40.0 * (ref[1] - meas["v"]))
     return float(np.clip(f, -params.force_max, params.force_max))
+
+
+def settling_time(params):
+    """Time constant [s] of a start-velocity error of the effect-free axis: ``m / b``."""
+    return params.mass / max(params.viscous_friction, 1e-9)
 
 
 def _reference_centre(p):
@@ -45,11 +50,11 @@ _EFFECTS = {
         null={"static_friction": "coulomb_friction"}, requires=("coulomb",),
         ties={"static_friction": "coulomb_friction"},
         source=f"{_SERVO} eq (1); 004 Table 2: F_s/F_c = 2.3, v_s = 3.27 mm/s"),
-    "asymmetric_friction": dict(
+    "force_offset": dict(
         parameters=(dict(field="force_offset", bounds=(-1e3, 1e3), start=1.0, draw=(2.0, 6.0), log=False),),
-        null={"force_offset": 0.0}, requires=("coulomb",),
-        source="slider F_0: a level difference F_0 between the two directions of motion "
-        "(sliding levels F_C + F_0 and F_C - F_0); cf. 001 stiction +99 / -54 N"),
+        null={"force_offset": 0.0},
+        source="slider F_0 (model.py): a constant force opposing +x; the EMPS reference model "
+        "(Janot, Gautier, Brunot 2019) carries one, OF = -3.16 N"),
     "sensor_delay": dict(
         parameters=(dict(field="delay", bounds=(1e-5, 0.05), start=2e-3, draw=(2e-3, 6e-3), log=False),),
         null={"delay": 0.0}, channels=("x",),
@@ -68,5 +73,6 @@ BASES = {
         # warm-up: 3 times the stage's m/b = 50 ms
         segment_seconds=1.0, warmup_seconds=0.15, score_bandwidth=50.0, offset_free=("x",),
         effects=_EFFECTS,
+        settling_time=settling_time, base_from_data="rigid_axis",
     ),
 }
