@@ -121,7 +121,8 @@ def summary_text(res) -> str:
                        + (f" (final model: {fin[k]:.4g})" if k in fin and abs(fin[k] - v) > 1e-3 * max(abs(v), 1e-12)
                           else "") for k, v in e["parameters"].items())
         lines.append(f"  {e['name']}: {ps}; held-out NRMSE {e['nrmse_before']:.4f} -> {e['nrmse_after']:.4f} "
-                     f"(gap shrink {e['shrink']:.0%} on {', '.join(e['shrink_channels'])})")
+                     f"(gap shrink {e['shrink']:.0%} on {', '.join(e['shrink_channels'])}"
+                     + (f"; named with {e['pair']}: neither alone lowered it" if e.get("pair") else "") + ")")
     for n in res.notes:
         lines.append(f"  note: {n}")
     return "\n".join(lines)

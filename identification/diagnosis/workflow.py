@@ -28,6 +28,11 @@ One round (:func:`diagnose`)::
        winner that does not beat the runner-up, or whose parameters correlate with those of an
        effect named earlier in the run by more than ``AMBIGUOUS_CORRELATION`` in the joint fit,
        -> ``ambiguous: A vs B`` with the experiment that separates them.
+    7. PAIRS (:mod:`.pairs`): when no single effect wins, room for two is left and the
+       residual stays above the plant's noise-floor threshold, the best single refits are
+       refitted in pairs and judged by the same rules; a winning pair names both members, in
+       order of the residual each explains (two effects that only together explain the data:
+       Coulomb friction and a constant force on a heavy axis).
     Repeat with the accepted effect added until nothing more is accepted (``max_effects``).
     One verdict for the run: ``unexplained`` when the last model leaves more than the plant's
     ``unexplained_factor`` noise floors of held-out residual in some channel (:mod:`.floor`), else
@@ -72,6 +77,7 @@ from identification import greybox as gb
 from hydro_envs.jsonutil import to_jsonable as jsonable
 from identification.diagnosis.base_estimates import estimate_base
 from identification.diagnosis.catalogue import effect, effects_for
+from identification.diagnosis.pairs import pair_candidates, pair_order
 from identification.diagnosis.plants import DiagnosisPlant, diagnosis_plant
 from identification.diagnosis.records import DiagnosisFitError, Record, check_records
 
@@ -320,6 +326,15 @@ def diagnose(plant: str | DiagnosisPlant, records: Sequence[Record], holdout: Se
         if decision not in ("none", SENSOR_OFFSETS) and not decision.startswith("ambiguous"):
             decision, sep = _check_correlated(spec, next(c for c in results if c.name == decision),
                                               [a["name"] for a in accepted], decision, sep)
+        if decision == "none" and len(accepted) + 2 <= max_effects:
+            (left,) = heldout_rms(spec, [cur.model], holdout)
+            if max(ratios(left, floor).values(), default=0.0) > spec.unexplained_factor:
+                say("  no single effect wins and the residual stays above the noise floor: pairs")
+                pairs = pair_candidates(spec, cur.model, results, records, holdout, sigma, h_cur, accept_gain)
+                pair_decision, pair_sep = _decide(spec, pairs, accept_gain, margin)
+                results = results + pairs
+                if pair_decision != "none":
+                    decision, sep = pair_decision, pair_sep
         rounds.append(Round(h_cur, h_nr, locate, pred, results, decision, sep))
         say(f"  -> {decision}")
         if decision.startswith("ambiguous"):
@@ -329,6 +344,20 @@ def diagnose(plant: str | DiagnosisPlant, records: Sequence[Record], holdout: Se
         if decision == "none":
             break
         best = next(c for c in results if c.name == decision)
+        if "+" in decision:  # a pair: both members named, in order of the residual each explains
+            for name in pair_order(best, results):
+                r = effect(name).on(spec.name)
+                fields = ["delay"] if effect(name).kind == "sensor" else [q.field for q in r.parameters]
+                accepted.append({"name": name, "title": effect(name).title, "pair": decision,
+                                 "parameters": {k: best.parameters[k] for k in fields},
+                                 "std_errors": {k: best.std_errors.get(k, math.nan) for k in fields},
+                                 "nrmse_before": h_cur, "nrmse_after": best.heldout,
+                                 "nrmse_before_per_channel": h_nr, "nrmse_after_per_channel": best.nrmse_heldout,
+                                 "shrink": 1 - best.heldout / h_cur, "shrink_channels": list(h_nr)})
+            cur = best.fit
+            h_cur, h_nr = best.heldout, best.nrmse_heldout
+            steps.append((decision, cur.model))
+            continue
         if decision == SENSOR_OFFSETS:  # a measuring-chain correction, not a physical effect:
             cur = best.fit  # keep it and look for effects again (this round does not count)
             h_cur, h_nr = best.heldout, best.nrmse_heldout
