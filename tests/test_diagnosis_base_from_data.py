@@ -96,3 +96,13 @@ def test_two_effects_that_win_only_together_are_named_as_a_pair():
     # with room for one effect only, no pair is tried
     one = diagnose("slider", [rec], None, max_effects=1, maps=False)
     assert not any("+" in c.name for r in one.rounds for c in r.candidates)
+
+
+def test_a_record_zeroed_elsewhere_is_shifted_inside_the_stops(record):
+    """An encoder zeroed mid-travel (positions below 0): without a preset the record is moved
+    inside the base model's stops, a note says by how much, and the result is the same."""
+    low = Record(DT, record.inputs[:, 0], {"x": record.channels["x"] - 0.2}, "zeroed mid-travel")
+    res = diagnose("slider", [low], None, max_effects=1, maps=False)
+    assert any(n.startswith("position 'x' shifted by +0.") for n in res.notes), res.notes
+    assert [e["name"] for e in res.effects] == ["coulomb"]
+    assert res.final_model.params.coulomb_friction == pytest.approx(FC, rel=0.05)

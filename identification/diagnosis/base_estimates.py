@@ -12,7 +12,11 @@ the fit records and says so in a note; the diagnosis then fits them as usual.
   level and the offset are regressors only, so that they do not bias m and b, and are *not*
   carried into the base model: finding them is the diagnosis' job); the stroke from the
   position range, the upper stop 10 % of the range beyond the largest position; the force
-  range from the largest applied force.
+  range from the largest applied force. A record whose position zero is not the lower stop
+  (an encoder zeroed anywhere: positions at or below 0) is shifted so that the lowest position
+  lies 10 % of the range above the stop (:func:`position_shift`; the rigid axis has no
+  position-dependent force inside its stops and scores positions without their window mean, so
+  the shift changes nothing but where the stops are), and a note says by how much.
 """
 
 from __future__ import annotations
@@ -24,7 +28,7 @@ import numpy as np
 
 from identification.diagnosis.records import DiagnosisDataError, Record
 
-__all__ = ["ESTIMATORS", "estimate_base"]
+__all__ = ["ESTIMATORS", "estimate_base", "position_shift", "shifted"]
 
 
 def rigid_axis(params: Any, records: Sequence[Record], position: str) -> tuple[dict[str, float], str]:
@@ -45,7 +49,7 @@ def rigid_axis(params: Any, records: Sequence[Record], position: str) -> tuple[d
                                  "does not explain the acceleration; give a base model (--base preset)")
     lo = min(float(r.channels[position].min()) for r in records)
     hi = max(float(r.channels[position].max()) for r in records)
-    if lo < 0:
+    if lo < 0:  # the caller shifts the records first (position_shift); a direct call is an error
         raise DiagnosisDataError(f"position channel {position!r} goes to {lo:.4g} m, below the lower end stop "
                                  "at 0: positions are measured from the lower stop (0..stroke)")
     stroke = hi + 0.1 * (hi - lo)
@@ -56,6 +60,22 @@ def rigid_axis(params: Any, records: Sequence[Record], position: str) -> tuple[d
             f"{values['viscous_friction']:.4g} N s/m from inverse dynamics, stroke {values['stroke']:.4g} m "
             f"from the position range {lo:.4g}..{hi:.4g} m")
     return values, note
+
+
+def position_shift(records: Sequence[Record], position: str) -> float:
+    """Shift [m] that puts the lowest recorded position 10 % of the position range (at least
+    1 mm) above the lower end stop, if it is closer than that or below it (an encoder zero that
+    is not the stop); 0 otherwise."""
+    lo = min(float(r.channels[position].min()) for r in records)
+    hi = max(float(r.channels[position].max()) for r in records)
+    margin = max(0.1 * (hi - lo), 1e-3)
+    return margin - lo if lo < margin else 0.0
+
+
+def shifted(records: Sequence[Record], position: str, dx: float) -> list[Record]:
+    """Copies of ``records`` with ``dx`` added to the position channel."""
+    return [Record(r.dt, r.inputs.copy(), {k: (v + dx if k == position else v) for k, v in r.channels.items()},
+                   r.name, list(r.notes)) for r in records]
 
 
 ESTIMATORS: dict[str, Callable[..., tuple[dict[str, float], str]]] = {"rigid_axis": rigid_axis}

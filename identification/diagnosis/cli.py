@@ -30,7 +30,7 @@ def add_diagnose_parser(subparsers: Any) -> argparse.ArgumentParser:
 
     p.add_argument("--plant", required=True, help=f"plant (base model) name ({', '.join(PLANTS)})")
     p.add_argument("--data", required=True, action="append", metavar="FILE",
-                   help="measured-data file (CSV/Parquet); repeat for several records")
+                   help="measured record (CSV, Parquet or MATLAB .mat; see --map); repeat for several records")
     p.add_argument("--holdout", action="append", metavar="FILE",
                    help="held-out record(s) for scoring (default: the last 30 %% of every --data record)")
     p.add_argument("--base", metavar="CONFIG", help="YAML parameter preset of the base model")
@@ -38,6 +38,9 @@ def add_diagnose_parser(subparsers: Any) -> argparse.ArgumentParser:
     p.add_argument("--max-effects", type=int, default=3, metavar="N")
     p.add_argument("--out", metavar="DIR", help="write a report (markdown + PNG figures) here")
     p.add_argument("--json", action="store_true", help="print one JSON object (verdict, effects, candidates)")
+    from hydro_envs.data.cli_args import add_record_arguments
+
+    add_record_arguments(p)
     p.set_defaults(func=_cmd_diagnose)
     return p
 
@@ -52,6 +55,7 @@ def _load_base(path: str, plant: str):
 def _cmd_diagnose(args: argparse.Namespace) -> int:
     from hydro_envs.data.measured import MeasuredDataError, load_measured
     from hydro_envs.params import ParameterError
+    from hydro_envs.data.cli_args import record_kwargs
     from identification.diagnosis import DiagnosisDataError, DiagnosisFitError, diagnose, diagnosis_plant, record_from_measured
     from identification.ranges import RangesError
 
@@ -64,7 +68,8 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
         import hydro_envs.plants  # noqa: F401  (registers the plants' channels)
 
         def load(path):
-            return record_from_measured(load_measured(path, plant=args.plant, required=spec.required), spec)
+            return record_from_measured(load_measured(path, plant=args.plant, required=spec.required,
+                                                      **record_kwargs(args)), spec)
 
         records = [load(p) for p in args.data]
         holdout = [load(p) for p in args.holdout] if args.holdout else None

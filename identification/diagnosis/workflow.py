@@ -75,7 +75,7 @@ import numpy as np
 from hydro_envs.params import ParameterError, PhysicalParams
 from identification import greybox as gb
 from hydro_envs.jsonutil import to_jsonable as jsonable
-from identification.diagnosis.base_estimates import estimate_base
+from identification.diagnosis.base_estimates import estimate_base, position_shift, shifted
 from identification.diagnosis.catalogue import effect, effects_for
 from identification.diagnosis.pairs import pair_candidates, pair_order
 from identification.diagnosis.plants import DiagnosisPlant, diagnosis_plant
@@ -240,6 +240,12 @@ def diagnose(plant: str | DiagnosisPlant, records: Sequence[Record], holdout: Se
     else:
         holdout = list(holdout)
     if base is None and spec.base_from_data:
+        dx = position_shift(list(records) + list(holdout), spec.position_channel)
+        if dx:
+            records = shifted(records, spec.position_channel, dx)
+            holdout = shifted(holdout, spec.position_channel, dx)
+            notes.append(f"position {spec.position_channel!r} shifted by {dx:+.4g} m so that the recorded motion lies "
+                         "inside the base model's end stops (its zero is not the lower stop)")
         base, note = estimate_base(spec, null_base(spec), records)
         notes.append(note)
     if spec.settling_time is not None:
