@@ -88,6 +88,8 @@ def test_two_effects_that_win_only_together_are_named_as_a_pair():
     assert res.verdict == "named", (res.verdict, res.reason)
     assert sorted(e["name"] for e in res.effects) == ["coulomb", "force_offset"]
     assert all(e.get("pair") == res.rounds[0].decision for e in res.effects)
+    lost = [e["explained_in_final_model"] for e in res.effects]  # listed by what each explains
+    assert lost == sorted(lost, reverse=True) and lost[-1] > 0
     singles = {c.name: c for c in res.rounds[0].candidates if "+" not in c.name}
     assert not any(c.gain >= 0.1 and c.identifiable and c.plausible for c in singles.values())  # no single won
     p = res.final_model.params

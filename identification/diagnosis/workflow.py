@@ -34,6 +34,8 @@ One round (:func:`diagnose`)::
        order of the residual each explains (two effects that only together explain the data:
        Coulomb friction and a constant force on a heavy axis).
     Repeat with the accepted effect added until nothing more is accepted (``max_effects``).
+    Several named effects are listed in order of the held-out residual each explains in the final
+    model (:func:`.pairs.explained_in_final_model`), not in the order the rounds found them.
     One verdict for the run: ``unexplained`` when the last model leaves more than the plant's
     ``unexplained_factor`` noise floors of held-out residual in some channel (:mod:`.floor`), else
     ``ambiguous`` when any round was, else ``named`` or ``none``.
@@ -77,7 +79,7 @@ from identification import greybox as gb
 from hydro_envs.jsonutil import to_jsonable as jsonable
 from identification.diagnosis.base_estimates import estimate_base, position_shift, shifted
 from identification.diagnosis.catalogue import effect, effects_for
-from identification.diagnosis.pairs import pair_candidates, pair_order
+from identification.diagnosis.pairs import explained_in_final_model, pair_candidates, pair_order
 from identification.diagnosis.plants import DiagnosisPlant, diagnosis_plant
 from identification.diagnosis.records import DiagnosisFitError, Record, check_records
 
@@ -386,6 +388,18 @@ def diagnose(plant: str | DiagnosisPlant, records: Sequence[Record], holdout: Se
     worst = max(final.values(), default=0.0)
     factor = spec.unexplained_factor
     mismatch = where_mismatch(spec, steps[-1][1], holdout, floor) if worst > factor else {}
+    if len(accepted) > 1:  # in order of the residual each explains in the final model
+        found = [a["name"] for a in accepted]
+        explained = explained_in_final_model(spec, cur.model, found, holdout)
+        for i, a in enumerate(accepted):
+            a["found_in_step"] = i + 1
+            a["explained_in_final_model"] = explained[a["name"]]
+        accepted.sort(key=lambda a: -a["explained_in_final_model"])
+        if [a["name"] for a in accepted] != found:
+            notes.append("named in order of the held-out residual each explains in the final model (NRMSE "
+                         "lost without it: " + ", ".join(f"{a['name']} {a['explained_in_final_model']:.3g}"
+                                                        for a in accepted)
+                         + "); found in the order " + ", ".join(found))
     verdict, reason = _verdict(accepted, ambiguous, worst, mismatch, residual[-1]["step"], factor)
     for a in accepted:  # every named effect's values in the final model (later rounds refit them)
         a["final_parameters"] = {k: (float(cur.model.delay) if k == "delay" else float(getattr(cur.model.params, k)))
