@@ -21,6 +21,7 @@ the fit records and says so in a note; the diagnosis then fits them as usual.
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable, Sequence
 from typing import Any
 
@@ -85,7 +86,4 @@ def estimate_base(spec: Any, params: Any, records: Sequence[Record]) -> tuple[An
     """``params`` with the calibration quantities of ``spec``'s estimator read off ``records``,
     and a note saying what was estimated."""
     values, note = ESTIMATORS[spec.base_from_data](params, records, spec.position_channel)
-    names = type(params).names()
-    row = {n: float(getattr(params, n)) for n in names}
-    row.update(values)
-    return type(params)(**row), note
+    return dataclasses.replace(params, **values), note

@@ -128,6 +128,17 @@ def _tie_function(spec: DiagnosisPlant, params: PhysicalParams, present: Sequenc
     return tie
 
 
+def prerequisites(spec: DiagnosisPlant, name: str) -> set[str]:
+    """Every effect that effect ``name`` needs on ``spec``'s plant, directly or through another."""
+    out, todo = set(), list(effect(name).on(spec.name).requires)
+    while todo:
+        n = todo.pop()
+        if n not in out:
+            out.add(n)
+            todo += list(effect(n).on(spec.name).requires)
+    return out
+
+
 def null_base(spec: DiagnosisPlant, params: PhysicalParams | None = None,
               keep: Sequence[str] = ()) -> PhysicalParams:
     """``params`` (default nominal) with every applicable plant effect not in ``keep`` at its

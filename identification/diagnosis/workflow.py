@@ -79,7 +79,7 @@ from identification import greybox as gb
 from hydro_envs.jsonutil import to_jsonable as jsonable
 from identification.diagnosis.base_estimates import estimate_base, position_shift, shifted
 from identification.diagnosis.catalogue import effect, effects_for
-from identification.diagnosis.pairs import explained_in_final_model, pair_candidates, pair_order
+from identification.diagnosis.pairs import explained_in_final_model, pair_candidates
 from identification.diagnosis.plants import DiagnosisPlant, diagnosis_plant
 from identification.diagnosis.records import DiagnosisFitError, Record, check_records
 
@@ -111,6 +111,7 @@ from identification.diagnosis.models import (  # noqa: F401
     base_fit_bounds,
     null_base,
     present_effects,
+    prerequisites,
     with_effect,
 )
 from identification.diagnosis.fitting import (  # noqa: F401
@@ -352,31 +353,10 @@ def diagnose(plant: str | DiagnosisPlant, records: Sequence[Record], holdout: Se
         if decision == "none":
             break
         best = next(c for c in results if c.name == decision)
-        if "+" in decision:  # a pair: both members named, in order of the residual each explains
-            for name in pair_order(best, results):
-                r = effect(name).on(spec.name)
-                fields = ["delay"] if effect(name).kind == "sensor" else [q.field for q in r.parameters]
-                accepted.append({"name": name, "title": effect(name).title, "pair": decision,
-                                 "parameters": {k: best.parameters[k] for k in fields},
-                                 "std_errors": {k: best.std_errors.get(k, math.nan) for k in fields},
-                                 "nrmse_before": h_cur, "nrmse_after": best.heldout,
-                                 "nrmse_before_per_channel": h_nr, "nrmse_after_per_channel": best.nrmse_heldout,
-                                 "shrink": 1 - best.heldout / h_cur, "shrink_channels": list(h_nr)})
-            cur = best.fit
-            h_cur, h_nr = best.heldout, best.nrmse_heldout
-            steps.append((decision, cur.model))
-            continue
-        if decision == SENSOR_OFFSETS:  # a measuring-chain correction, not a physical effect:
-            cur = best.fit  # keep it and look for effects again (this round does not count)
-            h_cur, h_nr = best.heldout, best.nrmse_heldout
-            steps.append((SENSOR_OFFSETS, cur.model))
-            continue
-        chans = effect_channels(spec, decision, h_nr)
-        shrink = 1 - _mean({k: best.nrmse_heldout[k] for k in chans}) / _mean({k: h_nr[k] for k in chans})
-        accepted.append({"name": decision, "title": effect(decision).title, "parameters": best.parameters,
-                         "std_errors": best.std_errors, "nrmse_before": h_cur, "nrmse_after": best.heldout,
-                         "nrmse_before_per_channel": h_nr, "nrmse_after_per_channel": best.nrmse_heldout,
-                         "shrink": shrink, "shrink_channels": list(chans)})
+        if decision != SENSOR_OFFSETS:  # (a measuring-chain correction is kept but not named)
+            # a pair names both members (ordered with the rest at the end of the run)
+            accepted += [_named(spec, name, best, h_cur, h_nr, decision if "+" in decision else None)
+                         for name in decision.split("+")]
         cur = best.fit
         h_cur, h_nr = best.heldout, best.nrmse_heldout
         steps.append((decision, cur.model))
@@ -409,6 +389,26 @@ def diagnose(plant: str | DiagnosisPlant, records: Sequence[Record], holdout: Se
     return DiagnosisResult(spec.name, verdict, accepted, rounds, base_model, cur.model, base_fit, notes,
                            time.perf_counter() - t0, sigma, ambiguous, floor, residual, mismatch, reason, factor)
 
+
+
+def _named(spec: DiagnosisPlant, name: str, best: Candidate, h_cur: float, h_nr: dict[str, float],
+           pair: str | None) -> dict[str, Any]:
+    """The report entry of effect ``name`` named from candidate ``best`` (a single effect, or
+    one member of the pair ``pair``): its parameters, the held-out score before and after, and
+    the shrink over the channels it acts on (every channel for a pair)."""
+    e = effect(name)
+    fields = ["delay"] if e.kind == "sensor" else [q.field for q in e.on(spec.name).parameters]
+    chans = list(h_nr) if pair else list(effect_channels(spec, name, h_nr))
+    shrink = 1 - _mean({k: best.nrmse_heldout[k] for k in chans}) / _mean({k: h_nr[k] for k in chans})
+    out = {"name": name, "title": e.title,
+           "parameters": {k: best.parameters[k] for k in fields},
+           "std_errors": {k: best.std_errors.get(k, math.nan) for k in fields},
+           "nrmse_before": h_cur, "nrmse_after": best.heldout,
+           "nrmse_before_per_channel": h_nr, "nrmse_after_per_channel": best.nrmse_heldout,
+           "shrink": shrink, "shrink_channels": chans}
+    if pair:
+        out["pair"] = pair
+    return out
 
 def _verdict(accepted: Sequence[dict[str, Any]], ambiguous: str, worst: float, mismatch: dict[str, Any],
              last: str, factor: float = UNEXPLAINED_FACTOR) -> tuple[str, str]:
@@ -547,16 +547,6 @@ def _offset_candidate(spec: DiagnosisPlant, cur: FitOutcome, records: Sequence[R
 AMBIGUOUS_CORRELATION = 0.99
 
 
-def _prerequisites(spec: DiagnosisPlant, name: str) -> set[str]:
-    out, todo = set(), list(effect(name).on(spec.name).requires)
-    while todo:
-        n = todo.pop()
-        if n not in out:
-            out.add(n)
-            todo += list(effect(n).on(spec.name).requires)
-    return out
-
-
 def _check_correlated(spec: DiagnosisPlant, winner: Candidate, earlier: Sequence[str], decision: str,
                       sep: str) -> tuple[str, str]:
     """The decision after the identifiability check of the winner against the effects named
@@ -566,7 +556,7 @@ def _check_correlated(spec: DiagnosisPlant, winner: Candidate, earlier: Sequence
     if res is None or effect(winner.name).kind != "plant":
         return decision, sep
     own = {p.field for p in effect(winner.name).on(spec.name).parameters}
-    skip = _prerequisites(spec, winner.name)
+    skip = prerequisites(spec, winner.name)
     fields = {p.field: e for e in earlier if e not in skip and effect(e).kind == "plant"
               for p in effect(e).on(spec.name).parameters}
     worst = None
