@@ -40,16 +40,37 @@ def test_bore_and_area_agree_and_set_the_friction(capsys):
     b = _json(capsys, BASE + ["--model", "coulomb", "--area", repr(area)])
     assert a["area"] == pytest.approx(area, rel=1e-15)
     assert a["parameters"]["F_c"] == pytest.approx(b["parameters"]["F_c"], rel=1e-12)
-    # independent truth: half the mean friction difference of retracting and extending windows
-    data = load_seal_friction(FILE, drop_rows=5, bore=None)
-    pts = seal_friction_points(data, piston_area=area)
-    f = np.asarray(pts.force)
-    v = np.asarray(pts.v)
-    half = 0.5 * (np.mean(f[v > 0]) - np.mean(f[v < 0]))
-    assert a["parameters"]["F_c"] == pytest.approx(half, rel=0.1)
+    assert a["parameters"]["F_c"] == pytest.approx(_raw_half_hysteresis(FILE, area), rel=0.06)
     # a different bore moves the friction by (A2 - A1) * mean pressure: the area is used
     c = _json(capsys, BASE + ["--model", "coulomb", "--bore", "0.025"])
     assert abs(c["parameters"]["F_c"] - a["parameters"]["F_c"]) > 0.05
+
+
+def _raw_half_hysteresis(path: str, area: float) -> float:
+    """Independent truth from the raw columns (numpy only, none of the package's code): half the
+    difference of the mean friction ``F_loadcell - p A`` while extending and while retracting,
+    over the samples faster than half the stroke speed (turnarounds left out)."""
+    d = np.loadtxt(path)[5:]
+    t, x, p, f_lc = d[:, 0] / 1e3, d[:, 4] / 1e3, d[:, 5] * 1e5, d[:, 6]
+    v = np.gradient(x, t)
+    fr = f_lc - p * area
+    fast = 0.5 * np.percentile(np.abs(v), 90)
+    return 0.5 * (np.mean(fr[v > fast]) - np.mean(fr[v < -fast]))
+
+
+def test_coulomb_level_is_half_the_raw_hysteresis_and_rises_with_pressure(capsys):
+    """1-7 bar: the identified Coulomb level within 6 % of half the friction hysteresis read off
+    the raw columns, and rising with the chamber pressure."""
+    bore = 0.0257
+    area = math.pi * bore**2 / 4
+    levels = []
+    for bar in (1, 3, 5, 7):
+        path = str(DATA / f"X-ring257_{bar}bar.csv")
+        fc = _json(capsys, ["identify", "friction", "--plant", "seal_friction", "--data", path, "--drop-rows", "5",
+                            "--model", "coulomb", "--bore", repr(bore)])["parameters"]["F_c"]
+        assert fc == pytest.approx(_raw_half_hysteresis(path, area), rel=0.06), bar
+        levels.append(fc)
+    assert levels == sorted(levels)
 
 
 def test_loader_without_bore_keeps_no_area():
