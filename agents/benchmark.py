@@ -299,6 +299,10 @@ def rollout(env_id: str, controller: Any, draws: Sequence[Mapping[str, float]], 
             opts["reference"] = reference
         obs, _ = venv.reset(seed=int(seed), options=opts)
     params = b.P.copy()
+    calibrate = getattr(controller, "calibrate", None)
+    if callable(calibrate):  # a controller identified on each plant draw it controls
+        k = len(b.params_cls.names())
+        calibrate([b.params_cls.from_array(row[:k]) for row in params])
     adim = b.action_dim
     Y = np.zeros((steps, n))
     R = np.zeros((steps, n))

@@ -32,7 +32,8 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["FRICTION_KINDS", "friction_plants", "friction_points", "identified_friction"]
+__all__ = ["FRICTION_KINDS", "PerCopyFriction", "friction_plants", "friction_points", "identified_friction",
+           "identify_on_draws"]
 
 FRICTION_KINDS = ("stribeck", "neural")
 
@@ -85,3 +86,53 @@ def identified_friction(plant: str, kind: str = "stribeck") -> Any:
     if kind == "stribeck":
         return fit_friction(pts, model=model, sign_velocity=v_eps)
     return fit_feedforward(pts, restarts=3, seed=0)
+
+
+class PerCopyFriction:
+    """One identified friction model per copy of a batch: ``predict(v)`` with ``v`` of shape
+    ``(n,)`` returns ``F_i(v_i)`` [N]."""
+
+    def __init__(self, models: list[Any]) -> None:
+        if not models:
+            raise ValueError("models must not be empty")
+        self.models = list(models)
+        self.coulomb_viscous_copies: tuple[int, ...] = ()
+
+    def predict(self, v: Any) -> np.ndarray:
+        v = np.asarray(v, dtype=float).reshape(-1)
+        if v.size != len(self.models):
+            raise ValueError(f"v has {v.size} entries for {len(self.models)} identified models")
+        return np.array([float(np.asarray(m.predict(v[i:i + 1])).reshape(-1)[0]) for i, m in enumerate(self.models)])
+
+
+def identify_on_draws(plant: str, params: list[Any], kind: str = "stribeck") -> PerCopyFriction:
+    """The plant's virtual friction experiment run on each parameter set of ``params`` (one plant
+    draw per copy) and fitted like :func:`identified_friction`: what a user does on each rig
+    before switching the compensator on. Where a draw's test has no point slow enough to
+    identify the Stribeck dip (:class:`~identification.friction.data.UnidentifiableError`),
+    that copy gets the Coulomb-viscous fit instead (listed in ``coulomb_viscous_copies``). The plant's controller module must accept
+    ``friction_points(params)``."""
+    from identification.friction import fit_friction
+    from identification.neural import fit_feedforward
+
+    if kind not in FRICTION_KINDS:
+        raise ValueError(f"kind = {kind!r}; allowed {FRICTION_KINDS}")
+    experiments = _experiments()
+    if plant not in experiments:
+        raise ValueError(f"plant = {plant!r}; friction identification available for {sorted(experiments)}")
+    from identification.friction.data import UnidentifiableError
+
+    models, fallback = [], []
+    for i, p in enumerate(params):
+        (v, f), v_eps, model = experiments[plant](p)
+        if kind == "neural":
+            models.append(fit_feedforward(v, f, restarts=3, seed=0))
+            continue
+        try:
+            models.append(fit_friction(v, f, model=model, sign_velocity=v_eps))
+        except UnidentifiableError:  # no point slow enough to see the dip on this draw
+            models.append(fit_friction(v, f, model="coulomb_viscous", sign_velocity=v_eps))
+            fallback.append(i)
+    out = PerCopyFriction(models)
+    out.coulomb_viscous_copies = tuple(fallback)
+    return out

@@ -62,6 +62,8 @@ __all__ = [
     "ZETA_H",
     "PIDController",
     "PIDFrictionFeedforwardController",
+    "PIDModelFeedforwardController",
+    "zero_friction",
     "ServoFlowController",
     "nominal_stribeck",
     "pid_tuning",
@@ -154,6 +156,25 @@ class PIDFrictionFeedforwardController(PIDController):
 
     def feedforward(self, obs: np.ndarray) -> np.ndarray:
         return np.asarray(self.compensator.action(self.reference_velocity(obs)), dtype=float)
+
+
+class PIDModelFeedforwardController(PIDFrictionFeedforwardController):
+    """:class:`PIDController` plus the whole steady-state valve command for the reference
+    velocity: ``FrictionCompensator(model, params).command(v_ref) / command_max``, the inverse
+    orifice law (002 eqs (3)-(7)) at the load pressure of the model's friction, rather than only
+    the friction increment of :class:`PIDFrictionFeedforwardController`. With ``model`` the zero
+    law (:func:`zero_friction`, controller ``pid_vff``) it is the friction-blind velocity
+    feed-forward, so ``pid_vff`` against ``pid_vff_stribeck`` isolates what the friction model
+    adds."""
+
+    def feedforward(self, obs: np.ndarray) -> np.ndarray:
+        v = self.reference_velocity(obs)
+        return np.asarray(self.compensator.command(v), dtype=float) / self.compensator.params.command_max
+
+
+def zero_friction(v: Any) -> np.ndarray:
+    """The friction-free law ``F(v) = 0`` [N]."""
+    return np.zeros_like(np.asarray(v, dtype=float))
 
 
 class ServoFlowController(BaseController):
@@ -267,6 +288,11 @@ def controllers() -> dict:
         "pid_ff_stribeck": lambda: PIDFrictionFeedforwardController.from_params(
             model=identified_friction(PLANT, "stribeck")),
         "pid_ff_neural": lambda: PIDFrictionFeedforwardController.from_params(
+            model=identified_friction(PLANT, "neural")),
+        "pid_vff": lambda: PIDModelFeedforwardController.from_params(model=zero_friction),
+        "pid_vff_stribeck": lambda: PIDModelFeedforwardController.from_params(
+            model=identified_friction(PLANT, "stribeck")),
+        "pid_vff_neural": lambda: PIDModelFeedforwardController.from_params(
             model=identified_friction(PLANT, "neural")),
         "flow": ServoFlowController,
     }
