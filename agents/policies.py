@@ -34,6 +34,11 @@ hold only the safe layout, about 45 kB for a 64-64 PPO policy instead of 330 kB:
     config.yml, args.json, policy.pt, obs_normalization.npz
 
 Both layouts give bit-identical actions (tested).
+
+A run trained as a residual on a classical controller (a ``residual`` entry in its
+``config.yml``, :mod:`agents.residual`) loads as a :class:`agents.residual.ResidualPolicy`
+around the :class:`TrainedPolicy`: its ``predict`` returns the combined action the policy was
+trained with.
 """
 
 from __future__ import annotations
@@ -41,10 +46,13 @@ from __future__ import annotations
 import json
 import pickle
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import yaml
+
+if TYPE_CHECKING:  # agents.residual imports the controllers; loaded lazily at run time
+    from agents.residual import ResidualPolicy
 
 __all__ = [
     "ALGOS",
@@ -190,14 +198,17 @@ class TrainedPolicy:
 
 
 def load_trained(run_dir: str | Path, which: str = "final", device: str = "cpu", *,
-                 trust_pickle: bool = False) -> TrainedPolicy:
+                 trust_pickle: bool = False) -> TrainedPolicy | ResidualPolicy:
     """Load the ``which`` (``"final"`` or ``"best"``) policy of a run folder with its frozen
     observation statistics.
 
     Reads the safe layout (``policy.pt`` + ``obs_normalization.npz``, or their ``best_``
     versions) when present. The pickled layout (SB3 zip + ``vecnormalize.pkl``) is read only
     with ``trust_pickle=True``, and then in preference (the full SB3 model); without it a
-    folder that has only the pickles raises :class:`UntrustedPickleError`."""
+    folder that has only the pickles raises :class:`UntrustedPickleError`.
+
+    Returns a :class:`TrainedPolicy`, or for a residual run (``residual`` in its config) an
+    :class:`agents.residual.ResidualPolicy` wrapping it."""
     run = Path(run_dir)
     if which not in ("final", "best"):
         raise ValueError(f"which = {which!r}; allowed ('final', 'best')")
@@ -206,7 +217,7 @@ def load_trained(run_dir: str | Path, which: str = "final", device: str = "cpu",
     policy_file, _ = _compact_files(which)
     model_file, vn_file = (MODEL_FILE, VECNORM_FILE) if which == "final" else (BEST_MODEL_FILE, BEST_VECNORM_FILE)
     if (run / policy_file).is_file() and not (trust_pickle and (run / model_file).is_file()):
-        return _load_compact(run, device, which)
+        return _with_residual(_load_compact(run, device, which))
     if (run / model_file).is_file() and not trust_pickle:
         raise UntrustedPickleError(
             f"{run} has no {policy_file}, only the pickled {model_file}"
@@ -225,8 +236,20 @@ def load_trained(run_dir: str | Path, which: str = "final", device: str = "cpu",
     if (run / vn_file).is_file():
         with open(run / vn_file, "rb") as fh:
             normalizer = pickle.load(fh)  # trusted: SB3 VecNormalize state (venv excluded)
-    return TrainedPolicy(model, normalizer, env_id=env_id, algo=algo,
-                         config=config_all.get(env_id, {}), run_dir=run)
+    return _with_residual(TrainedPolicy(model, normalizer, env_id=env_id, algo=algo,
+                                        config=config_all.get(env_id, {}), run_dir=run))
+
+
+def _with_residual(policy: TrainedPolicy) -> TrainedPolicy | ResidualPolicy:
+    """``policy``, wrapped in :class:`agents.residual.ResidualPolicy` when its config has a
+    ``residual`` entry (imported here: agents.residual needs the controllers, loading a plain
+    policy does not)."""
+    res = policy.config.get("residual")
+    if not res:
+        return policy
+    from agents.residual import ResidualPolicy
+
+    return ResidualPolicy(policy, policy.env_id, res.get("controller"), res.get("scale"))
 
 
 def _policy_class(algo: str, policy: str) -> type:

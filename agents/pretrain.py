@@ -15,6 +15,15 @@ This module regenerates them, one env after the other, with the budgets of
 
     python -m agents.pretrain [--envs servo_cylinder ...] [--seeds 0 1 2] [--nominal-seeds 0]
                               [--timesteps N] [--out agents/pretrained] [--runs DIR]
+                              [--config FILE] [--tag NAME]
+
+``--config FILE`` trains with another hyperparameter file of :mod:`agents.train`'s format (PPO
+entries) and ``--tag NAME`` names the folders ``NAME_s<seed>`` instead of ``ppo_s<seed>``; e.g.
+residual PPO on the PID (:mod:`agents.residual`, the compact folder's ``config.yml`` keeps the
+``residual`` entry, so :func:`agents.policies.load_trained` applies it)::
+
+    python -m agents.pretrain --envs servo_cylinder --seeds 0 --nominal-seeds \
+        --config agents/configs/residual/ppo.yml --tag ppo_residual
 
 Full run folders (SB3 zip, ``VecNormalize`` pickle, TensorBoard) go to ``--runs`` (default a
 temporary folder); only the compact copies are kept in ``--out``. Same seed, same machine:
@@ -29,6 +38,7 @@ os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")  # see agents/train.py
 
 import argparse  # noqa: E402
 import shutil  # noqa: E402
+import sys  # noqa: E402
 import tempfile  # noqa: E402
 import time  # noqa: E402
 from pathlib import Path  # noqa: E402
@@ -73,11 +83,19 @@ def pretrained_dir(env_id: str, algo: str = "ppo", seed: int = 0, randomize: boo
 
 def pretrain(plants: Sequence[str], seeds: Sequence[int], nominal_seeds: Sequence[int], *,
              timesteps: int | None = None, out: str | Path = PRETRAINED_ROOT, runs: str | Path | None = None,
-             progress_bar: bool = True) -> list[tuple[str, Path, float]]:
-    """Train and export every (plant, seed[, nominal]); returns ``(plant, folder, seconds)``."""
+             progress_bar: bool = True, config: str | Path | None = None,
+             tag: str = "ppo") -> list[tuple[str, Path, float]]:
+    """Train and export every (plant, seed[, nominal]); returns ``(plant, folder, seconds)``.
+
+    ``config``: the PPO hyperparameter file (default ``agents/configs/ppo.yml``); ``tag``: the
+    folder name prefix (``<tag>_s<seed>``, ``<tag>_nominal_s<seed>``)."""
     from agents.policies import export_compact
     from agents.train import train
 
+    if not tag or not all(c.isalnum() or c in "_-." for c in tag) or tag.startswith("."):
+        raise ValueError(f"tag = {tag!r}; must be a non-empty folder name of letters, digits, '_', '-', '.'")
+    if config is not None and not Path(config).is_file():
+        raise ValueError(f"config = {str(config)!r}: file not found")
     for p in plants:
         if p not in PLANTS:
             raise ValueError(f"plant {p!r}; allowed {sorted(PLANTS)}")
@@ -91,11 +109,11 @@ def pretrain(plants: Sequence[str], seeds: Sequence[int], nominal_seeds: Sequenc
             jobs = [(s, True) for s in seeds] + [(s, False) for s in nominal_seeds if plant in NOMINAL_PLANTS]
             for seed, randomize in jobs:
                 t0 = time.perf_counter()
-                name = f"{plant}_{folder_name('ppo', seed, randomize)}"
-                run = train(PLANTS[plant], "ppo", timesteps=timesteps or TIMESTEPS[plant], seed=seed,
+                name = f"{plant}_{folder_name(tag, seed, randomize)}"
+                run = train(PLANTS[plant], "ppo", config=config, timesteps=timesteps or TIMESTEPS[plant], seed=seed,
                             randomize=randomize, out=runs, name=name, progress_bar=progress_bar, eval_freq=0,
                             n_eval_episodes=8, torch_threads=1)
-                dest = export_compact(run, Path(out) / plant / folder_name("ppo", seed, randomize))
+                dest = export_compact(run, Path(out) / plant / folder_name(tag, seed, randomize))
                 dt = time.perf_counter() - t0
                 print(f"{plant} seed {seed} {'randomised' if randomize else 'nominal'}: {dt:.0f} s -> {dest}",
                       flush=True)
@@ -115,10 +133,18 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--timesteps", type=int, default=None, help="override the per-env budget of TIMESTEPS")
     p.add_argument("--out", default=str(PRETRAINED_ROOT))
     p.add_argument("--runs", default=None, help="keep the full run folders here")
+    p.add_argument("--config", default=None,
+                   help="PPO hyperparameter file of agents.train's format (default agents/configs/ppo.yml), "
+                        "e.g. agents/configs/residual/ppo.yml")
+    p.add_argument("--tag", default="ppo", help="folder name prefix: <tag>_s<seed> (default ppo)")
     p.add_argument("--no-progress-bar", action="store_true")
     a = p.parse_args(argv)
-    pretrain(a.envs, a.seeds, a.nominal_seeds, timesteps=a.timesteps, out=a.out, runs=a.runs,
-             progress_bar=not a.no_progress_bar)
+    try:
+        pretrain(a.envs, a.seeds, a.nominal_seeds, timesteps=a.timesteps, out=a.out, runs=a.runs,
+                 progress_bar=not a.no_progress_bar, config=a.config, tag=a.tag)
+    except ValueError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
     return 0
 
 

@@ -30,6 +30,12 @@ example a run folder's ``config.yml``). Keys of an env entry:
 * ``env_kwargs``: keyword arguments of the env (e.g. ``max_episode_steps``, ``reference``,
   ``action_rate_penalty``); ``--no-randomization`` sets ``randomize: false``;
 * ``noise_type`` (``normal | ornstein-uhlenbeck``) and ``noise_std`` (SAC/TD3 action noise);
+* ``residual`` (optional, absent or ``null`` by default; not an rl_zoo3 key, so only in
+  project-format files such as ``agents/configs/residual/ppo.yml``): ``{controller: NAME,
+  scale: FLOAT}`` trains the policy as a residual on the classical controller ``NAME`` of
+  :mod:`agents.controllers`, ``action = clip(base + scale * policy, -1, 1)`` with ``scale`` in
+  ``(0, 1]`` (:mod:`agents.residual`); the run's ``config.yml`` keeps it, so
+  :func:`agents.policies.load_trained` returns the combined policy;
 * any keyword of the SB3 algorithm's constructor (``learning_rate`` as a number or
   ``lin_<number>`` for a linear decay to 0, ``gamma``, ``n_steps``, ``batch_size``, ...).
 
@@ -121,7 +127,7 @@ DEFAULT_EVAL_SEED = 1_000_000  # far from the training seeds (copy i of a run us
 DEFAULT_N_EVAL = 16
 
 # keys of an env entry that are not constructor arguments of the SB3 algorithm
-_RUN_KEYS = ("n_envs", "n_timesteps", "policy", "policy_kwargs", "normalize", "env_kwargs")
+_RUN_KEYS = ("n_envs", "n_timesteps", "policy", "policy_kwargs", "normalize", "env_kwargs", "residual")
 _NOISE_KEYS = ("noise_type", "noise_std")
 # constructor arguments that the trainer sets itself or that are not YAML values
 _RESERVED = {"self", "policy", "env", "seed", "device", "verbose", "tensorboard_log", "_init_setup_model",
@@ -357,6 +363,29 @@ def _check_normalize(where: str, value: Any) -> dict[str, Any]:
     return out
 
 
+def _check_residual(where: str, env_id: str, value: Any) -> dict[str, Any] | None:
+    """The ``residual`` entry: ``None`` or ``{controller: NAME, scale: FLOAT}``."""
+    if value is None:
+        return None
+    from agents.residual import RESIDUAL_KEYS, check_residual
+
+    if not isinstance(value, Mapping):
+        raise ConfigError(f"{where}: residual must be null or a mapping with keys {list(RESIDUAL_KEYS)}, "
+                          f"got {value!r}")
+    unknown = sorted(set(value) - set(RESIDUAL_KEYS))
+    if unknown:
+        raise ConfigError(f"{where}: unknown key(s) {['residual.' + str(k) for k in unknown]}; "
+                          f"allowed {list(RESIDUAL_KEYS)}")
+    for k in RESIDUAL_KEYS:
+        if k not in value:
+            raise ConfigError(f"{where}: missing key 'residual.{k}'")
+    try:
+        controller, scale = check_residual(env_id, value["controller"], value["scale"])
+    except ValueError as exc:
+        raise ConfigError(f"{where}: {exc}") from None
+    return {"controller": controller, "scale": scale}
+
+
 # --------------------------------------------------------------------------- config files
 def config_path(algo: str) -> Path:
     """The default hyperparameter file of ``algo``: ``agents/configs/<algo>.yml``."""
@@ -423,6 +452,9 @@ def resolve_config(entry: Mapping[str, Any], algo: str, env_id: str,
     if not isinstance(env_kwargs, Mapping) or not all(isinstance(k, str) for k in env_kwargs):
         raise ConfigError(f"{where}: env_kwargs must be a mapping of keyword names to values, got {env_kwargs!r}")
     out["env_kwargs"] = dict(env_kwargs)
+    residual = _check_residual(where, env_id, entry.get("residual"))
+    if residual is not None:  # absent by default: zoo entries resolve as before
+        out["residual"] = residual
     if algo != "ppo":
         nt = entry.get("noise_type")
         if nt is not None and nt not in _NOISE_TYPES:
@@ -472,8 +504,19 @@ def _algo_kwargs(cfg: Mapping[str, Any], algo: str, action_dim: int) -> dict[str
 # --------------------------------------------------------------------------- envs, evaluation
 def make_envs(env_id: str, cfg: Mapping[str, Any], *, seed: int, n_eval_episodes: int):
     """Training ``VecNormalize(make_sb3_vec_env(...))`` and the frozen evaluation counterpart
-    (``None`` when ``n_eval_episodes == 0``)."""
+    (``None`` when ``n_eval_episodes == 0``). With a ``residual`` entry both vector envs are
+    ``VecNormalize(ResidualVecEnv(make_sb3_vec_env(...)))`` (the base controller reads raw
+    observations)."""
     from hydro_envs.envs.sb3 import make_sb3_vec_env
+
+    residual = cfg.get("residual")
+
+    def wrap(v: Any) -> Any:
+        if residual is None:
+            return v
+        from agents.residual import ResidualVecEnv
+
+        return ResidualVecEnv(v, env_id, residual["controller"], residual["scale"])
 
     norm = cfg["normalize"]
     try:
@@ -484,11 +527,11 @@ def make_envs(env_id: str, cfg: Mapping[str, Any], *, seed: int, n_eval_episodes
         raise ConfigError(f"[{env_id}] env_kwargs: {exc}") from exc
     vn_kw = dict(norm_obs=norm["norm_obs"], clip_obs=norm["clip_obs"], clip_reward=norm["clip_reward"],
                  gamma=cfg["gamma"], epsilon=norm["epsilon"])
-    train_env = VecNormalize(venv, training=True, norm_reward=norm["norm_reward"], **vn_kw)
+    train_env = VecNormalize(wrap(venv), training=True, norm_reward=norm["norm_reward"], **vn_kw)
     eval_env = None
     if n_eval_episodes > 0:
         ev = make_sb3_vec_env(env_id, n_envs=n_eval_episodes, **cfg["env_kwargs"])
-        eval_env = VecNormalize(ev, training=False, norm_reward=False, **vn_kw)
+        eval_env = VecNormalize(wrap(ev), training=False, norm_reward=False, **vn_kw)
     return train_env, eval_env
 
 
