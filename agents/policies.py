@@ -240,16 +240,24 @@ def load_trained(run_dir: str | Path, which: str = "final", device: str = "cpu",
                                         config=config_all.get(env_id, {}), run_dir=run))
 
 
-def _with_residual(policy: TrainedPolicy) -> TrainedPolicy | ResidualPolicy:
-    """``policy``, wrapped in :class:`agents.residual.ResidualPolicy` when its config has a
+def _with_residual(policy: TrainedPolicy) -> Any:
+    """``policy``, behind :class:`agents.framestack.FrameStackPolicy` when its config has a
+    ``frame_stack`` > 1 and wrapped in :class:`agents.residual.ResidualPolicy` when it has a
     ``residual`` entry (imported here: agents.residual needs the controllers, loading a plain
     policy does not)."""
+    out: Any = policy
+    n_stack = policy.config.get("frame_stack")
+    if n_stack and n_stack > 1:
+        from agents.framestack import FrameStackPolicy
+
+        obs_dim = int(policy.observation_space.shape[0]) // int(n_stack)
+        out = FrameStackPolicy(policy, int(n_stack), obs_dim)
     res = policy.config.get("residual")
     if not res:
-        return policy
+        return out
     from agents.residual import ResidualPolicy
 
-    return ResidualPolicy(policy, policy.env_id, res.get("controller"), res.get("scale"))
+    return ResidualPolicy(out, policy.env_id, res.get("controller"), res.get("scale"))
 
 
 def _policy_class(algo: str, policy: str) -> type:
@@ -323,6 +331,10 @@ def _load_compact(run: Path, device: str = "cpu", which: str = "final") -> Train
     env = gym.make(env_id)
     obs_space, act_space = env.observation_space, env.action_space
     env.close()
+    n_stack = int(cfg.get("frame_stack") or 1)
+    if n_stack > 1:  # trained on VecFrameStack: n observations side by side (agents.framestack)
+        obs_space = gym.spaces.Box(np.tile(obs_space.low, n_stack), np.tile(obs_space.high, n_stack),
+                                   dtype=obs_space.dtype)
     policy = _policy_class(algo, cfg.get("policy", "MlpPolicy"))(
         obs_space, act_space, lambda _: 0.0, **policy_kwargs_object(parse_policy_kwargs(cfg.get("policy_kwargs"))))
     policy_file, norm_file = _compact_files(which)

@@ -111,7 +111,7 @@ def pretrain(plants: Sequence[str], seeds: Sequence[int], nominal_seeds: Sequenc
                 t0 = time.perf_counter()
                 name = f"{plant}_{folder_name(tag, seed, randomize)}"
                 run = train(PLANTS[plant], "ppo", config=config, timesteps=timesteps or TIMESTEPS[plant], seed=seed,
-                            randomize=randomize, out=runs, name=name, progress_bar=progress_bar, eval_freq=0,
+                            randomize=randomize, out=runs, name=name, progress_bar=progress_bar, eval_freq=None,
                             n_eval_episodes=8, torch_threads=1)
                 dest = export_compact(run, Path(out) / plant / folder_name(tag, seed, randomize))
                 dt = time.perf_counter() - t0

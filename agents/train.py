@@ -36,6 +36,10 @@ example a run folder's ``config.yml``). Keys of an env entry:
   :mod:`agents.controllers`, ``action = clip(base + scale * policy, -1, 1)`` with ``scale`` in
   ``(0, 1]`` (:mod:`agents.residual`); the run's ``config.yml`` keeps it, so
   :func:`agents.policies.load_trained` returns the combined policy;
+* ``frame_stack`` (optional, rl_zoo3's key): the policy sees the last ``N`` observations
+  (SB3 ``VecFrameStack``, :mod:`agents.framestack`); stacked *before* ``VecNormalize`` (the zoo
+  stacks after it), so the run's observation statistics cover the stacked vector and
+  :func:`agents.policies.load_trained` stacks single observations the same way;
 * any keyword of the SB3 algorithm's constructor (``learning_rate`` as a number or
   ``lin_<number>`` for a linear decay to 0, ``gamma``, ``n_steps``, ``batch_size``, ...).
 
@@ -90,7 +94,7 @@ from typing import Any, Callable, Mapping, Sequence  # noqa: E402
 import numpy as np  # noqa: E402
 import yaml  # noqa: E402
 from stable_baselines3.common.callbacks import BaseCallback  # noqa: E402
-from stable_baselines3.common.vec_env import VecNormalize, sync_envs_normalization  # noqa: E402
+from stable_baselines3.common.vec_env import VecFrameStack, VecNormalize, sync_envs_normalization  # noqa: E402
 
 from agents.policy_kwargs import ACTIVATIONS, parse_policy_kwargs, policy_kwargs_object  # noqa: E402
 from agents.policies import (  # noqa: E402
@@ -127,7 +131,8 @@ DEFAULT_EVAL_SEED = 1_000_000  # far from the training seeds (copy i of a run us
 DEFAULT_N_EVAL = 16
 
 # keys of an env entry that are not constructor arguments of the SB3 algorithm
-_RUN_KEYS = ("n_envs", "n_timesteps", "policy", "policy_kwargs", "normalize", "env_kwargs", "residual")
+_RUN_KEYS = ("n_envs", "n_timesteps", "policy", "policy_kwargs", "normalize", "env_kwargs", "residual",
+             "frame_stack")
 _NOISE_KEYS = ("noise_type", "noise_std")
 # constructor arguments that the trainer sets itself or that are not YAML values
 _RESERVED = {"self", "policy", "env", "seed", "device", "verbose", "tensorboard_log", "_init_setup_model",
@@ -455,6 +460,14 @@ def resolve_config(entry: Mapping[str, Any], algo: str, env_id: str,
     residual = _check_residual(where, env_id, entry.get("residual"))
     if residual is not None:  # absent by default: zoo entries resolve as before
         out["residual"] = residual
+    from agents.framestack import check_frame_stack
+
+    try:
+        frame_stack = check_frame_stack(entry.get("frame_stack"))
+    except ValueError as exc:
+        raise ConfigError(f"{where}: {exc}") from None
+    if frame_stack is not None and frame_stack > 1:
+        out["frame_stack"] = frame_stack
     if algo != "ppo":
         nt = entry.get("noise_type")
         if nt is not None and nt not in _NOISE_TYPES:
@@ -505,18 +518,20 @@ def _algo_kwargs(cfg: Mapping[str, Any], algo: str, action_dim: int) -> dict[str
 def make_envs(env_id: str, cfg: Mapping[str, Any], *, seed: int, n_eval_episodes: int):
     """Training ``VecNormalize(make_sb3_vec_env(...))`` and the frozen evaluation counterpart
     (``None`` when ``n_eval_episodes == 0``). With a ``residual`` entry both vector envs are
-    ``VecNormalize(ResidualVecEnv(make_sb3_vec_env(...)))`` (the base controller reads raw
+    ``VecNormalize([VecFrameStack](ResidualVecEnv(make_sb3_vec_env(...))))`` (the base controller reads raw
     observations)."""
     from hydro_envs.envs.sb3 import make_sb3_vec_env
 
     residual = cfg.get("residual")
 
     def wrap(v: Any) -> Any:
-        if residual is None:
-            return v
-        from agents.residual import ResidualVecEnv
+        if residual is not None:
+            from agents.residual import ResidualVecEnv
 
-        return ResidualVecEnv(v, env_id, residual["controller"], residual["scale"])
+            v = ResidualVecEnv(v, env_id, residual["controller"], residual["scale"])
+        if cfg.get("frame_stack"):
+            v = VecFrameStack(v, cfg["frame_stack"])
+        return v
 
     norm = cfg["normalize"]
     try:

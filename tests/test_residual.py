@@ -155,3 +155,61 @@ def test_tiny_residual_training_loads_as_residual_policy(tmp_path):
     base, _ = make_controller(ENV, "pid").predict(obs, episode_start=np.ones(N, dtype=bool))
     corr, _ = pol.policy.predict(obs)
     np.testing.assert_allclose(a, np.clip(base + 0.3 * np.clip(corr, -1, 1), -1, 1), rtol=1e-6, atol=1e-7)
+
+
+# ------------------------------------------------------------------ frame stacking
+class RecordingPolicy:
+    """Returns zeros and keeps every observation it was given."""
+
+    def __init__(self, space) -> None:
+        self.observation_space = space
+        self.seen: list[np.ndarray] = []
+
+    def predict(self, obs, state=None, episode_start=None, deterministic=True):
+        self.seen.append(np.array(obs, copy=True))
+        return np.zeros((np.asarray(obs).shape[0], 1), dtype=np.float32), state
+
+
+def test_frame_stack_policy_sees_what_vecframestack_trained_on():
+    """Fed single observations and episode starts, FrameStackPolicy builds the same stacks as
+    SB3's VecFrameStack over two auto-resets (zeros before an episode's first observation)."""
+    from stable_baselines3.common.vec_env import VecFrameStack
+
+    from agents.framestack import FrameStackPolicy
+
+    venv = VecFrameStack(_venv(), 3)
+    d = venv.observation_space.shape[0] // 3
+    rec = RecordingPolicy(venv.observation_space)
+    pol = FrameStackPolicy(rec, 3, d)
+    stacked = venv.reset()
+    start = np.ones(N, dtype=bool)
+    rng = np.random.default_rng(0)
+    for _ in range(STEPS):
+        pol.predict(stacked[:, -d:], episode_start=start)
+        np.testing.assert_array_equal(rec.seen[-1], stacked)
+        stacked, _, dones, _ = venv.step(rng.uniform(-0.2, 0.2, (N, 1)).astype(np.float32))
+        start = dones.copy()
+
+
+@pytest.mark.parametrize("bad", [0, 2.5, -1, True, "3", 100])
+def test_frame_stack_key_is_checked(bad):
+    from agents.framestack import check_frame_stack
+
+    with pytest.raises(ValueError, match="frame_stack"):
+        check_frame_stack(bad)
+
+
+def test_tiny_frame_stacked_residual_training_loads_and_predicts(tmp_path):
+    from agents.framestack import FrameStackPolicy
+    from agents.policies import load_trained
+    from agents.train import train
+
+    run = train(ENV, "ppo", config=CONFIG, timesteps=256, n_envs=4, n_eval_episodes=2, eval_freq=0,
+                out=tmp_path, progress_bar=False, hyperparams={"batch_size": 64, "frame_stack": 3},
+                torch_threads=1)
+    pol = load_trained(run)
+    assert isinstance(pol, ResidualPolicy) and isinstance(pol.policy, FrameStackPolicy)
+    assert pol.observation_space.shape == (11,) and pol.policy.policy.observation_space.shape == (33,)
+    obs = _venv().reset()
+    a, _ = pol.predict(obs, episode_start=np.ones(N, dtype=bool))
+    assert a.shape == (N, 1) and np.all(np.isfinite(a)) and np.all(np.abs(a) <= 1)
