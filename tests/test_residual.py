@@ -213,3 +213,25 @@ def test_tiny_frame_stacked_residual_training_loads_and_predicts(tmp_path):
     obs = _venv().reset()
     a, _ = pol.predict(obs, episode_start=np.ones(N, dtype=bool))
     assert a.shape == (N, 1) and np.all(np.isfinite(a)) and np.all(np.abs(a) <= 1)
+
+
+@pytest.mark.parametrize("folder", sorted(p.name + "/" + q.name for p in (Path(__file__).resolve().parents[1] / "agents" / "pretrained").iterdir()
+                                          for q in p.glob("ppo_residual_s*")))
+def test_shipped_residual_policies_load_and_act(folder):
+    """Every shipped residual policy loads (safe layout) as a ResidualPolicy on its env, acts
+    within [-1, 1], and kept its training curve."""
+    import gymnasium as gym
+
+    from agents.policies import load_trained
+
+    run = Path(__file__).resolve().parents[1] / "agents" / "pretrained" / folder
+    pol = load_trained(run)
+    assert isinstance(pol, ResidualPolicy)
+    env = gym.make(pol.env_id)
+    obs, _ = env.reset(seed=0)
+    for _ in range(5):
+        a, _ = pol.predict(obs)
+        assert a.shape == env.action_space.shape and np.all(np.abs(a) <= 1)
+        obs, *_ = env.step(a)
+    env.close()
+    assert len((run / "evaluations.csv").read_text().splitlines()) >= 5

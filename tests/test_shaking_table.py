@@ -59,7 +59,7 @@ NOMINAL = ShakingTableParams()
 HALF = 0.5 * NOMINAL.stroke
 STATE_KEYS = ("x", "v", "pa", "pb", "xv", "vv")
 PARAM_NAMES = ShakingTableParams.names()
-OBS_DIM = 11
+OBS_DIM = 13
 ATOL = np.array([1e-12, 1e-10, 1e-3, 1e-3, 1e-12, 1e-9])
 
 
@@ -911,3 +911,26 @@ def test_guards_over_long_rollouts_at_the_randomisation_corners(spec, preset):
             # impact of up to 1150 kg at 0.45 m/s on the 1e8 N/m stop: k d^2 / 2 = M v^2 / 2 -> d <= 1.5 mm
             assert np.abs(X).max() <= 0.5 * c.stroke + 2e-3
         assert np.ptp(X) > 0.01
+
+
+def test_observation_carries_the_reference_motion():
+    """obs[11] and obs[12] are the reference velocity and position: the integrals of the
+    reference acceleration from rest at the start position."""
+    env = gym.make("hydro_envs/ShakingTable-v0", randomize=False)
+    obs, _ = env.reset(seed=3, options={"reference": "sine"})
+    b = env.unwrapped._batch
+    ref = b.REF[0].copy()
+    from hydro_envs.plants.shaking_table import model as plant
+
+    half = 0.5 * b.P[0, plant.I_L]
+    x0 = float(b.Y[0, plant.X])
+    assert obs[11] == pytest.approx(0.0, abs=1e-7)
+    v, x = 0.0, x0
+    for k in range(1, 400):
+        x += v * 1e-3
+        v += ref[k - 1] * 1e-3
+        obs, *_ = env.step(np.zeros(1, dtype=np.float32))
+        if k % 97 == 0:
+            assert obs[11] * 0.5 == pytest.approx(v, rel=1e-4, abs=1e-7)
+            assert obs[12] * half == pytest.approx(x, rel=1e-4, abs=1e-7)
+    env.close()

@@ -84,7 +84,7 @@ def _inverse_orifice(q, p_l, p: ShakingTableParams):
 class TablePIDController(BaseController):
     """PID on the integrated acceleration error (module docstring), back-calculation anti-windup."""
 
-    obs_dim = 11
+    obs_dim = 13
     action_dim = 1
 
     def __init__(self, kp: float, ti: float, td: float, tf: float, *, dt: float = DT,
@@ -195,7 +195,7 @@ class TableFlowController(BaseController):
     the null pressure).
     """
 
-    obs_dim = 11
+    obs_dim = 13
     action_dim = 1
 
     def __init__(self, params: ShakingTableParams | None = None, *, model: Any = None, k_v: float = 2.0,

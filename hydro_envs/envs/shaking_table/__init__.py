@@ -12,7 +12,7 @@ the accelerometer, the velocity the paper derived from the position (sec. 4: dif
 **Action** ``Box(-1, 1, (1,), float32)``: valve command as a fraction of +-10 V (full spool
 stroke). Out-of-range actions are clipped; NaN or inf raise ``ValueError``.
 
-**Observation** ``Box(float32, (11,))``, every entry clipped to the sensor ranges::
+**Observation** ``Box(float32, (13,))``, every entry clipped to the sensor ranges::
 
     0     acceleration error (r - a_meas) / error_scale                    [m/s^2 / m/s^2]
     1     reference acceleration r / accel_scale
@@ -21,6 +21,13 @@ stroke). Out-of-range actions are clipped; NaN or inf raise ``ValueError``.
     8     measured acceleration a_meas / accel_scale  (accelerometer, saturates at +-5 g)
     9     velocity estimate / velocity_scale  (backward difference of x_meas, Butterworth 8/40 Hz)
     10    last action
+    11    reference velocity v_r / velocity_scale,  v_r(k) = dt sum_{j<k} r_j
+    12    reference position x_r / (stroke/2),      x_r(k) = x(0) + dt sum_{j<k} v_r(j)
+
+The reference accelerations belong to a motion that starts at rest where the table starts
+(:mod:`~hydro_envs.envs.shaking_table.references`); 11-12 are that motion, the integrals a
+controller of an acceleration loop needs (003 sec. 4 drives the table by its velocity and
+position; a memoryless policy cannot integrate the reference itself).
 
 Defaults: ``error_scale = 1 m/s^2``, ``accel_scale = 10 m/s^2``, ``velocity_scale = 0.5 m/s``.
 
@@ -87,7 +94,7 @@ __all__ = [
 DT = 1e-3
 EPISODE_STEPS = 6000
 PREVIEW_STEPS = (10, 20, 30, 40, 50)
-OBS_DIM = 6 + len(PREVIEW_STEPS)
+OBS_DIM = 8 + len(PREVIEW_STEPS)
 #: ADXL05 full scale (+-5 g, data sheet); the accelerometer saturates there.
 ACCELEROMETER_RANGE = 5.0 * 9.80665
 #: Velocity estimate clipped to +-2 m/s (4.6 x the no-load speed): a plausibility range.
@@ -100,7 +107,7 @@ INITIAL_POSITION_BAND = 0.1  # fraction of the half stroke
 
 
 @nb.njit(cache=True, error_model="numpy", inline="always")
-def _observe_copy(i, Y, P, REF, K, NOISE, last_a, prev_a, sos, ZI, XPREV, VF, KOBS, quant, dt,
+def _observe_copy(i, Y, P, REF, REFV, REFX, K, NOISE, last_a, prev_a, sos, ZI, XPREV, VF, KOBS, quant, dt,
                   e_scale, a_scale, v_scale, a_range, v_range, rate_pen, pos_pen, preview, obs_low,
                   obs_high, obs, reward, meas):
     """Sensors, observation and reward of copy ``i`` after a step (or a reset).
@@ -142,6 +149,9 @@ def _observe_copy(i, Y, P, REF, K, NOISE, last_a, prev_a, sos, ZI, XPREV, VF, KO
     obs[i, c + 1] = a_m / a_scale
     obs[i, c + 2] = v_f / v_scale
     obs[i, c + 3] = last_a[i, 0]
+    kr = min(k, n_ref - 1)
+    obs[i, c + 4] = REFV[i, kr] / v_scale
+    obs[i, c + 5] = REFX[i, kr] / half
     for m in range(obs.shape[1]):
         obs[i, m] = min(max(obs[i, m], obs_low[m]), obs_high[m])
     e = (r - a_true) / e_scale
@@ -151,21 +161,21 @@ def _observe_copy(i, Y, P, REF, K, NOISE, last_a, prev_a, sos, ZI, XPREV, VF, KO
 
 
 @nb.njit(cache=True, error_model="numpy")
-def _observe_serial(Y, P, REF, K, NOISE, last_a, prev_a, sos, ZI, XPREV, VF, KOBS, quant, dt, e_scale,
+def _observe_serial(Y, P, REF, REFV, REFX, K, NOISE, last_a, prev_a, sos, ZI, XPREV, VF, KOBS, quant, dt, e_scale,
                     a_scale, v_scale, a_range, v_range, rate_pen, pos_pen, preview, obs_low, obs_high,
                     obs, reward, meas):
     for i in range(Y.shape[0]):
-        _observe_copy(i, Y, P, REF, K, NOISE, last_a, prev_a, sos, ZI, XPREV, VF, KOBS, quant, dt,
+        _observe_copy(i, Y, P, REF, REFV, REFX, K, NOISE, last_a, prev_a, sos, ZI, XPREV, VF, KOBS, quant, dt,
                       e_scale, a_scale, v_scale, a_range, v_range, rate_pen, pos_pen, preview, obs_low,
                       obs_high, obs, reward, meas)
 
 
 @nb.njit(cache=True, error_model="numpy", parallel=True)
-def _observe_parallel(Y, P, REF, K, NOISE, last_a, prev_a, sos, ZI, XPREV, VF, KOBS, quant, dt, e_scale,
+def _observe_parallel(Y, P, REF, REFV, REFX, K, NOISE, last_a, prev_a, sos, ZI, XPREV, VF, KOBS, quant, dt, e_scale,
                       a_scale, v_scale, a_range, v_range, rate_pen, pos_pen, preview, obs_low, obs_high,
                       obs, reward, meas):
     for i in nb.prange(Y.shape[0]):
-        _observe_copy(i, Y, P, REF, K, NOISE, last_a, prev_a, sos, ZI, XPREV, VF, KOBS, quant, dt,
+        _observe_copy(i, Y, P, REF, REFV, REFX, K, NOISE, last_a, prev_a, sos, ZI, XPREV, VF, KOBS, quant, dt,
                       e_scale, a_scale, v_scale, a_range, v_range, rate_pen, pos_pen, preview, obs_low,
                       obs_high, obs, reward, meas)
 
@@ -185,6 +195,8 @@ def observation_space(error_scale: float, accel_scale: float, velocity_scale: fl
     low[c], high[c] = -1.2, 1.2
     low[c + 2], high[c + 2] = -VELOCITY_RANGE / velocity_scale, VELOCITY_RANGE / velocity_scale
     low[c + 3], high[c + 3] = -1.0, 1.0
+    low[c + 4], high[c + 4] = -VELOCITY_RANGE / velocity_scale, VELOCITY_RANGE / velocity_scale
+    low[c + 5], high[c + 5] = -1.2, 1.2
     return spaces.Box(low, high, dtype=np.float32)
 
 
@@ -279,6 +291,8 @@ class ShakingTableBatch(PlantBatch):
         self.pos_pen = float(position_penalty)
         n_ref = self.episode_steps + max(PREVIEW_STEPS) + 1
         self.REF = np.zeros((n, n_ref))
+        self.REFV = np.zeros((n, n_ref))
+        self.REFX = np.zeros((n, n_ref))
         self.NOISE = np.zeros((n, n_ref if self.noise_std.any() else 1, 2))
         self.meas = np.zeros((n, 3))
         self.preview = np.array(PREVIEW_STEPS, dtype=np.int64)
@@ -324,6 +338,11 @@ class ShakingTableBatch(PlantBatch):
         else:
             arr = _check_reference_array(ref_opt)
             fill_reference(self.REF[i], arr, self.episode_steps, "m/s^2")
+        self.REFV[i, 0] = 0.0
+        np.cumsum(self.REF[i, :-1] * DT, out=self.REFV[i, 1:])
+        self.REFX[i, 0] = y[plant.X]
+        np.cumsum(self.REFV[i, :-1] * DT, out=self.REFX[i, 1:])
+        self.REFX[i, 1:] += y[plant.X]
         if self.NOISE.shape[1] > 1:
             self.NOISE[i] = rng.standard_normal((self.NOISE.shape[1], 2)) * self.noise_std
         self.KOBS[i] = -1
@@ -333,7 +352,7 @@ class ShakingTableBatch(PlantBatch):
 
     def observe(self) -> None:
         (_observe_parallel if self.parallel else _observe_serial)(
-            self.Y, self.P, self.REF, self.K, self.NOISE, self.last_a, self.prev_a, self.sos, self.ZI,
+            self.Y, self.P, self.REF, self.REFV, self.REFX, self.K, self.NOISE, self.last_a, self.prev_a, self.sos, self.ZI,
             self.XPREV, self.VF, self.KOBS, self.quant, DT, self.error_scale, self.accel_scale,
             self.velocity_scale, ACCELEROMETER_RANGE, VELOCITY_RANGE, self.rate_pen, self.pos_pen,
             self.preview, self.obs_low, self.obs_high, self.obs, self.reward, self.meas,
