@@ -196,6 +196,9 @@ class LoadSensingBatch(PlantBatch):
         self.narrow(lim, "va", -vmax, vmax, f"{VELOCITY_FACTOR:g} x the full pump flow's piston speed")
         self.narrow(lim, "q_ls", -q, q, "at most the full pump flow")
         self.narrow(lim, "f_sol", 0.0, p.solenoid_force_max, "solenoid force within [0, solenoid_force_max]")
+        self.narrow(lim, "xa", 0.0, p.stroke, "the piston's stroke [0, stroke]")
+        for name in ("p_s", "p_x", "p_l", "p_ls"):
+            self.narrow(lim, name, p.pressure_floor, lim[name][1], "absolute pressure above the pressure floor")
         return lim
 
     def __init__(
