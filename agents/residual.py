@@ -53,11 +53,6 @@ def check_residual(env_id: str, controller: Any, scale: Any, where: str = "resid
     if not isinstance(controller, str) or controller not in names:
         raise ValueError(f"{where}.controller = {controller!r} for {env_id}; allowed {list(names)}")
     s = scale
-    if isinstance(s, str):
-        try:
-            s = float(s)
-        except ValueError:
-            s = None
     if isinstance(s, bool) or not isinstance(s, (int, float)) or not math.isfinite(s) or not 0.0 < s <= 1.0:
         raise ValueError(f"{where}.scale = {scale!r}; must be a finite number in (0, 1]")
     return controller, float(s)

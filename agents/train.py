@@ -385,7 +385,8 @@ def _check_residual(where: str, env_id: str, value: Any) -> dict[str, Any] | Non
         if k not in value:
             raise ConfigError(f"{where}: missing key 'residual.{k}'")
     try:
-        controller, scale = check_residual(env_id, value["controller"], value["scale"])
+        scale = _num(where, "residual.scale", value["scale"], lo=0.0, hi=1.0, lo_open=True)  # YAML 1.1 strings
+        controller, scale = check_residual(env_id, value["controller"], scale)
     except ValueError as exc:
         raise ConfigError(f"{where}: {exc}") from None
     return {"controller": controller, "scale": scale}
