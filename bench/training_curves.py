@@ -20,7 +20,7 @@ ROOT = Path(__file__).resolve().parents[1] / "agents" / "pretrained"
 def curves(name: str) -> dict[str, dict[str, list[tuple[float, float, float]]]]:
     """plant -> folder -> [(timesteps, mean step reward, wall time s)]."""
     out: dict[str, dict[str, list[tuple[float, float, float]]]] = {}
-    for f in sorted(ROOT.glob(f"*/{name}_s*/evaluations.csv")):
+    for f in sorted(ROOT.glob(f"*/{name}_s[0-9]*/evaluations.csv")):
         with f.open(newline="") as fh:
             rows = [(float(r["timesteps"]), float(r["mean_step_reward"]), float(r["wall_time_s"]))
                     for r in csv.DictReader(fh)]
