@@ -81,6 +81,27 @@ def test_rodless_slow_sine_friction_model_pays():
     assert _paired_ratio(env, "pid_dp_stribeck", "pid_dp") < 0.85
 
 
+
+def test_rodless_disturbance_observer_learns_each_draws_friction_online():
+    """The observer of pid_dp_dob starts with no friction model: after one slow-sine episode its
+    level lies between the draw's Coulomb friction and the Stribeck curve at the reference's mean
+    speed (a different level per draw), and it beats the same loop blind to friction."""
+    from agents.benchmark import rollout
+    from agents.controllers import make_controller
+    from hydro_envs.plants.rodless_cylinder.model import steady_friction
+    from hydro_envs.plants.rodless_cylinder.params import RodlessCylinderParams
+
+    env = "hydro_envs/RodlessCylinderSlowSine-v0"
+    ps = [RodlessCylinderParams(coulomb_friction=11.0, static_friction=25.0),
+          RodlessCylinderParams(coulomb_friction=19.0, static_friction=40.0)]
+    draws = [{"coulomb_friction": p.coulomb_friction, "static_friction": p.static_friction} for p in ps]
+    ctrl = make_controller(env, "pid_dp_dob")
+    ro = rollout(env, ctrl, draws, seed=0)
+    v_mean = np.abs(np.diff(ro.ref, axis=0)).mean(axis=0) / 1e-3
+    for p, level, v in zip(ps, ctrl.level, v_mean):
+        assert 0.95 * p.coulomb_friction <= level <= 1.1 * float(steady_friction(p, v)), (level, v)
+    assert _paired_ratio(env, "pid_dp_dob", "pid_dp") < 0.9
+
 def test_servo_slow_sine_model_feedforward_beats_pid():
     """The inverse-orifice-law feed-forward removes the PID's lag; the friction model adds
     under 5 % on top (the flow-controlled hydraulic axis is stiff against friction)."""
