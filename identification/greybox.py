@@ -307,9 +307,13 @@ def _statistics(prob: _Problem, theta: np.ndarray, J: np.ndarray, r: np.ndarray)
 def _fit_metrics(prob: _Problem, theta: np.ndarray, nsub: int) -> dict[str, Any]:
     """NRMSE and MSE per channel (pooled and per experiment) and the profiled sensor offsets."""
     P = prob.param_arrays(theta[None, :])
-    outs, _ = prob.outputs(P, nsub)
-    offs = {f"{k}@{g}" if g else k: float(v[0])
-            for (g, k), v in prob.offset_estimates(prob._raw_outputs(P, nsub)[0]).items()}
+    outs, _ = prob._raw_outputs(P, nsub)  # one simulation: the offsets are added below
+    est = prob.offset_estimates(outs) if prob.offsets else {}
+    offs = {f"{k}@{g}" if g else k: float(v[0]) for (g, k), v in est.items()}
+    for e, chans in zip(prob.experiments, outs):
+        for name in chans:
+            if (e.group, name) in est:
+                chans[name] = chans[name] + est[(e.group, name)][:, None]
     nr_e, mse_e = [], []
     pooled: dict[str, tuple[list, list]] = {}
     for e, o in zip(prob.experiments, outs):
@@ -401,7 +405,11 @@ def fit_greybox(
         notes.append("channel weights re-estimated from the residual RMS of a first fit (noise levels)")
 
     theta = sol.x
-    st = _statistics(prob, theta, ev.jac(theta), sol.fun)
+    # statistics: a central Jacobian, except after forward-difference iterations, whose last
+    # Jacobian the solver evaluated at sol.x already (forward differences of step fd_step:
+    # standard errors within ~fd_step relative of the central ones, no extra simulations)
+    J = sol.jac if jacobian == "forward" else ev.jac(theta)
+    st = _statistics(prob, theta, J, sol.fun)
     if st["cond"] >= CONDITION_LIMIT:
         notes.append(f"scaled condition number {st['cond']:.3g} >= {CONDITION_LIMIT:g}: the data do not determine "
                      "all fitted parameters (see correlated_pairs)")

@@ -460,13 +460,16 @@ def _build_problem(base, fit, experiments, channels, sigma, log_scale, bounds,
 
 def simulate_outputs(base: PhysicalParams, experiments, channels,
                      values: Sequence[Mapping[str, float]] | None = None,
-                     n_substeps: int | None = None, offsets: Sequence[str] = ()) -> list[list[dict[str, np.ndarray]]]:
+                     n_substeps: int | None = None, offsets: Sequence[str] = (),
+                     per_copy_substeps: bool = False) -> list[list[dict[str, np.ndarray]]]:
     """Outputs of ``base`` (or of each override mapping in ``values``) on every experiment,
     in one batched kernel call: ``[copy][experiment] -> {channel: (n_samples,)}``.
 
     Experiments' ``outputs`` only name the channels to produce (their values are unused),
     except for ``offsets`` channels: their outputs include the sensor offset estimated from
-    the measured values (per experiment group, see :func:`fit_greybox`)."""
+    the measured values (per experiment group, see :func:`fit_greybox`).
+    ``per_copy_substeps``: each copy integrated with its own stiffness bound's sub-steps
+    (copies of equal count share a batched call) instead of the largest of all copies."""
     values = list(values) if values is not None else [{}]
     names = sorted({k for v in values for k in v}) or [type(base).names()[0]]
     prob = _build_problem(base, names, experiments, channels, {k: 1.0 for k in (c.name for c in channels)},
@@ -478,6 +481,15 @@ def simulate_outputs(base: PhysicalParams, experiments, channels,
             P[i, type(base).index(k)] = x
         if v and P.shape[1] > nf:  # derived kernel columns follow the overridden fields
             P[i] = _unvalidated(type(base), P[i, :nf]).to_array()
+    if per_copy_substeps and n_substeps is None and len(values) > 1:
+        counts = np.array([prob.nsub(P[i:i + 1]) for i in range(len(values))])
+        res: list = [None] * len(values)
+        for n in np.unique(counts):
+            idx = np.flatnonzero(counts == n)
+            outs, _ = prob.outputs(np.ascontiguousarray(P[idx]), int(n))
+            for j, i in enumerate(idx):
+                res[i] = [{k: o[k][j] for k in o} for o in outs]
+        return res
     outs, _ = prob.outputs(P)
     return [[{k: o[k][i] for k in o} for o in outs] for i in range(len(values))]
 

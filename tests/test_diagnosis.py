@@ -172,6 +172,25 @@ def test_named_effects_shrink_the_heldout_error_and_recover_the_parameters(ci_re
             assert e["parameters"][k] == pytest.approx(v, rel=0.35), (plant, eff, k)
 
 
+
+def test_rodless_valve_overlap_is_named_as_a_negative_lap():
+    """The rodless valve lap is signed: a hidden 0.1 mm overlap (a dead band around the centre,
+    outside the underlap draws of the bench) is named valve_lap and fitted below zero."""
+    from identification.diagnosis.plants import diagnosis_plant
+    from identification.diagnosis.synthetic import base_for, closed_loop_record
+    from identification.diagnosis.workflow import Model, with_effect
+
+    spec = diagnosis_plant("rodless_cylinder")
+    base = Model(base_for(spec, "valve_lap"))
+    truth = with_effect(spec, base, "valve_lap", {"valve_underlap": -1e-4})
+    rng = np.random.default_rng(7)
+    fit = closed_loop_record(spec, truth, 5.0, spec.sample_time, rng, "overlap")
+    hold = closed_loop_record(spec, truth, 2.5, spec.sample_time, rng, "held-out")
+    res = diagnose("rodless_cylinder", [fit], [hold], base=base.params, max_effects=1, maps=False)
+    assert res.verdict == "named" and res.effects[0]["name"] == "valve_lap", (res.verdict, res.effects)
+    assert res.effects[0]["parameters"]["valve_underlap"] == pytest.approx(-1e-4, rel=0.15)
+    assert res.effects[0]["shrink"] >= 0.5
+
 def test_gap_shrink_of_a_sensor_effect_is_measured_on_its_channels():
     spec = diagnosis_plant("rodless_cylinder")
     assert effect_channels(spec, "sensor_delay", ["y", "pa", "pb"]) == ("y",)
@@ -333,3 +352,19 @@ def test_hidden_effect_rates_full():
     s = mod.summary(rows)
     assert s["top1"] >= 0.95 and s["none"] >= 0.95 and s["shrink"] >= 0.95, s
     assert math.isfinite(s["top1"])
+
+
+def test_pairs_leave_out_the_sensor_offset_candidate():
+    """The measuring-chain candidate ``sensor_offsets`` is not a catalogue effect: when no single
+    effect wins, the pair search combines plant effects only (it raised KeyError on it)."""
+    from identification.diagnosis.candidates import Candidate
+    from identification.diagnosis.models import SENSOR_OFFSETS
+    from identification.diagnosis.pairs import pair_candidates
+    from identification.diagnosis.workflow import Model
+
+    from hydro_envs.plants.rodless_cylinder.params import RodlessCylinderParams
+
+    spec = diagnosis_plant("rodless_cylinder")
+    m = Model(RodlessCylinderParams())
+    c = Candidate(SENSOR_OFFSETS, 0.0, {}, {}, {}, {}, 0.01, 0.1, True, True, [], 0.0, model=m)
+    assert pair_candidates(spec, m, [c], [], [], {}, 0.02, 0.1) == []

@@ -18,6 +18,12 @@ from identification.diagnosis.plants import DiagnosisPlant
 from identification.diagnosis.records import DiagnosisDataError, Record, noise_estimate, segments
 from identification.diagnosis.models import Model, _channels, _delayed_channels, _fit_names, _scored, _tie_function, present_effects
 
+# least_squares ftol/xtol/gtol of the diagnosis fits: the weighted cost is ~N/2 (noise-level
+# weights), so 1e-5 stops when a step gains < 1e-5 N/2 (Delta chi^2 < 0.6 on the rodless
+# record): far below one standard error; 1e-8 spent 3-6 more evaluations on cost changes < 0.1
+FIT_TOL = 1e-5
+
+
 @dataclasses.dataclass
 class FitOutcome:
     model: Model
@@ -46,7 +52,7 @@ def fit_model(spec: DiagnosisPlant, model: Model, records: Sequence[Record], *, 
             base = dataclasses.replace(base, **{n: min(max(v, lo + 1e-6 * (hi - lo)), hi - 1e-6 * (hi - lo))})
     off = spec.sensor_offsets if model.offsets is not None else ()
     res = gb.fit_greybox(base, names, exps, _channels(spec), bounds=bounds, sigma=sigma, log_scale=log,
-                         max_nfev=max_nfev, tol=1e-8, tie=_tie_function(spec, base, present), jacobian="forward",
+                         max_nfev=max_nfev, tol=FIT_TOL, tie=_tie_function(spec, base, present), jacobian="forward",
                          offsets=off)
     params = res.params
     if params is None:  # relation violated: keep the raw values (flagged implausible later)
@@ -65,9 +71,11 @@ def _raw(base: PhysicalParams, values: dict[str, float]) -> PhysicalParams:
     return obj
 
 
-def _simulate(spec: DiagnosisPlant, models: Sequence[Model], records: Sequence[Record]):
+def _simulate(spec: DiagnosisPlant, models: Sequence[Model], records: Sequence[Record], *,
+              per_copy_substeps: bool = False):
     """Outputs of every model on the windows of ``records``: list per model of (experiments,
-    outputs per experiment)."""
+    outputs per experiment). ``per_copy_substeps``: each model integrated with its own
+    stiffness bound's sub-steps (default: the batch's largest, as in a fit's Jacobian)."""
     out = []
     by_delay: dict[float, list[int]] = {}
     for i, m in enumerate(models):
@@ -78,7 +86,7 @@ def _simulate(spec: DiagnosisPlant, models: Sequence[Model], records: Sequence[R
         base = models[idx[0]].params
         values = [{n: float(getattr(models[i].params, n)) for n in type(base).names()
                    if float(getattr(models[i].params, n)) != float(getattr(base, n))} for i in idx]
-        sims = gb.simulate_outputs(base, exps, _channels(spec), values=values)
+        sims = gb.simulate_outputs(base, exps, _channels(spec), values=values, per_copy_substeps=per_copy_substeps)
         for i, s in zip(idx, sims):
             off = models[i].offsets or {}
             if off:  # fixed sensor-offset corrections (fitted on the fit records)

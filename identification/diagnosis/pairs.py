@@ -29,7 +29,7 @@ from collections.abc import Sequence
 from hydro_envs.params import ParameterError
 from identification import greybox as gb
 from identification.diagnosis.candidates import Candidate, _judge
-from identification.diagnosis.catalogue import effect
+from identification.diagnosis.catalogue import CATALOGUE, effect
 from identification.diagnosis.fitting import _check_windows, _mean, fit_model, heldout_nrmse
 from identification.diagnosis.models import Model, null_base, prerequisites, present_effects, with_effect
 from identification.diagnosis.plants import DiagnosisPlant
@@ -47,7 +47,8 @@ def pair_candidates(spec: DiagnosisPlant, current: Model, singles: Sequence[Cand
     """Refits of the current model with two plant effects added, scored and judged like single
     candidates (name ``"a+b"``, ``a`` the member with the better single score)."""
     live = sorted((c for c in singles if c.model is not None and math.isfinite(c.heldout)
-                   and effect(c.name).kind == "plant"), key=lambda c: c.heldout)[:PAIR_MEMBERS]
+                   and c.name in CATALOGUE and effect(c.name).kind == "plant"),  # not the sensor-offset candidate
+                  key=lambda c: c.heldout)[:PAIR_MEMBERS]
     out: list[Candidate] = []
     for a, b in itertools.combinations(live, 2):
         if b.name in prerequisites(spec, a.name) or a.name in prerequisites(spec, b.name):  # e.g. Stribeck on Coulomb

@@ -61,9 +61,13 @@ _EFFECTS = {
         ties={"static_friction": "coulomb_friction"},
         source=f"{_PNEU} eq (1), Table 2: F_s/F_c = 2.32, v_s = 3.27 mm/s"),
     "valve_lap": dict(
-        parameters=(dict(field="valve_underlap", bounds=(1e-6, 1e-3), start=1e-4, draw=(5e-5, 2e-4)),),
+        # signed: u > 0 an underlap (mid-position leakage), u < 0 an overlap (both edge
+        # openings u +- x_v of eq (2) stay shut while |x_v| < -u: a dead band around the centre)
+        parameters=(dict(field="valve_underlap", bounds=(-3e-4, 1e-3), start=2e-5, draw=(5e-5, 2e-4),
+                         log=False),),
         null={"valve_underlap": 0.0},
-        source=f"{_PNEU} eq (2) u = r - d; MPYE-5 mid-position leakage order 6 L/min at 0.1 mm"),
+        source=f"{_PNEU} eq (2) u = r - d (u < 0: an overlap, a dead band of 27 % of the 1.13 mm "
+        "spool stroke at the bound); MPYE-5 mid-position leakage order 6 L/min at 0.1 mm"),
     "valve_dynamics": dict(
         parameters=(dict(field="valve_natural_frequency", bounds=(30.0, 6000.0), start=2 * math.pi * 60,
                          draw=(2 * math.pi * 25, 2 * math.pi * 60)),),
