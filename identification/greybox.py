@@ -307,13 +307,8 @@ def _statistics(prob: _Problem, theta: np.ndarray, J: np.ndarray, r: np.ndarray)
 def _fit_metrics(prob: _Problem, theta: np.ndarray, nsub: int) -> dict[str, Any]:
     """NRMSE and MSE per channel (pooled and per experiment) and the profiled sensor offsets."""
     P = prob.param_arrays(theta[None, :])
-    outs, _ = prob._raw_outputs(P, nsub)  # one simulation: the offsets are added below
-    est = prob.offset_estimates(outs) if prob.offsets else {}
-    offs = {f"{k}@{g}" if g else k: float(v[0]) for (g, k), v in est.items()}
-    for e, chans in zip(prob.experiments, outs):
-        for name in chans:
-            if (e.group, name) in est:
-                chans[name] = chans[name] + est[(e.group, name)][:, None]
+    outs, _ = prob._raw_outputs(P, nsub)
+    offs = {f"{k}@{g}" if g else k: float(v[0]) for (g, k), v in prob.add_offsets(outs).items()}
     nr_e, mse_e = [], []
     pooled: dict[str, tuple[list, list]] = {}
     for e, o in zip(prob.experiments, outs):

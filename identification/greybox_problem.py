@@ -294,13 +294,18 @@ class _Problem:
         """Model outputs: list per experiment of {channel: (c, n_samples)}; and nsub used.
         Channels in ``offsets`` include their estimated sensor offset (:meth:`offset_estimates`)."""
         result, n = self._raw_outputs(P, nsub)
-        if self.offsets:
-            b = self.offset_estimates(result)
-            for e, chans in zip(self.experiments, result):
-                for name in chans:
-                    if (e.group, name) in b:
-                        chans[name] = chans[name] + b[(e.group, name)][:, None]
+        self.add_offsets(result)
         return result, n
+
+    def add_offsets(self, outs) -> dict[tuple[str, str], np.ndarray]:
+        """Add the profiled sensor offsets (:meth:`offset_estimates`) to the ``offsets``
+        channels of raw outputs ``outs`` in place; returns the offsets."""
+        b = self.offset_estimates(outs) if self.offsets else {}
+        for e, chans in zip(self.experiments, outs):
+            for name in chans:
+                if (e.group, name) in b:
+                    chans[name] = chans[name] + b[(e.group, name)][:, None]
+        return b
 
     def _raw_outputs(self, P: np.ndarray, nsub: int | None = None):
         sims, n = self.states(P, nsub)

@@ -165,13 +165,16 @@ class RodlessPressureLoopController(RodlessPIDController):
         """Reference velocity [m/s] between previews ``j`` and ``j + 1`` (10 ms apart)."""
         return self.half * (obs[:, 2 + j] - obs[:, 1 + j]) / PREVIEW_DT
 
+    def friction_target(self, v: np.ndarray, dp: np.ndarray, obs: np.ndarray) -> np.ndarray | float:
+        """Friction force [N] the pressure difference should carry at reference velocity ``v``."""
+        return 0.0 if self._f is None else np.asarray(self._f(v), dtype=float)
+
     def feedforward(self, obs: np.ndarray) -> np.ndarray:
-        u = self._preview_velocity(1, obs) / self.k_q
+        v = self._preview_velocity(1, obs)
         if self.k_dp == 0.0:
-            return u
-        target = 0.0 if self._f is None else np.asarray(self._f(self._preview_velocity(1, obs)), dtype=float)
+            return v / self.k_q
         dp = (obs[:, 8] - obs[:, 9]) * self.ps
-        return u + self.k_dp * (target / self.area - dp) / self.ps
+        return v / self.k_q + self.k_dp * (self.friction_target(v, dp, obs) / self.area - dp) / self.ps
 
 
 class RodlessCalibratedPressureLoopController(RodlessPressureLoopController):
@@ -241,16 +244,13 @@ class RodlessObserverPressureLoopController(RodlessPressureLoopController):
         super()._reset_rows(mask)
         self._fc[mask] = 0.0
 
-    def feedforward(self, obs: np.ndarray) -> np.ndarray:
-        v = self._preview_velocity(1, obs)
-        a = (self._preview_velocity(2, obs) - self._preview_velocity(0, obs)) / (2.0 * PREVIEW_DT)
-        dp = (obs[:, 8] - obs[:, 9]) * self.ps
+    def friction_target(self, v: np.ndarray, dp: np.ndarray, obs: np.ndarray) -> np.ndarray:
         sliding = np.abs(v) > self.v_slide
         if sliding.any():
+            a = (self._preview_velocity(2, obs) - self._preview_velocity(0, obs)) / (2.0 * PREVIEW_DT)
             f_d = self.area * dp[sliding] - self.mass * a[sliding]  # eq (18) at the reference motion
             self._fc[sliding] += (self.dt / self.tau) * (np.sign(v[sliding]) * f_d - self._fc[sliding])
-        target = self._fc * np.tanh(v / self.v_slide)
-        return v / self.k_q + self.k_dp * (target / self.area - dp) / self.ps
+        return self._fc * np.tanh(v / self.v_slide)
 
 
 #: the plant these controllers are for (its registry name)

@@ -14,7 +14,7 @@ import numpy as np
 
 from hydro_envs import registry
 from hydro_envs.params import ParameterError
-from hydro_envs.sim.stiffness import substeps_from_stiffness
+from hydro_envs.sim.simulate import substeps
 from identification import greybox as gb
 from hydro_envs.jsonutil import to_jsonable as jsonable
 from identification.diagnosis.catalogue import Effect, effect
@@ -133,25 +133,20 @@ def _grid_start(spec: DiagnosisPlant, model: Model, name: str, records: Sequence
         axes.append([(p.field, float(v)) for v in pts])
     values: list[dict[str, float] | None] = [None]
     models = [fitted]
-    n_fit = _substeps(fitted.params, records[0].dt)
+    plant, dt = registry.get(type(fitted.params).plant), records[0].dt
+    n_fit = substeps(plant, fitted.params, dt)
     for combo in itertools.product(*axes):
         vals = dict(combo)
         try:
             m = with_effect(spec, model, name, vals)
         except ParameterError:  # e.g. a static level below the Coulomb level
             continue
-        if _substeps(m.params, records[0].dt) > START_GRID_MAX_SUBSTEP_RATIO * n_fit:
+        if substeps(plant, m.params, dt) > START_GRID_MAX_SUBSTEP_RATIO * n_fit:
             continue
         models.append(m)
         values.append(vals)
     costs, _ = _weighted_costs(spec, models, records, sigma)
     return values[int(np.argmin(costs))]
-
-
-def _substeps(params, dt: float) -> int:
-    """RK4 sub-steps per sample of ``params``' stiffness bound (1 without one)."""
-    modes = getattr(registry.get(type(params).plant), "stiffness_modes", None)
-    return 1 if modes is None else int(substeps_from_stiffness(modes(params), dt)[0])
 
 
 def _delay_grid_search(spec: DiagnosisPlant, model: Model, records: Sequence[Record], sigma: dict[str, float],
