@@ -400,6 +400,15 @@ def config_path(algo: str) -> Path:
     return Path(__file__).resolve().parent / "configs" / f"{algo}.yml"
 
 
+def _display_path(path: Path) -> str:
+    """``path`` relative to the project root when it lies inside it (so run records name
+    ``agents/configs/ppo.yml``, not a machine's checkout), else as given."""
+    try:
+        return str(path.resolve().relative_to(Path(__file__).resolve().parents[1]))
+    except ValueError:
+        return str(path)
+
+
 def load_agent_config(source: str | Path | Mapping[str, Any] | None, algo: str, env_id: str) -> dict[str, Any]:
     """The raw entry of ``env_id`` from a zoo-format file (``None``: ``agents/configs/<algo>.yml``)
     or from an already loaded mapping of the same format."""
@@ -411,7 +420,7 @@ def load_agent_config(source: str | Path | Mapping[str, Any] | None, algo: str, 
         path = Path(source)
         if not path.is_file():
             raise ConfigError(f"config file {path} not found")
-        name = str(path)
+        name = _display_path(path)
         try:
             data = yaml.safe_load(path.read_text())
         except yaml.YAMLError as exc:
