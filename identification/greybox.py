@@ -127,6 +127,8 @@ class GreyboxResult:
     params: PhysicalParams | None  # the fitted parameter set (None if a relation fails)
     notes: list[str] = dataclasses.field(default_factory=list)
     offsets: dict[str, float] = dataclasses.field(default_factory=dict)  # profiled sensor offsets
+    # trial points rejected as stiffer than ``max_substep_ratio`` allows (fit_greybox)
+    substep_rejections: int = 0
 
     @property
     def identifiable(self) -> bool:
@@ -163,6 +165,7 @@ class GreyboxResult:
             "per_experiment": {"nrmse": self.nrmse_per_experiment, "mse": self.mse_per_experiment},
             "sigma": self.sigma,
             "n_substeps": self.n_substeps,
+            "substep_rejections": self.substep_rejections,
             "success": self.success,
             "message": self.message,
             "notes": self.notes,
@@ -180,11 +183,16 @@ class _Evaluator:
     sub-step bookkeeping (the largest count any candidate so far needed) and call counts."""
 
     def __init__(self, prob: _Problem, base: PhysicalParams, fd_step: float,
-                 progress: Callable[[int, int], None] | None, max_calls: int) -> None:
+                 progress: Callable[[int, int], None] | None, max_calls: int,
+                 max_substep_ratio: float | None = None) -> None:
         self.prob, self.fd_step, self.progress, self.max_calls = prob, fd_step, progress, max_calls
         self.p = len(prob.names)
         # the start values' sub-steps; a stiffer candidate raises it (per-call maximum)
         self.nsub = prob.nsub(base.to_array()[None, :]) if prob.fixed_nsub is None else prob.fixed_nsub
+        # trial points needing more than this many sub-steps are rejected (None: no cap)
+        self.cap = (None if max_substep_ratio is None or prob.fixed_nsub is not None
+                    else max(self.nsub, int(math.ceil(max_substep_ratio * self.nsub))))
+        self.rejected = 0
         self.nfev = 0
         self.njev = 0
         self.last: dict[str, Any] = {}
@@ -192,6 +200,8 @@ class _Evaluator:
     def nsub_for(self, P: np.ndarray) -> int:
         prob = self.prob
         n = max(self.nsub, prob.nsub(P)) if prob.fixed_nsub is None else prob.fixed_nsub
+        if self.cap is not None:
+            n = min(n, self.cap)  # Jacobian copies next to the cap: integrated at the cap
         self.nsub = n
         return n
 
@@ -203,6 +213,11 @@ class _Evaluator:
         self.nfev += 1
         self._tick()
         P = self.prob.param_arrays(theta[None, :])
+        if self.cap is not None and "r" in self.last and self.prob.nsub(P) > self.cap:
+            # stiffer than the cap allows: a residual far above the last one, so the solver
+            # rejects the step and shrinks its trust region
+            self.rejected += 1
+            return 1e3 * self.last["r"] + 1e3
         n = self.nsub_for(P)
         r, _ = self.prob.residuals(P, n)
         self.last.update(theta=theta.copy(), r=r[0], nsub=n)
@@ -352,6 +367,7 @@ def fit_greybox(
     jacobian: str = "central",
     offsets: Sequence[str] = (),
     progress: Callable[[int, int], None] | None = None,
+    max_substep_ratio: float | None = None,
 ) -> GreyboxResult:
     """Fit parameters ``fit`` of ``base`` to the experiments (see the module docstring).
 
@@ -379,6 +395,11 @@ def fit_greybox(
 
     ``progress``: an optional callable ``progress(simulations, upper_bound)`` called at every
     residual and Jacobian evaluation (e.g. :class:`identification.quality.Progress`).
+
+    ``max_substep_ratio``: trial points whose stiffness bound needs more than this many times
+    the start values' sub-steps are rejected (the solver sees a residual far above its last one
+    and shrinks its step), so a fit does not wander into parameter sets whose integration costs
+    ten times the start's (None: no cap).
     """
     if jacobian not in ("central", "forward"):
         raise GreyboxError(f"jacobian must be 'central' or 'forward', got {jacobian!r}")
@@ -386,7 +407,7 @@ def fit_greybox(
     prob = _build_problem(base, fit, experiments, channels, sigma,
                           True if log_scale is None else log_scale, bounds, n_substeps, tie, offsets)
     theta0 = prob.to_theta(np.array([getattr(base, n) for n in prob.names]))
-    ev = _Evaluator(prob, base, fd_step, progress, (2 if reweight else 1) * 2 * max_nfev + 1)
+    ev = _Evaluator(prob, base, fd_step, progress, (2 if reweight else 1) * 2 * max_nfev + 1, max_substep_ratio)
 
     def solve(theta_start):
         return optimize.least_squares(ev.fun, theta_start, jac=ev.jac_forward if jacobian == "forward" else ev.jac,
@@ -399,6 +420,9 @@ def fit_greybox(
         sol = solve(sol.x)
         notes.append("channel weights re-estimated from the residual RMS of a first fit (noise levels)")
 
+    if ev.rejected:
+        notes.append(f"{ev.rejected} trial point(s) rejected: their stiffness bound needed more than "
+                     f"{ev.cap} sub-steps per sample ({max_substep_ratio:g} x the start's)")
     theta = sol.x
     # statistics: a central Jacobian, except after forward-difference iterations, whose last
     # Jacobian the solver evaluated at sol.x already (forward differences of step fd_step:
@@ -430,5 +454,5 @@ def fit_greybox(
         nrmse=m["nrmse"], mse=m["mse"], nrmse_per_experiment=m["nrmse_e"], mse_per_experiment=m["mse_e"],
         sigma=dict(prob.sigma), cost=float(sol.cost), noise_variance=st["s2"], n_residuals=int(st["n_res"]),
         n_substeps=int(ev.nsub), nfev=ev.nfev, njev=ev.njev, success=bool(sol.success),
-        message=str(sol.message), seconds=time.perf_counter() - t0, params=fitted, notes=notes, offsets=m["offsets"],
+        message=str(sol.message), seconds=time.perf_counter() - t0, params=fitted, notes=notes, offsets=m["offsets"], substep_rejections=ev.rejected,
     )

@@ -207,12 +207,14 @@ def test_base_fit_refines_within_an_order_of_magnitude():
         v = float(getattr(spec.params_factory(), n))
         assert lo == pytest.approx(v / BASE_FIT_FACTOR) and hi == pytest.approx(v * BASE_FIT_FACTOR)
     # a hidden force offset the base model lacks: unbounded, the base fit ran the mass to 0.036
-    # kg (a 28 times stiffer, slower model); bounded, it stops at 0.1 kg, is flagged, and the
+    # kg (a 28 times stiffer, slower model); bounded (and held back from parameter sets needing
+    # more than 4 times the start's sub-steps), it stops above 0.1 kg, is flagged, and the
     # offset is still named
     case = hidden_effect_records("slider", "force_offset", 3001, duration=8.0)
     res = diagnose("slider", [case.fit], [case.holdout], base=case.base.params, max_effects=1, maps=False)
     assert res.base_fit["mass"] >= 0.1 * (1 - 1e-9)
-    assert any(n.startswith("base fit: base-fit parameter mass") for n in res.notes), res.notes
+    assert any(n.startswith(("base fit: base-fit parameter mass", "base fit: the fit was held back"))
+               for n in res.notes), res.notes
     assert not any(n.startswith("final model") for n in res.notes), res.notes  # the offset freed it
     assert [e["name"] for e in res.effects] == ["force_offset"]
 

@@ -171,17 +171,17 @@ def _delay_grid_search(spec: DiagnosisPlant, model: Model, records: Sequence[Rec
 
 
 def _alternate_delay(spec: DiagnosisPlant, model: Model, records: Sequence[Record], sigma: dict[str, float],
-                     p) -> FitOutcome:
+                     p, passes: int = 4, max_nfev: int = 25) -> FitOutcome:
     """Alternate a grid search of the delay (:func:`_delay_grid_search`) with a refit of the
-    other parameters at that delay until the delay moves by less than a quarter sample (at
-    most 4 times)."""
+    other parameters at that delay (at most ``max_nfev`` evaluations) until the delay moves by
+    less than a quarter sample (at most ``passes`` times)."""
     current = model
     fit = None
     se = math.nan
     d_prev = -1.0
-    for _ in range(4):
+    for _ in range(passes):
         d, se = _delay_grid_search(spec, current, records, sigma, p)
-        fit = fit_model(spec, current.copy(delay=d), records, sigma=sigma)
+        fit = fit_model(spec, current.copy(delay=d), records, sigma=sigma, max_nfev=max_nfev)
         current = fit.model
         if abs(d - d_prev) < 0.25 * records[0].dt:
             break
@@ -191,7 +191,7 @@ def _alternate_delay(spec: DiagnosisPlant, model: Model, records: Sequence[Recor
 
 
 def _fit_delay(spec: DiagnosisPlant, model: Model, records: Sequence[Record], sigma: dict[str, float],
-               e: Effect, start: Model | None = None) -> FitOutcome:
+               e: Effect, start: Model | None = None, score: float = 1.0) -> FitOutcome:
     """Sensor delay, from a warm and a cold start like the plant effects
     (:func:`_fit_candidate`): the alternation of :func:`_alternate_delay` from the current
     fit, and again from the starting model's parameters (a base fit without the delay may have
@@ -199,9 +199,15 @@ def _fit_delay(spec: DiagnosisPlant, model: Model, records: Sequence[Record], si
     at 0.35 ms for a true 0.86 ms). The start with the lower band-limited score *on the fit
     records* wins (the held-out score's measure, :func:`heldout_nrmse`): the fit NRMSE, which
     is dominated there by broadband sensor noise, preferred the wrong start (0.149 vs 0.157)
-    where the band-limited score tells them apart (0.0149 vs 0.0043)."""
+    where the band-limited score tells them apart (0.0149 vs 0.0043). A hopeless candidate
+    (``score < HOPELESS_SCORE``, as for the plant effects) gets one pass of the warm alternation
+    with a refit of at most ``HOPELESS_NFEV`` evaluations and no cold start."""
     t0 = time.perf_counter()
     p = e.on(spec.name).parameters[0]
+    if score < HOPELESS_SCORE:
+        fit = _alternate_delay(spec, model, records, sigma, p, passes=1, max_nfev=HOPELESS_NFEV)
+        fit.seconds = time.perf_counter() - t0
+        return fit
     fit = _alternate_delay(spec, model, records, sigma, p)
     if start is not None:
         try:

@@ -22,6 +22,12 @@ from identification.diagnosis.models import Model, _channels, _delayed_channels,
 # weights), so 1e-5 stops when a step gains < 1e-5 N/2 (Delta chi^2 < 0.6 on the rodless
 # record): far below one standard error; 1e-8 spent 3-6 more evaluations on cost changes < 0.1
 FIT_TOL = 1e-5
+# a fit rejects trial points whose stiffness bound needs more than this many times the
+# sub-steps of its start (identification.greybox.fit_greybox): the cold Stribeck refit of a
+# rodless record (20 s, hidden underlap) ran to F_S = 312 N at v_S = 0.2 mm/s, 282 sub-steps
+# per ms against 26 at its start, and took 161 s of the run's 204 s -- to a value that is not
+# plausible; the start-grid rule (candidates.START_GRID_MAX_SUBSTEP_RATIO) uses the same factor
+FIT_MAX_SUBSTEP_RATIO = 4.0
 
 
 @dataclasses.dataclass
@@ -53,7 +59,7 @@ def fit_model(spec: DiagnosisPlant, model: Model, records: Sequence[Record], *, 
     off = spec.sensor_offsets if model.offsets is not None else ()
     res = gb.fit_greybox(base, names, exps, _channels(spec), bounds=bounds, sigma=sigma, log_scale=log,
                          max_nfev=max_nfev, tol=FIT_TOL, tie=_tie_function(spec, base, present), jacobian="forward",
-                         offsets=off)
+                         offsets=off, max_substep_ratio=FIT_MAX_SUBSTEP_RATIO)
     params = res.params
     if params is None:  # relation violated: keep the raw values (flagged implausible later)
         params = _raw(base, res.values)

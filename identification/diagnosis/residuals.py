@@ -15,7 +15,7 @@ from identification.diagnosis.catalogue import Effect, effect, effects_for
 from identification.diagnosis.plants import DiagnosisPlant
 from identification.diagnosis.records import Record, velocity_estimate
 from identification.diagnosis.models import BASE_FIT_FACTOR, SENSOR_OFFSETS, DRIFT_FLAG, Model, OFFSET_ESTIMATE_FLAG, _scored, present_effects, with_effect
-from identification.diagnosis.fitting import FitOutcome, _simulate
+from identification.diagnosis.fitting import FIT_MAX_SUBSTEP_RATIO, FitOutcome, _simulate
 
 def effect_channels(spec: DiagnosisPlant, name: str, measured: Sequence[str]) -> tuple[str, ...]:
     """The measured channels an effect acts on: a measuring-chain effect (``kind == "sensor"``)
@@ -165,6 +165,19 @@ def _base_bound_notes(model: Model, stage: str) -> list[str]:
                          "or absorbs an effect it lacks -- if the final model still has it there, give a better base "
                          "model (--base)")
     return notes
+
+
+def _stiffness_cap_notes(fit: Any, stage: str) -> list[str]:
+    """A note when the fit of ``stage`` was held back from stiffer parameter sets
+    (:data:`identification.diagnosis.fitting.FIT_MAX_SUBSTEP_RATIO`): like a parameter on its
+    bound, the base model is far off or absorbs an effect it lacks."""
+    res = getattr(fit, "result", None)
+    if res is None or not getattr(res, "substep_rejections", 0):
+        return []
+    return [f"{stage}: the fit was held back from stiffer parameter sets ({res.substep_rejections} trial point(s) "
+            f"needed more than {FIT_MAX_SUBSTEP_RATIO:g} times its start's RK4 sub-steps; it stopped at "
+            f"{res.n_substeps} per sample): the base model is far off or absorbs an effect it lacks -- if the "
+            "final model is held back too, give a better base model (--base)"]
 
 
 def prediction_residual(spec: DiagnosisPlant, model: Model, records: Sequence[Record], sigma: dict[str, float],

@@ -134,6 +134,7 @@ from identification.diagnosis.fitting import (  # noqa: F401
 )
 from identification.diagnosis.residuals import (  # noqa: F401
     _base_bound_notes,
+    _stiffness_cap_notes,
     _candidates,
     _sensor_notes,
     effect_channels,
@@ -277,6 +278,7 @@ def diagnose(plant: str | DiagnosisPlant, records: Sequence[Record], holdout: Se
                                 f"fitted {_describe_params(spec, cur.model.params)}; the base model carries an "
                                 "effect the data do not support: give a base model without it (--base preset)")
     _check_base_fit(spec, cur, model, records, "fit")
+    base_outcome = cur
     base_model = cur.model
     sigma = dict(cur.result.sigma)
     base_fit = dict(cur.result.values)
@@ -306,7 +308,7 @@ def diagnose(plant: str | DiagnosisPlant, records: Sequence[Record], holdout: Se
             tc = time.perf_counter()
             try:
                 if e.kind == "sensor":
-                    fit = _fit_delay(spec, cur.model, records, sigma, e, start_model)
+                    fit = _fit_delay(spec, cur.model, records, sigma, e, start_model, scores.get(e.name, 0.0))
                 else:
                     fit = _fit_candidate(spec, cur.model, start_model, e.name, records, sigma,
                                          scores.get(e.name, 0.0))
@@ -386,6 +388,9 @@ def diagnose(plant: str | DiagnosisPlant, records: Sequence[Record], holdout: Se
                                  for k in a["parameters"]}
     notes += _sensor_notes(spec, cur, records, sigma)
     notes += _base_bound_notes(base_model, "base fit") + _base_bound_notes(cur.model, "final model")
+    notes += _stiffness_cap_notes(base_outcome, "base fit")
+    if cur is not base_outcome:
+        notes += _stiffness_cap_notes(cur, "final model")
     return DiagnosisResult(spec.name, verdict, accepted, rounds, base_model, cur.model, base_fit, notes,
                            time.perf_counter() - t0, sigma, ambiguous, floor, residual, mismatch, reason, factor)
 
