@@ -2,9 +2,11 @@ r"""Identified friction models for the friction feedforward controllers.
 
 The feedforward controllers never read the plant's friction parameters: they use a model
 identified from a *virtual* constant-velocity experiment on the nominal plant, as a user of the
-suite would on the rig, then fitted either with the static Stribeck law
-(:func:`identification.friction.fit_friction`) or with the neural friction net of 002 sec. 5
-(:func:`identification.neural.fit_feedforward`, 10 tanh units, Levenberg-Marquardt).
+suite would on the rig, then fitted with the static Stribeck law
+(:func:`identification.friction.fit_friction`, kind ``"stribeck"``) or with one of the two
+neural friction nets of 002 sec. 5: the feed-forward net trained by Levenberg-Marquardt
+(:func:`identification.neural.fit_feedforward`, 10 tanh units, kind ``"neural"``) or the RBF
+net (:func:`identification.neural.fit_rbf`, 50 Gaussian units, kind ``"rbf"``).
 
 Experiments (all on the nominal parameter set, ideal sensors):
 
@@ -35,7 +37,7 @@ import numpy as np
 __all__ = ["FRICTION_KINDS", "PerCopyFriction", "friction_plants", "friction_points", "identified_friction",
            "identify_on_draws"]
 
-FRICTION_KINDS = ("stribeck", "neural")
+FRICTION_KINDS = ("stribeck", "neural", "rbf")
 
 
 def _experiments() -> dict:
@@ -69,8 +71,8 @@ def friction_points(plant: str):
 def identified_friction(plant: str, kind: str = "stribeck") -> Any:
     """Friction model ``F = model.predict(v)`` [N] identified on the nominal ``plant``.
 
-    ``kind``: ``"stribeck"`` (static law, see the module docstring) or ``"neural"`` (002 sec. 5
-    feed-forward net, seed 0, 3 restarts).
+    ``kind``: ``"stribeck"`` (static law, see the module docstring), ``"neural"`` (002 sec. 5
+    feed-forward net, seed 0, 3 restarts) or ``"rbf"`` (002 sec. 5 RBF net, seed 0, :func:`_rbf`).
     """
     from identification.friction import fit_friction
     from identification.neural import fit_feedforward
@@ -82,10 +84,21 @@ def identified_friction(plant: str, kind: str = "stribeck") -> Any:
         v, f = pts
         if kind == "stribeck":
             return fit_friction(v, f, model=model, sign_velocity=v_eps)
-        return fit_feedforward(v, f, restarts=3, seed=0)
+        return _rbf(v, f) if kind == "rbf" else fit_feedforward(v, f, restarts=3, seed=0)
     if kind == "stribeck":
         return fit_friction(pts, model=model, sign_velocity=v_eps)
-    return fit_feedforward(pts, restarts=3, seed=0)
+    return _rbf(pts) if kind == "rbf" else fit_feedforward(pts, restarts=3, seed=0)
+
+
+def _rbf(points: Any, force: Any = None) -> Any:
+    """002 sec. 5's RBF net (50 Gaussian units, seed 0) on the virtual experiment's points, with
+    at most half as many units as points: the table and rodless tests give 38-40 points, fewer
+    than the 52 that 50 units and a bias need, and a net with as many weights as points
+    interpolates the test's noise."""
+    from identification.neural import fit_rbf
+
+    n = int(np.asarray(force if force is not None else points.v).size)
+    return fit_rbf(points, force, n_units=max(2, min(50, n // 2)), seed=0)
 
 
 class PerCopyFriction:
@@ -125,8 +138,8 @@ def identify_on_draws(plant: str, params: list[Any], kind: str = "stribeck") -> 
     models, fallback = [], []
     for i, p in enumerate(params):
         (v, f), v_eps, model = experiments[plant](p)
-        if kind == "neural":
-            models.append(fit_feedforward(v, f, restarts=3, seed=0))
+        if kind in ("neural", "rbf"):
+            models.append(_rbf(v, f) if kind == "rbf" else fit_feedforward(v, f, restarts=3, seed=0))
             continue
         try:
             models.append(fit_friction(v, f, model=model, sign_velocity=v_eps))

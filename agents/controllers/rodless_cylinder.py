@@ -27,8 +27,9 @@ for the closed-centre valve) and the flow that builds the pressure difference fo
 (``dF/dt`` term). ``F`` is the identified friction at the reference velocity (preview).
 
 Pressure-difference loop with friction feed-forward (:class:`RodlessPressureLoopController`,
-``pid_dp_stribeck`` / ``pid_dp_neural``). On this axis friction is carried by the air: at steady
-speed ``M ydot' ~ 0`` in eq (18), so ``A (p_a - p_b) = F_f`` and a friction reversal at a velocity
+``pid_dp_stribeck`` / ``pid_dp_neural`` / ``pid_dp_rbf``: the identified Stribeck law, 002 sec. 5's
+feed-forward and RBF nets). On this axis friction is carried by the air: at steady speed
+``M ydot' ~ 0`` in eq (18), so ``A (p_a - p_b) = F_f`` and a friction reversal at a velocity
 reversal needs the pressure difference to swing by ``2 F_f / A`` (1.2 bar for F_s = 35 N, 25 mm
 bore). The chambers hold it through their compressibility (eq (16): ``V_0/(kappa p) dp`` per
 chamber, about 6 mm of equivalent piston travel at mid-stroke), so the slider stands still while
@@ -282,6 +283,8 @@ def controllers() -> dict:
             model=identified_friction(PLANT, "stribeck")),
         "pid_dp_neural": lambda: RodlessPressureLoopController.from_params(
             model=identified_friction(PLANT, "neural")),
+        "pid_dp_rbf": lambda: RodlessPressureLoopController.from_params(
+            model=identified_friction(PLANT, "rbf")),
         "pid_dp_stribeck_cal": RodlessCalibratedPressureLoopController.from_params,
         "pid_dp_dob": RodlessObserverPressureLoopController.from_params,
     }

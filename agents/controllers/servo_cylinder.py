@@ -294,6 +294,8 @@ def controllers() -> dict:
             model=identified_friction(PLANT, "stribeck")),
         "pid_vff_neural": lambda: PIDModelFeedforwardController.from_params(
             model=identified_friction(PLANT, "neural")),
+        "pid_vff_rbf": lambda: PIDModelFeedforwardController.from_params(
+            model=identified_friction(PLANT, "rbf")),
         "flow": ServoFlowController,
     }
 
