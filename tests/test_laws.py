@@ -35,6 +35,7 @@ from hydro_envs.laws import (
     modified_ifas_shape,
     modified_ifas_shape_is_valid,
     orifice_flow,
+    supply_pressure_at_flow,
     pneumatic_critical_ratio,
     pneumatic_mass_flow,
     pneumatic_mass_flow_laminar,
@@ -309,6 +310,30 @@ def test_orifice_flow_hand_value_002():
     assert orifice_flow(0.6, 5.78925e-6, 6.9e6, 847.0, 1e5) == pytest.approx(q, rel=1e-4)
     assert orifice_flow(0.6, 5.78925e-6, -6.9e6, 847.0, 1e5) == pytest.approx(-q, rel=1e-4)
     assert orifice_flow(0.6, 5.78925e-6, 0.0, 847.0, 1e5) == 0.0
+
+
+def test_supply_pressure_at_flow_closes_the_loop_equation():
+    """The port pressure p solves p = p_s - R Q(p) with Q the turbulent edge flow; R = 0, a
+    closed edge or a reversed drop leave p_s; a larger resistance lowers p towards p_down."""
+    ps, pd, cd, a, rho = 13.9e6, 7e6, 0.6, 5.78925e-6, 847.0
+    assert supply_pressure_at_flow(ps, pd, cd, a, rho, 0.0) == ps
+    assert supply_pressure_at_flow(ps, pd, cd, 0.0, rho, 5e9) == ps
+    assert supply_pressure_at_flow(ps, ps + 1e5, cd, a, rho, 5e9) == ps
+    last = ps
+    for r in (1e9, 5e9, 2e10, 1e11):
+        p = supply_pressure_at_flow(ps, pd, cd, a, rho, r)
+        q = orifice_flow(cd, a, p - pd, rho, 0.0)
+        assert p == pytest.approx(ps - r * q, rel=1e-12)
+        assert pd < p < last
+        last = p
+    # 5e9 Pa s/m^3 at full opening of the 002 valve: the edge drop falls from 6.9 MPa to the
+    # root of dp + R k sqrt(dp) = 6.9 MPa, k = cd a sqrt(2/rho) = 1.6879e-7, R k = 843.95:
+    # sqrt(dp) = (-843.95 + sqrt(843.95^2 + 4 * 6.9e6)) / 2 = 2238.5, dp = 5.011 MPa
+    p = supply_pressure_at_flow(ps, pd, cd, a, rho, 5e9)
+    k = cd * a * math.sqrt(2 / rho)
+    dp = p - pd
+    assert dp + 5e9 * k * math.sqrt(dp) == pytest.approx(ps - pd, rel=1e-12)
+    assert dp == pytest.approx(5.011e6, rel=1e-3)
 
 
 def test_spool_edge_and_underlap_003_eq3():

@@ -20,6 +20,7 @@ friction (:mod:`hydro_envs.laws.friction`)
 orifice (:mod:`hydro_envs.laws.orifice`)
     regularized_signed_sqrt(dp, dp_tr)                Modelica regRoot / Hopsan (NOTES.md)
     orifice_flow(cd, area, dp, rho, dp_tr)            002 eqs (3)-(4), 003 eqs (1)-(2)
+    supply_pressure_at_flow(p_s, p_down, cd, area, rho, r_line)  supply droop (assumed linear)
     spool_edge_opening(x_v, x_lap)                    Hopsan valve laps (NOTES.md)
     underlap_orifice_opening(x_v, u_lap)              003 eq (3)
     circular_orifice_area(x, r)                       004 eq (2)
@@ -118,6 +119,7 @@ from hydro_envs.laws.orifice import (
     pneumatic_mass_flow_laminar,
     regularized_signed_sqrt,
     spool_edge_opening,
+    supply_pressure_at_flow,
     underlap_orifice_opening,
 )
 from hydro_envs.laws.pipe import (
@@ -162,6 +164,7 @@ __all__ = [
     "regularized_signed_sqrt",
     "orifice_flow",
     "spool_edge_opening",
+    "supply_pressure_at_flow",
     "underlap_orifice_opening",
     "circular_orifice_area",
     "pneumatic_critical_ratio",

@@ -77,6 +77,34 @@ def orifice_flow(cd, area, dp, rho, dp_tr):
 
 
 @numba.njit(cache=True, error_model="numpy")
+def supply_pressure_at_flow(p_s, p_down, cd, area, rho, r_line):
+    """Pressure at a valve's supply port when its metering edge draws flow through a supply
+    line of linear resistance ``r_line``: ``p = p_s - r_line Q`` with
+    ``Q = cd area sqrt(2 (p - p_down) / rho)`` (the turbulent edge of :func:`orifice_flow`),
+    solved in closed form::
+
+        k = cd area sqrt(2 / rho),   Q = (sqrt(k^4 r^2 + 4 k^2 (p_s - p_down)) - k^2 r) / 2
+
+    ``r_line = 0`` (a stiff supply), a closed edge or no forward drop (``p_s <= p_down``, the
+    edge then feeds back into the supply) return ``p_s``.
+
+    Units: p_s, p_down [Pa], cd [-], area [m^2], rho [kg/m^3], r_line [Pa s/m^3] -> [Pa].
+    Source: a supply whose pressure falls in proportion to the drawn flow: the laminar
+    (Hagen-Poiseuille) resistance ``128 mu L / (pi d^4)`` of a long supply hose, or the droop
+    of a pump's pressure compensator. The servo-valve flow law (002 eqs (3)-(4)) assumes a
+    constant p_s, which a real supply holds only up to its rated flow; the linear droop is
+    assumed.
+    """
+    dp = p_s - p_down
+    if r_line <= 0.0 or area <= 0.0 or dp <= 0.0:
+        return p_s
+    k = cd * area * math.sqrt(2.0 / rho)
+    kk = k * k
+    q = 0.5 * (math.sqrt(kk * kk * r_line * r_line + 4.0 * kk * dp) - kk * r_line)
+    return p_s - r_line * q
+
+
+@numba.njit(cache=True, error_model="numpy")
 def spool_edge_opening(x_v, x_lap):
     """Opening of one metering edge of a lapped spool, Hopsan style.
 

@@ -189,6 +189,14 @@ _EFFECTS: list[Effect] = [
         "and free (flow gain)",
     ),
     Effect(
+        "supply_droop", "Supply pressure droop with flow",
+        "the valve delivers less flow than the orifice law at a constant supply pressure when it "
+        "draws much flow: velocity gain lost at large openings in both directions, the supply-side "
+        "chamber pressure lower while moving fast (residual grows with |command| and |velocity|)",
+        separating_experiment="a pressure gauge on the valve's P port during fast full-opening moves: "
+        "a stiff supply holds p_s, a drooping one falls with the flow; valve lap acts near null instead",
+    ),
+    Effect(
         "valve_dynamics", "Valve dynamics (finite spool bandwidth)",
         "phase lag and gain loss of the response to fast commands in every channel (residual "
         "vs frequency rising with frequency)",

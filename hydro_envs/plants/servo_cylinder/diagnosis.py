@@ -102,6 +102,13 @@ _EFFECTS = {
         null={"valve_overlap": 0.0},
         source="Hopsan lap convention max(+-xv - x_lap, 0); 003 eq (3) underlap U; servo-valve "
         "laps of 1-3 % of a 0.279 mm spool stroke (draws: overlap of 7-18 %)"),
+    "supply_droop": dict(
+        parameters=(dict(field="supply_line_resistance", bounds=(1e8, 1e12), start=5e9, draw=(1e10, 4e10),
+                         plausible=(1e8, 1e11)),),
+        null={"supply_line_resistance": 0.0},
+        source="hydro_envs.laws.orifice.supply_pressure_at_flow (assumed linear droop); draws: 1-4 MPa "
+        "(7-29 % of the 13.8 MPa supply) at 1e-4 m^3/s, the 99th-percentile flow of the test records "
+        "(0.15 m/s); plausible up to 1e11 (a 10 MPa drop at that flow: the rig no longer works)"),
     "valve_dynamics": dict(
         parameters=(dict(field="valve_natural_frequency", bounds=(60.0, 6000.0), start=2 * math.pi * 100,
                          draw=(2 * math.pi * 50, 2 * math.pi * 120)),),

@@ -40,6 +40,9 @@ diagnosis workflow, :mod:`identification.diagnosis`, when measured data call for
     external_leakage C_el: Q_i -= C_el (p_i - p_R)                          (as 003 eqs (4)-(5))
     friction_asymmetry a, friction_pressure_coefficient c_p: both Stribeck levels of (1) become
         (1 + a tanh(v/v_eps)) (F + c_p |p1 - p2|)
+    supply_line_resistance R_s: the P edge sees p_s - R_s Q_P instead of p_s (supply droop with
+        the drawn flow, hydro_envs.laws.orifice.supply_pressure_at_flow; with an underlapped
+        spool near null, where both P edges are open, from the wider edge's flow)
 
 Decisions on the extracted text (see ``shared/seeds/README.md``):
 
@@ -68,11 +71,11 @@ import numpy as np
 
 from hydro_envs.laws.contact import end_stop_force
 from hydro_envs.laws.friction import stribeck_exponential
-from hydro_envs.laws.orifice import orifice_flow, spool_edge_opening
+from hydro_envs.laws.orifice import orifice_flow, spool_edge_opening, supply_pressure_at_flow
 from hydro_envs.laws.valve import second_order_valve_acceleration
 from hydro_envs.plants.servo_cylinder.params import (  # noqa: F401  (indices re-exported)
     I_A, I_ASTOP, I_CD, I_CEL, I_CIL, I_D, I_DPTR, I_FASYM, I_FC, I_FL, I_FPC, I_FS, I_KSTOP, I_KV, I_L,
-    I_LAP, I_M, I_PFLOOR, I_PS, I_PT, I_RHO, I_UMAX, I_V1, I_V2, I_VEPS, I_VMIN, I_VS, I_W, I_WV, I_XVM,
+    I_LAP, I_M, I_PFLOOR, I_PS, I_PT, I_RHO, I_RS, I_UMAX, I_V1, I_V2, I_VEPS, I_VMIN, I_VS, I_W, I_WV, I_XVM,
     I_ZV, I_BETA, N_PARAMS, PLANT, ServoCylinderParams,
 )
 
@@ -120,23 +123,32 @@ def servo_cylinder_rhs(y, u, p, dy):
     dptr = p[I_DPTR]
     w = p[I_W]
     lap = p[I_LAP]
+    r_s = p[I_RS]
     if lap == 0.0:
         # Critical lap (the seed's valve): only the two edges on the side the spool moved to
         # are open, so only they are evaluated: Q1 into chamber 1 (3), Q2 into chamber 2 (4).
         if xo >= 0.0:  # P -> 1 and 2 -> T open, area w * xo
-            q1 = orifice_flow(cd, w * xo, ps - p1, rho, dptr)  # (3)
+            ps1 = ps if r_s == 0.0 else supply_pressure_at_flow(ps, p1, cd, w * xo, rho, r_s)
+            q1 = orifice_flow(cd, w * xo, ps1 - p1, rho, dptr)  # (3)
             q2 = -orifice_flow(cd, w * xo, p2 - pt, rho, dptr)  # (4)
         else:  # P -> 2 and 1 -> T open, area w * |xo|
+            ps2 = ps if r_s == 0.0 else supply_pressure_at_flow(ps, p2, cd, -w * xo, rho, r_s)
             q1 = -orifice_flow(cd, -w * xo, p1 - pt, rho, dptr)  # (3)
-            q2 = orifice_flow(cd, -w * xo, ps - p2, rho, dptr)  # (4)
+            q2 = orifice_flow(cd, -w * xo, ps2 - p2, rho, dptr)  # (4)
     else:
         # Lapped spool: each of the four edges opens by max(+-xo - lap, 0) (Hopsan laps).
         a_p1 = w * spool_edge_opening(xo, lap)  # P -> 1
         a_2t = w * spool_edge_opening(xo, lap)  # 2 -> T
         a_p2 = w * spool_edge_opening(-xo, lap)  # P -> 2
         a_1t = w * spool_edge_opening(-xo, lap)  # 1 -> T
-        q1 = orifice_flow(cd, a_p1, ps - p1, rho, dptr) - orifice_flow(cd, a_1t, p1 - pt, rho, dptr)
-        q2 = orifice_flow(cd, a_p2, ps - p2, rho, dptr) - orifice_flow(cd, a_2t, p2 - pt, rho, dptr)
+        ps_v = ps
+        if r_s != 0.0:  # the supply drop of the wider P edge (both are open only near null)
+            if a_p1 >= a_p2:
+                ps_v = supply_pressure_at_flow(ps, p1, cd, a_p1, rho, r_s)
+            else:
+                ps_v = supply_pressure_at_flow(ps, p2, cd, a_p2, rho, r_s)
+        q1 = orifice_flow(cd, a_p1, ps_v - p1, rho, dptr) - orifice_flow(cd, a_1t, p1 - pt, rho, dptr)
+        q2 = orifice_flow(cd, a_p2, ps_v - p2, rho, dptr) - orifice_flow(cd, a_2t, p2 - pt, rho, dptr)
     # Seal leaks (0 in the seed): cross-piston 1 -> 2 and each chamber to tank.
     q_il = p[I_CIL] * (p1 - p2)
     q1 -= q_il + p[I_CEL] * (p1 - pt)

@@ -125,6 +125,12 @@ class ServoCylinderParams(PhysicalParams):
         "c_p |p1 - p2| (piston seal pressed by the pressure difference; seal data in "
         "tests/data/pneumatic_seal_friction rise 5.4 -> 16.8 N from 1 to 7 bar)",
     )
+    supply_line_resistance: float = physical(
+        0.0, "Pa s/m^3", (0.0, 1e12),
+        "002 eqs (3)-(4): constant supply pressure (0); the pressure at the valve's P port falls by "
+        "R Q with the drawn flow Q (supply hose, pump compensator droop; "
+        "hydro_envs.laws.orifice.supply_pressure_at_flow)",
+    )
 
     def _check_relations(self) -> None:
         if self.static_friction < self.coulomb_friction:
@@ -149,8 +155,9 @@ class ServoCylinderParams(PhysicalParams):
 (
     I_PS, I_PT, I_M, I_A, I_L, I_V1, I_V2, I_RHO, I_BETA, I_CD, I_W, I_XVM, I_KV, I_WV,
     I_ZV, I_UMAX, I_D, I_FC, I_FS, I_VS, I_VEPS, I_FL, I_KSTOP, I_ASTOP, I_DPTR, I_PFLOOR,
-    I_VMIN, I_LAP, I_CIL, I_CEL, I_FASYM, I_FPC,
-) = range(32)
+    I_VMIN, I_LAP, I_CIL, I_CEL, I_FASYM, I_FPC, I_RS,
+) = range(33)
 assert ServoCylinderParams.names()[I_VMIN] == "min_chamber_volume"
 assert ServoCylinderParams.names()[I_FPC] == "friction_pressure_coefficient"
-N_PARAMS = 32
+assert ServoCylinderParams.names()[I_RS] == "supply_line_resistance"
+N_PARAMS = 33
