@@ -8,7 +8,8 @@ the whole catalogue on one 20 s record.
 For every plant, every applicable catalogue effect and ``--seeds`` seeds it draws the effect's
 parameters inside the catalogue's draw range, records closed-loop data with realistic sensor
 noise (identification.diagnosis.synthetic), runs the workflow from the base model and prints
-the confusion matrix (true effect x named effect) and the three rates:
+the confusion matrix (true effect x named effect), the relative error of every fitted effect
+parameter against its drawn value (cases where the effect was named) and the three rates:
 top-1 (hidden effect named first), none (effect-free data -> "none") and shrink (held-out
 NRMSE falls by >= 50 % when an effect is named; over the channels the effect acts on, see
 identification.diagnosis.workflow.effect_channels).
@@ -46,9 +47,13 @@ def run_case(plant: str, eff: str | None, seed: int, duration: float, max_effect
     # the first effect named (also under an unexplained verdict); else the verdict
     named = res.effects[0]["name"] if res.effects else res.verdict
     shrink = res.effects[0]["shrink"] if res.effects else float("nan")
+    # the final model's values of the hidden effect's parameters, when it was named
+    hit = [e for e in res.effects if e["name"] == eff]
+    fitted = {k: float(v) for k, v in hit[0]["final_parameters"].items()} if hit else {}
     floors = max(res.residual[-1]["floors"].values(), default=float("nan")) if res.residual else float("nan")
     return {"plant": plant, "true": eff or "none", "named": named, "shrink": shrink, "verdict": res.verdict,
-            "floors": floors, "seconds": time.perf_counter() - t0, "detail": res.ambiguous, "drawn": case.drawn}
+            "floors": floors, "seconds": time.perf_counter() - t0, "detail": res.ambiguous, "drawn": case.drawn,
+            "fitted": fitted}
 
 
 def case_row(plant: str, eff: str | None, seed: int, duration: float, max_effects: int,
@@ -59,7 +64,7 @@ def case_row(plant: str, eff: str | None, seed: int, duration: float, max_effect
         return run_case(plant, eff, seed, duration, max_effects, candidates)
     except Exception as err:  # noqa: BLE001
         return {"plant": plant, "true": eff or "none", "named": "error", "shrink": float("nan"),
-                "seconds": 0.0, "detail": f"{type(err).__name__}: {err}", "drawn": {}}
+                "seconds": 0.0, "detail": f"{type(err).__name__}: {err}", "drawn": {}, "fitted": {}}
 
 
 def cases(plants, seeds, seed0=0) -> list[tuple[str, str | None, int]]:
@@ -122,6 +127,41 @@ def print_confusion(rows) -> None:
             print(f"{t:{w}s}" + "".join(f"{c:11d}" for c in cnt))
 
 
+#: the unbiasedness target of the fitted effect parameters: within this fraction of the truth
+BIAS_TOL = 0.15
+
+
+def fitted_errors(rows) -> list[dict]:
+    """One row per (plant, effect, parameter) over the cases whose hidden effect was named: the
+    number of cases, the median and the largest relative error of the final model's value
+    against the drawn one, and how many lie within ``BIAS_TOL``."""
+    acc: dict[tuple[str, str, str], list[float]] = {}
+    for r in rows:
+        for k, truth in r.get("drawn", {}).items():
+            if k in r.get("fitted", {}) and truth != 0:
+                acc.setdefault((r["plant"], r["true"], k), []).append(r["fitted"][k] / truth - 1.0)
+    out = []
+    for (plant, eff, k), errs in sorted(acc.items()):
+        e = np.array(errs)
+        out.append({"plant": plant, "effect": eff, "parameter": k, "n": e.size, "median": float(np.median(e)),
+                    "worst": float(e[np.argmax(np.abs(e))]), "within": int(np.sum(np.abs(e) <= BIAS_TOL))})
+    return out
+
+
+def print_fitted_errors(rows) -> None:
+    table = fitted_errors(rows)
+    if not table:
+        return
+    print(f"\nfitted effect parameters against the drawn truth (cases where the effect was named; target: "
+          f"within {BIAS_TOL:.0%})")
+    print(f"{'plant':20s} {'effect':20s} {'parameter':30s} {'n':>3s} {'median':>8s} {'worst':>8s} within")
+    for t in table:
+        print(f"{t['plant']:20s} {t['effect']:20s} {t['parameter']:30s} {t['n']:3d} {t['median']:+8.1%} "
+              f"{t['worst']:+8.1%} {t['within']}/{t['n']}")
+    n = sum(t["n"] for t in table)
+    print(f"within {BIAS_TOL:.0%}: {sum(t['within'] for t in table)} of {n} fitted values")
+
+
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--plants", default=",".join(PLANTS), help="comma-separated (default: every diagnosis plant)")
@@ -143,6 +183,7 @@ def main(argv=None) -> None:
                   address=a.ray_address, num_cpus=a.num_cpus)
     wall = time.perf_counter() - t0
     print_confusion(rows)
+    print_fitted_errors(rows)
     s = summary(rows)
     print(f"\ntop-1 named: {s['top1']:.1%} of {s['n_effect']} hidden-effect cases (target >= 95 %)")
     print(f"none on effect-free data: {s['none']:.1%} of {s['n_none']} (target >= 95 %)")
