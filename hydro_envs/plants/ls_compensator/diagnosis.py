@@ -79,9 +79,11 @@ BASES = {
         # the kernel's input vector: p1 and its rate until the next update (held at 0)
         kernel_inputs=2,
         sensor_offsets=("p2",),
-        # verdict unexplained above 32 noise floors: the correct model (hidden LVDT lag, named) left 16
-        # floors on x (measured on one 5 s record)
-        unexplained_factor=32.0,
+        # verdict unexplained above 80 noise floors, twice the largest a correct model left: 30-40
+        # floors on x on eleven effect-free 8 s records (bench seeds 3000-3010; start-state errors
+        # of the 0.25 s windows, which the white-noise floor does not count), 16 with the hidden
+        # LVDT lag named (one 5 s record). 32, from that one record, called 5 of the 11 unexplained
+        unexplained_factor=80.0,
         effects=_EFFECTS,
     ),
 }
