@@ -197,9 +197,13 @@ class _Evaluator:
         self.njev = 0
         self.last: dict[str, Any] = {}
 
-    def nsub_for(self, P: np.ndarray) -> int:
+    def nsub_for(self, P: np.ndarray, need: int | None = None) -> int:
+        """Sub-steps for the copies ``P`` (``need``: their stiffness bound's, if known)."""
         prob = self.prob
-        n = max(self.nsub, prob.nsub(P)) if prob.fixed_nsub is None else prob.fixed_nsub
+        if prob.fixed_nsub is not None:
+            n = prob.fixed_nsub
+        else:
+            n = max(self.nsub, prob.nsub(P) if need is None else need)
         if self.cap is not None:
             n = min(n, self.cap)  # Jacobian copies next to the cap: integrated at the cap
         self.nsub = n
@@ -213,12 +217,13 @@ class _Evaluator:
         self.nfev += 1
         self._tick()
         P = self.prob.param_arrays(theta[None, :])
-        if self.cap is not None and "r" in self.last and self.prob.nsub(P) > self.cap:
+        need = self.prob.nsub(P) if self.cap is not None else None
+        if need is not None and "r" in self.last and need > self.cap:
             # stiffer than the cap allows: a residual far above the last one, so the solver
             # rejects the step and shrinks its trust region
             self.rejected += 1
             return 1e3 * self.last["r"] + 1e3
-        n = self.nsub_for(P)
+        n = self.nsub_for(P, need)
         r, _ = self.prob.residuals(P, n)
         self.last.update(theta=theta.copy(), r=r[0], nsub=n)
         return r[0]

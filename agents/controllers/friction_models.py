@@ -72,10 +72,9 @@ def identified_friction(plant: str, kind: str = "stribeck") -> Any:
     """Friction model ``F = model.predict(v)`` [N] identified on the nominal ``plant``.
 
     ``kind``: ``"stribeck"`` (static law, see the module docstring), ``"neural"`` (002 sec. 5
-    feed-forward net, seed 0, 3 restarts) or ``"rbf"`` (002 sec. 5 RBF net, seed 0, :func:`_rbf`).
+    feed-forward net, seed 0, 3 restarts) or ``"rbf"`` (002 sec. 5 RBF net, seed 0, :func:`_fit_net`).
     """
     from identification.friction import fit_friction
-    from identification.neural import fit_feedforward
 
     if kind not in FRICTION_KINDS:
         raise ValueError(f"kind = {kind!r}; allowed {FRICTION_KINDS}")
@@ -84,19 +83,22 @@ def identified_friction(plant: str, kind: str = "stribeck") -> Any:
         v, f = pts
         if kind == "stribeck":
             return fit_friction(v, f, model=model, sign_velocity=v_eps)
-        return _rbf(v, f) if kind == "rbf" else fit_feedforward(v, f, restarts=3, seed=0)
+        return _fit_net(kind, v, f)
     if kind == "stribeck":
         return fit_friction(pts, model=model, sign_velocity=v_eps)
-    return _rbf(pts) if kind == "rbf" else fit_feedforward(pts, restarts=3, seed=0)
+    return _fit_net(kind, pts)
 
 
-def _rbf(points: Any, force: Any = None) -> Any:
-    """002 sec. 5's RBF net (50 Gaussian units, seed 0) on the virtual experiment's points, with
-    at most half as many units as points: the table and rodless tests give 38-40 points, fewer
+def _fit_net(kind: str, points: Any, force: Any = None) -> Any:
+    """One of 002 sec. 5's nets on the virtual experiment's points: ``"neural"`` the
+    feed-forward net (seed 0, 3 restarts), ``"rbf"`` the RBF net (seed 0) with at most half as
+    many units as points (50 in the paper): the table and rodless tests give 38-40 points, fewer
     than the 52 that 50 units and a bias need, and a net with as many weights as points
     interpolates the test's noise."""
-    from identification.neural import fit_rbf
+    from identification.neural import fit_feedforward, fit_rbf
 
+    if kind == "neural":
+        return fit_feedforward(points, force, restarts=3, seed=0)
     n = int(np.asarray(force if force is not None else points.v).size)
     return fit_rbf(points, force, n_units=max(2, min(50, n // 2)), seed=0)
 
@@ -126,7 +128,6 @@ def identify_on_draws(plant: str, params: list[Any], kind: str = "stribeck") -> 
     that copy gets the Coulomb-viscous fit instead (listed in ``coulomb_viscous_copies``). The plant's controller module must accept
     ``friction_points(params)``."""
     from identification.friction import fit_friction
-    from identification.neural import fit_feedforward
 
     if kind not in FRICTION_KINDS:
         raise ValueError(f"kind = {kind!r}; allowed {FRICTION_KINDS}")
@@ -138,8 +139,8 @@ def identify_on_draws(plant: str, params: list[Any], kind: str = "stribeck") -> 
     models, fallback = [], []
     for i, p in enumerate(params):
         (v, f), v_eps, model = experiments[plant](p)
-        if kind in ("neural", "rbf"):
-            models.append(_rbf(v, f) if kind == "rbf" else fit_feedforward(v, f, restarts=3, seed=0))
+        if kind != "stribeck":
+            models.append(_fit_net(kind, v, f))
             continue
         try:
             models.append(fit_friction(v, f, model=model, sign_velocity=v_eps))

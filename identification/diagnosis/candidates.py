@@ -21,7 +21,7 @@ from identification.diagnosis.catalogue import Effect, effect
 from identification.diagnosis.plants import DiagnosisPlant
 from identification.diagnosis.records import Record
 from identification.diagnosis.models import BOUND_TOL, COLD_START_SCORE, HOPELESS_NFEV, HOPELESS_SCORE, MAX_REL_SE, Model, _fit_names, _replace_tied, _scored, present_effects, with_effect
-from identification.diagnosis.fitting import FitOutcome, _mean, _simulate, fit_model, heldout_nrmse
+from identification.diagnosis.fitting import FIT_MAX_SUBSTEP_RATIO, FitOutcome, _mean, _simulate, fit_model, heldout_nrmse
 from identification.diagnosis.residuals import signature_scores
 
 def _round_scores(spec: DiagnosisPlant, current: Model, start: Model, records: Sequence[Record],
@@ -104,11 +104,10 @@ def _weighted_costs(spec: DiagnosisPlant, models: Sequence[Model], records: Sequ
 
 # points per parameter of the start grid of a cold refit (1, 2, >= 3 parameters)
 START_GRID_POINTS = (9, 5, 3)
-# grid points whose stiffness bound needs more than this many times the sub-steps of the fit
-# they try to improve are skipped: a static friction 14 times the Coulomb level on the rodless
-# cylinder needs 195 sub-steps per ms against the fit's 26, costing more than the rest of the
-# grid, at a value no refit from it would keep
-START_GRID_MAX_SUBSTEP_RATIO = 4.0
+# grid points whose stiffness bound needs more than FIT_MAX_SUBSTEP_RATIO times the sub-steps of
+# the fit they try to improve are skipped, as a fit rejects such trial points: a static friction
+# 14 times the Coulomb level on the rodless cylinder needs 195 sub-steps per ms against the fit's
+# 26, costing more than the rest of the grid, at a value no refit from it would keep
 
 
 def _grid_start(spec: DiagnosisPlant, model: Model, name: str, records: Sequence[Record],
@@ -141,7 +140,7 @@ def _grid_start(spec: DiagnosisPlant, model: Model, name: str, records: Sequence
             m = with_effect(spec, model, name, vals)
         except ParameterError:  # e.g. a static level below the Coulomb level
             continue
-        if substeps(plant, m.params, dt) > START_GRID_MAX_SUBSTEP_RATIO * n_fit:
+        if substeps(plant, m.params, dt) > FIT_MAX_SUBSTEP_RATIO * n_fit:
             continue
         models.append(m)
         values.append(vals)

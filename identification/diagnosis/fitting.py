@@ -26,7 +26,7 @@ FIT_TOL = 1e-5
 # sub-steps of its start (identification.greybox.fit_greybox): the cold Stribeck refit of a
 # rodless record (20 s, hidden underlap) ran to F_S = 312 N at v_S = 0.2 mm/s, 282 sub-steps
 # per ms against 26 at its start, and took 161 s of the run's 204 s -- to a value that is not
-# plausible; the start-grid rule (candidates.START_GRID_MAX_SUBSTEP_RATIO) uses the same factor
+# plausible; the start grid of a cold refit (candidates._grid_start) skips such points too
 FIT_MAX_SUBSTEP_RATIO = 4.0
 
 

@@ -167,12 +167,12 @@ def _base_bound_notes(model: Model, stage: str) -> list[str]:
     return notes
 
 
-def _stiffness_cap_notes(fit: Any, stage: str) -> list[str]:
+def _stiffness_cap_notes(fit: FitOutcome, stage: str) -> list[str]:
     """A note when the fit of ``stage`` was held back from stiffer parameter sets
     (:data:`identification.diagnosis.fitting.FIT_MAX_SUBSTEP_RATIO`): like a parameter on its
     bound, the base model is far off or absorbs an effect it lacks."""
-    res = getattr(fit, "result", None)
-    if res is None or not getattr(res, "substep_rejections", 0):
+    res = fit.result
+    if res is None or not res.substep_rejections:
         return []
     return [f"{stage}: the fit was held back from stiffer parameter sets ({res.substep_rejections} trial point(s) "
             f"needed more than {FIT_MAX_SUBSTEP_RATIO:g} times its start's RK4 sub-steps; it stopped at "

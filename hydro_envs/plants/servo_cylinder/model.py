@@ -128,11 +128,11 @@ def servo_cylinder_rhs(y, u, p, dy):
         # Critical lap (the seed's valve): only the two edges on the side the spool moved to
         # are open, so only they are evaluated: Q1 into chamber 1 (3), Q2 into chamber 2 (4).
         if xo >= 0.0:  # P -> 1 and 2 -> T open, area w * xo
-            ps1 = ps if r_s == 0.0 else supply_pressure_at_flow(ps, p1, cd, w * xo, rho, r_s)
+            ps1 = supply_pressure_at_flow(ps, p1, cd, w * xo, rho, r_s)  # p_s itself for R_s = 0
             q1 = orifice_flow(cd, w * xo, ps1 - p1, rho, dptr)  # (3)
             q2 = -orifice_flow(cd, w * xo, p2 - pt, rho, dptr)  # (4)
         else:  # P -> 2 and 1 -> T open, area w * |xo|
-            ps2 = ps if r_s == 0.0 else supply_pressure_at_flow(ps, p2, cd, -w * xo, rho, r_s)
+            ps2 = supply_pressure_at_flow(ps, p2, cd, -w * xo, rho, r_s)
             q1 = -orifice_flow(cd, -w * xo, p1 - pt, rho, dptr)  # (3)
             q2 = orifice_flow(cd, -w * xo, ps2 - p2, rho, dptr)  # (4)
     else:
@@ -141,12 +141,11 @@ def servo_cylinder_rhs(y, u, p, dy):
         a_2t = w * spool_edge_opening(xo, lap)  # 2 -> T
         a_p2 = w * spool_edge_opening(-xo, lap)  # P -> 2
         a_1t = w * spool_edge_opening(-xo, lap)  # 1 -> T
-        ps_v = ps
-        if r_s != 0.0:  # the supply drop of the wider P edge (both are open only near null)
-            if a_p1 >= a_p2:
-                ps_v = supply_pressure_at_flow(ps, p1, cd, a_p1, rho, r_s)
-            else:
-                ps_v = supply_pressure_at_flow(ps, p2, cd, a_p2, rho, r_s)
+        # the supply drop of the wider P edge (both are open only near null)
+        if a_p1 >= a_p2:
+            ps_v = supply_pressure_at_flow(ps, p1, cd, a_p1, rho, r_s)
+        else:
+            ps_v = supply_pressure_at_flow(ps, p2, cd, a_p2, rho, r_s)
         q1 = orifice_flow(cd, a_p1, ps_v - p1, rho, dptr) - orifice_flow(cd, a_1t, p1 - pt, rho, dptr)
         q2 = orifice_flow(cd, a_p2, ps_v - p2, rho, dptr) - orifice_flow(cd, a_2t, p2 - pt, rho, dptr)
     # Seal leaks (0 in the seed): cross-piston 1 -> 2 and each chamber to tank.
