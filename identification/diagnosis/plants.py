@@ -89,6 +89,12 @@ class DiagnosisPlant:
     # name of the estimator (identification.diagnosis.base_estimates.ESTIMATORS) that reads the
     # base model's calibration (mass, damping, stroke) off the records when no preset is given
     base_from_data: str | None = None
+    # unmeasured states implied by a record: ``(params, smoothed channels, inputs, dt) ->
+    # {name: per-sample values}``, evaluated for the parameters being simulated and passed to
+    # ``initial_state`` under ``name`` at each window start (the rodless cylinder's chamber
+    # temperatures); None: the rest state's values
+    hidden_states: Callable[[PhysicalParams, Mapping[str, np.ndarray], np.ndarray, float],
+                            Mapping[str, np.ndarray]] | None = None
 
     @property
     def params_cls(self) -> type:

@@ -190,8 +190,9 @@ def segments(records: Sequence[Record], spec: DiagnosisPlant, *, delay: float = 
     """Free-run windows (greybox experiments) tiling each record in steps of ``seconds``
     (default ``spec.segment_seconds``). Each window starts ``warmup`` (default
     ``spec.warmup_seconds``) earlier from the state estimated from the (delay-corrected,
-    smoothed) measurements; the warm-up samples have weight 0, so the transient of an
-    imperfect start state (unmeasured valve state, velocity estimate) is not scored."""
+    smoothed) measurements and the unmeasured states the record implies for the parameters
+    simulated (``spec.hidden_states``); the warm-up samples have weight 0, so the transient of
+    an imperfect start state (unmeasured valve state, velocity estimate) is not scored."""
     seconds = spec.segment_seconds if seconds is None else seconds
     warmup = spec.warmup_seconds if warmup is None else warmup
     exps = []
@@ -207,6 +208,7 @@ def segments(records: Sequence[Record], spec: DiagnosisPlant, *, delay: float = 
         kw = int(round(warmup / r.dt))
         trim = int(math.ceil(delay / r.dt)) if delay > 0 else 0
         n_use = r.n - trim
+        hidden = _HiddenTrack(spec, smooth, r.inputs, r.dt) if spec.hidden_states is not None else None
         for k1 in range(kw, n_use - m + 1, m):
             k0 = k1 - kw
             sl = slice(k0, k1 + m)
@@ -223,12 +225,34 @@ def segments(records: Sequence[Record], spec: DiagnosisPlant, *, delay: float = 
             if u.shape[1] < spec.kernel_inputs:  # kernel inputs beyond the measured ones are 0
                 u = np.hstack([u, np.zeros((u.shape[0], spec.kernel_inputs - u.shape[1]))])
             exps.append(Experiment(
-                dt=r.dt, u=u, y0=_initial(spec, start),
+                dt=r.dt, u=u, y0=_initial(spec, start, hidden, k0),
                 outputs=outs, name=f"{r.name}@{k1 * r.dt:.2f}s", weights=w, group=f"record {i_rec}"))
     return exps
 
 
-def _initial(spec: DiagnosisPlant, start: Mapping[str, float]):
+class _HiddenTrack:
+    """``spec.hidden_states`` of one record, evaluated per parameter set (the last few kept: a
+    fit asks for the same set once per window)."""
+
+    def __init__(self, spec: DiagnosisPlant, channels: Mapping[str, np.ndarray], inputs: np.ndarray,
+                 dt: float, keep: int = 16) -> None:
+        self.spec, self.channels, self.inputs, self.dt, self.keep = spec, channels, inputs, dt, keep
+        self.cache: dict[bytes, Mapping[str, np.ndarray]] = {}
+
+    def __call__(self, params) -> Mapping[str, np.ndarray]:
+        key = np.asarray(params.to_array(), dtype=np.float64).tobytes()
+        got = self.cache.get(key)
+        if got is None:
+            got = self.spec.hidden_states(params, self.channels, self.inputs, self.dt)
+            if len(self.cache) >= self.keep:
+                self.cache.pop(next(iter(self.cache)))
+            self.cache[key] = got
+        return got
+
+
+def _initial(spec: DiagnosisPlant, start: Mapping[str, float], hidden: _HiddenTrack | None = None, k0: int = 0):
     def y0(params):
-        return spec.initial_state(params, start)
+        if hidden is None:
+            return spec.initial_state(params, start)
+        return spec.initial_state(params, {**start, **{k: float(v[k0]) for k, v in hidden(params).items()}})
     return y0

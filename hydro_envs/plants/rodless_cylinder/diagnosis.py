@@ -15,7 +15,7 @@ import math
 
 import numpy as np
 
-__all__ = ["BASES", "initial_state", "controller"]
+__all__ = ["BASES", "initial_state", "hidden_states", "controller"]
 
 _PNEU = "004 (seed pneumatic rodless cylinder)"
 
@@ -28,13 +28,27 @@ def _model():
 
 def initial_state(params, m):
     """State at a window start: measured position, velocity and pressures (the rest state's
-    where not measured); the spool at its static position for the command."""
+    where not measured), the chamber temperatures ``ta``, ``tb`` of :func:`hidden_states`
+    (T_s where not given); the spool at its static position for the command."""
     rc = _model()
-    y = rc.rest_state(params, m["y"], m.get("v", 0.0), m.get("pa"), m.get("pb"))
+    y = rc.rest_state(params, m["y"], m.get("v", 0.0), m.get("pa"), m.get("pb"), m.get("ta"), m.get("tb"))
     du = m.get("u", params.command_centre) - params.command_centre
     y[rc.XV] = float(np.clip(du / (params.command_max - params.command_centre) * params.spool_stroke,
                              -params.spool_stroke, params.spool_stroke))
     return y
+
+
+def hidden_states(params, channels, inputs, dt):
+    """Chamber temperatures ``ta``, ``tb`` [K] at every sample of a record, implied by its
+    measured position and pressures (:func:`~.observer.chamber_temperature_track`); {} without
+    both pressures."""
+    if not all(c in channels for c in ("y", "pa", "pb")):
+        return {}
+    from hydro_envs.plants.rodless_cylinder.observer import chamber_temperature_track
+
+    ta, tb = chamber_temperature_track(params.to_array(), channels["y"], channels["pa"], channels["pb"],
+                                       inputs[:, 0], dt)
+    return {"ta": ta, "tb": tb}
 
 
 def controller(meas, ref, params):
@@ -91,15 +105,16 @@ BASES = {
         base_fit=("viscous_friction", "discharge_coefficient"),
         # 1 um encoder, 0.5 kPa (5 mbar) pressure transducers of a 10-bar range
         noise={"y": 1e-6, "pa": 500.0, "pb": 500.0, "u": 0.0},
-        initial_state=initial_state, controller=controller,
+        initial_state=initial_state, controller=controller, hidden_states=hidden_states,
         position_channel="y", position_state="y",
         reference_centre=_reference_centre, reference_amplitude=0.035, reference_speed=0.02,
         # warm-up: covers the friction-damped air spring
         segment_seconds=0.7, warmup_seconds=0.3, score_bandwidth=50.0,
         offset_free=("y",), sensor_offsets=("pa", "pb"),
-        # verdict unexplained above 140 noise floors: the correct model (hidden Coulomb friction, named) left
-        # 69 floors on y (start-state errors of the friction-damped air spring; measured on one 5 s record)
-        unexplained_factor=140.0,
+        # verdict unexplained above 17 noise floors: twice the largest held-out residual the true model left
+        # on 21 hidden-effect records (7 kinds x 3 seeds, 8 s + 4 s): 8.5 floors on y, the windows started
+        # from the chamber temperatures of hidden_states (from T_s instead: 69 floors and more)
+        unexplained_factor=17.0,
         effects=_EFFECTS,
     ),
 }
