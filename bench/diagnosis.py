@@ -81,7 +81,8 @@ def cases(plants, seeds, seed0=0) -> list[tuple[str, str | None, int]]:
 
 def print_row(r: dict) -> None:
     print(f"{r['plant']:15s} {r['true']:20s} -> {r['named']:20s} shrink {r['shrink']:+.2f} "
-          f"{r['seconds']:5.1f} s {r['detail']}", flush=True)
+          f"{r.get('verdict', ''):11s} {r.get('floors', float('nan')):6.1f} floors {r['seconds']:5.1f} s {r['detail']}",
+          flush=True)
 
 
 def run_cases(case_list, duration, max_effects, *, candidates=None, backend="serial", address=None,

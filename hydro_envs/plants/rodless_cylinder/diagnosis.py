@@ -111,10 +111,13 @@ BASES = {
         # warm-up: covers the friction-damped air spring
         segment_seconds=0.7, warmup_seconds=0.3, score_bandwidth=50.0,
         offset_free=("y",), sensor_offsets=("pa", "pb"),
-        # verdict unexplained above 17 noise floors: twice the largest held-out residual the true model left
-        # on 21 hidden-effect records (7 kinds x 3 seeds, 8 s + 4 s): 8.5 floors on y, the windows started
-        # from the chamber temperatures of hidden_states (from T_s instead: 69 floors and more)
-        unexplained_factor=17.0,
+        # verdict unexplained above 60 noise floors: twice the largest held-out residual a correctly named
+        # model left on the bench records (`bench/diagnosis.py --plants rodless_cylinder --seeds 1`): 30 floors
+        # on y after presliding (seed 5000), whose fitted discharge coefficient is 0.16 % low -- the position
+        # of an integrating plant replayed open loop drifts with any gain error; the true model leaves at most
+        # 8.5 floors on 21 records, the windows started from the chamber temperatures of hidden_states
+        # (from T_s instead: 69 floors and more)
+        unexplained_factor=60.0,
         effects=_EFFECTS,
     ),
 }
