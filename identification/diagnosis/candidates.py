@@ -260,7 +260,7 @@ def _cold_start_params(spec: DiagnosisPlant, current: Model, start: Model):
 
 def _fit_candidate(spec: DiagnosisPlant, current: Model, start: Model, name: str,
                    records: Sequence[Record], sigma: dict[str, float] | None = None,
-                   score: float = 1.0) -> FitOutcome:
+                   score: float = 1.0, cold: bool = True) -> FitOutcome:
     """Refit with effect ``name`` added from the current fit (warm start), and -- when the
     score test ranks the candidate as plausible (``score >= COLD_START_SCORE``), or the warm fit
     fails, or (unless the candidate is hopeless, ``score < HOPELESS_SCORE``) it ends on a
@@ -270,7 +270,8 @@ def _fit_candidate(spec: DiagnosisPlant, current: Model, start: Model, name: str
     Stribeck friction), and from a grid point when one is already better than both fits
     (:func:`_grid_start`); the start with the lowest fit NRMSE wins. Every candidate gets at least
     the warm refit (of at most ``HOPELESS_NFEV`` evaluations when hopeless) and is scored on the
-    held-out data either way."""
+    held-out data either way. ``cold=False`` (a settled round): the warm refit only (the cold
+    start only when the warm fit fails)."""
     e = effect(name)
     nfev = HOPELESS_NFEV if score < HOPELESS_SCORE else 25
     try:
@@ -279,6 +280,8 @@ def _fit_candidate(spec: DiagnosisPlant, current: Model, start: Model, name: str
         warm = None
     if warm is not None and score < HOPELESS_SCORE:
         return warm  # hopeless: the score test already says the effect explains nothing
+    if warm is not None and not cold:
+        return warm  # a settled round: the warm refit shows whether a rival comes near
     if warm is not None and score < COLD_START_SCORE:
         _, _, plausible, _, _ = _judge(spec, e, warm)
         if plausible:
