@@ -35,11 +35,21 @@ COLD_START_SCORE = 0.05
 # below this score (the signature explains < 0.5 % of the weighted residual: on the
 # hidden-effect tests the true effect scored >= 0.013, effect-free records ~0) a candidate is
 # ranked hopeless: its refit (warm start only) stops after HOPELESS_NFEV residual evaluations
-# instead of 25; it is still refitted and scored on the held-out data like every other candidate
-# (on the effect-free rodless record the two hopeless candidates took 10 and 8 evaluations for a
-# held-out change of +0.1 % and -42 %: the first few steps already show the effect explains nothing)
+# instead of 25; it is still refitted and scored on the held-out data like every other candidate,
+# except in a round after a named effect where every candidate is hopeless: that round ends
+# without refits (on the effect-free rodless record the two hopeless candidates took 10 and 8
+# evaluations for a held-out change of +0.1 % and -42 %: the first few steps already show the
+# effect explains nothing)
 HOPELESS_SCORE = 0.005
 HOPELESS_NFEV = 5
+# a round is settled once a plausible, identifiable candidate that passes ``accept_gain`` leaves at
+# most this fraction of the plant's ``unexplained_factor`` noise floors of held-out residual (the
+# factor is twice what a correctly named model leaves, so this is a correct model's residual); the
+# candidates after it get their warm refit only (no cold start, no start grid, also when the warm fit
+# ends implausible): a rival would have to match that residual to make the round ambiguous, and its
+# warm refit shows whether it comes near. The rodless 20 s underlap record spent 68 of its 165 s on
+# the Stribeck candidate's warm and cold refits after valve_lap had left 8.7 floors
+SETTLED_FRACTION = 0.5
 
 
 # ======================================================================================

@@ -103,6 +103,7 @@ from identification.diagnosis.models import (  # noqa: F401
     Model,
     OFFSET_ESTIMATE_FLAG,
     SENSOR_OFFSETS,
+    SETTLED_FRACTION,
     _channels,
     _delayed_channels,
     _demeaned_state,
@@ -336,7 +337,8 @@ def diagnose(plant: str | DiagnosisPlant, records: Sequence[Record], holdout: Se
                 (h_cur - h) / h_cur, plausible, ident, reasons, time.perf_counter() - tc, fit.model, fit))
             if not settled and plausible and ident and (h_cur - h) / h_cur >= accept_gain:
                 (left,) = heldout_rms(spec, [fit.model], holdout)
-                settled = max(ratios(left, floor).values(), default=math.inf) <= SETTLED_FRACTION * spec.unexplained_factor
+                left_floors = max(ratios(left, floor).values(), default=math.inf)
+                settled = left_floors <= SETTLED_FRACTION * spec.unexplained_factor
         if in_floor is None:
             in_floor = input_noise_floor(spec, cur.model, holdout)
         if in_floor:
@@ -407,16 +409,6 @@ def diagnose(plant: str | DiagnosisPlant, records: Sequence[Record], holdout: Se
     return DiagnosisResult(spec.name, verdict, accepted, rounds, base_model, cur.model, base_fit, notes,
                            time.perf_counter() - t0, sigma, ambiguous, floor, residual, mismatch, reason, factor)
 
-
-
-#: a round is settled once a plausible, identifiable candidate that passes ``accept_gain`` leaves at
-#: most this fraction of the plant's ``unexplained_factor`` noise floors of held-out residual (the
-#: factor is twice what a correctly named model leaves, so this is a correct model's residual); the
-#: candidates after it get their warm refit only (no cold start, no start grid, also when the warm fit
-#: ends implausible): a rival would have to match that residual to make the round ambiguous, and its
-#: warm refit shows whether it comes near. The rodless 20 s underlap record spent 68 of its 165 s on
-#: the Stribeck candidate's warm and cold refits after valve_lap had left 8.7 floors
-SETTLED_FRACTION = 0.5
 
 
 def _named(spec: DiagnosisPlant, name: str, best: Candidate, h_cur: float, h_nr: dict[str, float],
