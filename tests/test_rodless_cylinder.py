@@ -186,6 +186,38 @@ def test_port_area_of_eq_2_at_full_stroke_is_half_a_port():
 
 
 @pytest.mark.parametrize("flow_model", [0.0, 1.0])
+def test_supply_port_pressure_solves_the_droop_law(flow_model):
+    """p_P = p_s - R mdot_P(p_P): exact p_s at R = 0 or with no draw, the law's root otherwise,
+    the choked closed form p_s / (1 + R k) when both P edges are choked, falling with R."""
+    p0 = dataclasses.replace(NOMINAL, flow_model=flow_model)
+    xvm, r = p0.spool_stroke, p0.port_radius
+    s_full = circular_orifice_area(p0.valve_underlap + xvm, r)
+    s_half = circular_orifice_area(p0.valve_underlap + 0.3 * xvm, r)
+    s_leak = circular_orifice_area(p0.valve_underlap - 0.3 * xvm, r)
+    a0 = p0.to_array()
+    assert rc.supply_port_pressure(a0, s_full, 0.0, 2e5, 293.15, 6e5, 293.15) == p0.supply_pressure
+    last = p0.supply_pressure
+    for res in (1e6, 1e7, 1e8, 1e9):
+        a = dataclasses.replace(p0, supply_line_resistance=res).to_array()
+        for s_p, s_m, pa, pb in ((s_full, 0.0, 2e5, 6e5), (s_half, s_leak, 4e5, 5e5), (s_leak, s_half, 3e5, 6.5e5)):
+            psv = rc.supply_port_pressure(a, s_p, s_m, pa, 293.15, pb, 280.0)
+            drawn = rc._port_draw(a, s_p, s_m, pa, 293.15, pb, 280.0, psv)
+            assert psv == pytest.approx(p0.supply_pressure - res * drawn, abs=1e-6 * p0.supply_pressure)
+            assert psv <= p0.supply_pressure
+        # no draw: the P edges closed, or a chamber above the supply pushing back only
+        assert rc.supply_port_pressure(a, 0.0, 0.0, 2e5, 293.15, 6e5, 293.15) == p0.supply_pressure
+        assert rc.supply_port_pressure(a, s_full, 0.0, 8e5, 293.15, 6e5, 293.15) == p0.supply_pressure
+        psv = rc.supply_port_pressure(a, s_full, 0.0, 1.2e5, 293.15, 6e5, 293.15)
+        assert psv < last
+        last = psv
+    if flow_model == 0.0:  # chamber A far below the port: choked, mdot = k p
+        a = dataclasses.replace(p0, supply_line_resistance=1e8).to_array()
+        k = rc._edge_flow_py(p0, s_full, 1e5, 1.0, 293.15) / 1e5
+        expected = p0.supply_pressure / (1.0 + 1e8 * k)
+        assert rc.supply_port_pressure(a, s_full, 0.0, 1.2e5, 293.15, 6e5, 293.15) == pytest.approx(expected, rel=1e-9)
+
+
+@pytest.mark.parametrize("flow_model", [0.0, 1.0])
 def test_nominal_flow_is_the_mpye5_data_sheet_value(flow_model):
     # FESTO MPYE-5-M5-010-B: standard nominal flow 100 L/min (6 -> 5 bar gauge, ANR)
     p = dataclasses.replace(NOMINAL, flow_model=flow_model)

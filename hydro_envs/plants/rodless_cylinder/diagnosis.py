@@ -82,6 +82,12 @@ _EFFECTS = {
         null={"valve_underlap": 0.0},
         source=f"{_PNEU} eq (2) u = r - d (u < 0: an overlap, a dead band of 27 % of the 1.13 mm "
         "spool stroke at the bound); MPYE-5 mid-position leakage order 6 L/min at 0.1 mm"),
+    "supply_droop": dict(
+        parameters=(dict(field="supply_line_resistance", bounds=(1e6, 1e10), start=3e7, draw=(1e8, 3e8),
+                         plausible=(1e6, 2e9)),),
+        null={"supply_line_resistance": 0.0},
+        source=f"{_PNEU} eqs (3)-(4) at a constant 0.6 MPa supply; model.supply_port_pressure (assumed "
+        "linear droop of a regulator or hose)"),
     "valve_dynamics": dict(
         parameters=(dict(field="valve_natural_frequency", bounds=(30.0, 6000.0), start=2 * math.pi * 60,
                          draw=(2 * math.pi * 25, 2 * math.pi * 60)),),

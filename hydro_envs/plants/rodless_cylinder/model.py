@@ -32,6 +32,7 @@ Equations (numbers of 004)::
     Vb pb' = kappa R H_b + kappa pb A v + (kappa-1) Q_b
     Va = A y + V_dead,a,   Vb = A (L - y) + V_dead,b                            (15)
     mdot = C S(x) p_up / sqrt(R T_up) psi(p_down / p_up)                     (3)-(4)
+    p_P = p_s - R_s mdot_P(p_P)   (supply droop; R_s = 0, a constant p_s, in 004)
     S(x) = r^2 acos((r - x)/r) - (r - x) sqrt(r^2 - (r - x)^2)                 (2)
     xv'' = -w_v^2 xv - 2 zeta_v w_v xv' + k_v w_v^2 (u - 5 V)                  (28) + lag
     F_f = sigma0 z + sigma1 z' + sigma v,  z' = v - sigma0 |v| z / g(v)       Table 2, Fig. 4
@@ -98,7 +99,7 @@ from hydro_envs.plants.rodless_cylinder.params import (  # noqa: F401  (re-expor
     D_AREA, D_COEF, D_CRIT, D_INVK, D_KV, D_PSIC, D_PSIL, D_SFULL, D_SQRTRTS,
     ATM, I_ASTOP, I_BISO, I_CD, I_CISO, I_D, I_FC, I_FL, I_FLOW, I_FS, I_HW, I_K, I_KSTOP, I_L,
     I_M, I_MFLOOR, I_PE, I_PFLOOR, I_PS, I_R, I_RLAM, I_RP, I_SIG0, I_SIG1, I_SIG2, I_TS, I_UC,
-    I_ULAP, I_UMAX, I_VDA, I_VDB, I_VEPS, I_VMIN, I_VS, I_WV, I_XVM, I_ZV, N_FIELDS, N_PARAMS,
+    I_RSUP, I_ULAP, I_UMAX, I_VDA, I_VDB, I_VEPS, I_VMIN, I_VS, I_WV, I_XVM, I_ZV, N_FIELDS, N_PARAMS,
     PLANT, RHO_REF_ISO, RodlessCylinderParams, T_REF_ISO,
 )
 
@@ -155,10 +156,10 @@ def _edge_flow(p, area, p_up, p_down, t_up, sqrt_rt_up):
 
 
 @nb.njit(cache=True, error_model="numpy", inline="always")
-def _chamber_flows(p, s_in, s_out, pc, tc):
-    """(mass flow, enthalpy flow) into a chamber at pc, tc fed by P through ``s_in`` and
-    vented to R through ``s_out``; upstream temperatures follow the flow direction."""
-    ps = p[I_PS]
+def _chamber_flows(p, s_in, s_out, pc, tc, ps):
+    """(mass flow, enthalpy flow) into a chamber at pc, tc fed from the valve's P port at ``ps``
+    through ``s_in`` and vented to R through ``s_out``; upstream temperatures follow the flow
+    direction."""
     pe = p[I_PE]
     ts = p[I_TS]
     rts = p[D_SQRTRTS]
@@ -168,6 +169,76 @@ def _chamber_flows(p, s_in, s_out, pc, tc):
     t_in = ts if m_in >= 0.0 else tc
     t_out = tc if m_out >= 0.0 else ts
     return m_in - m_out, m_in * t_in - m_out * t_out
+
+
+@nb.njit(cache=True, error_model="numpy", inline="always")
+def _port_draw(p, s_plus, s_minus, pa, ta, pb, tb, psv):
+    """Net mass flow [kg/s] out of the valve's P port at ``psv`` through its two P edges
+    (P->A over ``s_plus``, P->B over ``s_minus``); back-flow from a chamber counts negative."""
+    ts = p[I_TS]
+    rts = p[D_SQRTRTS]
+    if psv >= pa:
+        m_a = _edge_flow(p, s_plus, psv, pa, ts, rts)
+    else:
+        m_a = _edge_flow(p, s_plus, psv, pa, ta, math.sqrt(p[I_R] * ta))
+    if psv >= pb:
+        m_b = _edge_flow(p, s_minus, psv, pb, ts, rts)
+    else:
+        m_b = _edge_flow(p, s_minus, psv, pb, tb, math.sqrt(p[I_R] * tb))
+    return m_a + m_b
+
+
+@nb.njit(cache=True, error_model="numpy")
+def supply_port_pressure(p, s_plus, s_minus, pa, ta, pb, tb):
+    """Pressure [Pa] at the valve's P port when the supply droops with the drawn mass flow.
+
+    Law: ``p_P = p_s - R mdot_P(p_P)`` with ``R = supply_line_resistance`` [Pa s/kg] and
+    ``mdot_P`` the flow the two P edges of eqs (3)-(4) draw at ``p_P`` (T_s upstream). A
+    pressure regulator's flow characteristic and a supply hose both lower the pressure at the
+    port roughly in proportion to the flow (assumed linear; 004 takes the supply as constant,
+    Table 1's compressor works at 0.4-0.7 MPa). ``R = 0`` or no net draw at ``p_s`` return
+    ``p_s`` exactly (the seed model).
+
+    Solution: ``g(p) = p - p_s + R mdot_P(p)`` rises strictly with ``p``, and ``mdot_P(p) / p``
+    rises with ``p`` (an edge's flow is ``p_up`` times a flow function that grows as the
+    pressure ratio falls), so ``p_lo = p_s / (1 + R mdot_P(p_s) / p_s)`` has ``g <= 0`` and
+    ``p_s`` has ``g >= 0``; the Illinois variant of regula falsi closes the bracket to 1e-12
+    of ``p_s`` (about 6-10 evaluations).
+    """
+    ps = p[I_PS]
+    r = p[I_RSUP]
+    if r <= 0.0:
+        return ps
+    m_hi = _port_draw(p, s_plus, s_minus, pa, ta, pb, tb, ps)
+    if m_hi <= 0.0:
+        return ps
+    hi = ps
+    g_hi = r * m_hi
+    lo = ps / (1.0 + r * m_hi / ps)
+    g_lo = lo - ps + r * _port_draw(p, s_plus, s_minus, pa, ta, pb, tb, lo)
+    if g_lo >= 0.0:
+        return lo
+    side = 0
+    for _ in range(60):
+        mid = (lo * g_hi - hi * g_lo) / (g_hi - g_lo)
+        g = mid - ps + r * _port_draw(p, s_plus, s_minus, pa, ta, pb, tb, mid)
+        if g > 0.0:
+            hi = mid
+            g_hi = g
+            if side == 1:
+                g_lo *= 0.5
+            side = 1
+        elif g < 0.0:
+            lo = mid
+            g_lo = g
+            if side == -1:
+                g_hi *= 0.5
+            side = -1
+        else:
+            return mid
+        if hi - lo <= 1e-12 * ps:
+            break
+    return lo - g_lo * (hi - lo) / (g_hi - g_lo)
 
 
 @nb.njit(cache=True, error_model="numpy")
@@ -193,8 +264,9 @@ def rodless_cylinder_rhs(y, u, p, dy):
     xo = min(max(y[XV], -xvm), xvm)
     s_plus = circular_orifice_area(p[I_ULAP] + xo, p[I_RP])  # P->A and B->R   (2)
     s_minus = circular_orifice_area(p[I_ULAP] - xo, p[I_RP])  # P->B and A->R  (2)
-    mdot_a, h_a = _chamber_flows(p, s_plus, s_minus, pa, ta)  # (3)-(4)
-    mdot_b, h_b = _chamber_flows(p, s_minus, s_plus, pb, tb)
+    psv = supply_port_pressure(p, s_plus, s_minus, pa, ta, pb, tb)  # p_s unless the supply droops
+    mdot_a, h_a = _chamber_flows(p, s_plus, s_minus, pa, ta, psv)  # (3)-(4)
+    mdot_b, h_b = _chamber_flows(p, s_minus, s_plus, pb, tb, psv)
 
     # energy balance of each chamber (10)-(13); dV_a/dt = A v, dV_b/dt = -A v
     hw = p[I_HW]

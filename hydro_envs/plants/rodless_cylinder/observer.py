@@ -25,7 +25,7 @@ import numpy as np
 from scipy.linalg import expm
 
 from hydro_envs.laws.orifice import circular_orifice_area
-from hydro_envs.plants.rodless_cylinder.model import _chamber_flows
+from hydro_envs.plants.rodless_cylinder.model import _chamber_flows, supply_port_pressure
 from hydro_envs.plants.rodless_cylinder.params import (
     D_AREA, D_KV, I_L, I_MFLOOR, I_R, I_RP, I_TS, I_UC, I_ULAP, I_VDA, I_VDB, I_VMIN, I_WV, I_XVM, I_ZV,
 )
@@ -53,8 +53,9 @@ def _track(p, y, pa, pb, u, dt, ad, bd, ta, tb):
         xo = min(max(xv, -xvm), xvm)
         s_plus = circular_orifice_area(p[I_ULAP] + xo, p[I_RP])  # (2)
         s_minus = circular_orifice_area(p[I_ULAP] - xo, p[I_RP])
-        dma, _ = _chamber_flows(p, s_plus, s_minus, pa[k], ta[k])  # (3)-(4)
-        dmb, _ = _chamber_flows(p, s_minus, s_plus, pb[k], tb[k])
+        psv = supply_port_pressure(p, s_plus, s_minus, pa[k], ta[k], pb[k], tb[k])
+        dma, _ = _chamber_flows(p, s_plus, s_minus, pa[k], ta[k], psv)  # (3)-(4)
+        dmb, _ = _chamber_flows(p, s_minus, s_plus, pb[k], tb[k], psv)
         ma = max(ma + dt * dma, p[I_MFLOOR])  # (8)-(9)
         mb = max(mb + dt * dmb, p[I_MFLOOR])
         du = u[k] - p[I_UC]  # (28): the spool over one sample of held command

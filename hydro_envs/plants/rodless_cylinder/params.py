@@ -144,6 +144,12 @@ class RodlessCylinderParams(PhysicalParams):
     min_chamber_volume: float = physical(
         1e-8, "m^3", (0.0, 1.0), "assumed: guard only; dead volumes keep chambers >= 5 cm^3", open_low=True
     )
+    supply_line_resistance: float = physical(
+        0.0, "Pa s/kg", (0.0, 1e10),
+        "004 eqs (3)-(4): the valve's P port at the constant supply pressure (0); > 0: the port "
+        "pressure falls by R mdot with the mass flow mdot the valve draws (regulator droop, supply "
+        "hose; model.supply_port_pressure)",
+    )
 
     def _check_relations(self) -> None:
         name = type(self).__name__
@@ -206,12 +212,13 @@ class RodlessCylinderParams(PhysicalParams):
 (
     I_PS, I_PE, I_TS, I_R, I_K, I_M, I_D, I_L, I_VDA, I_VDB, I_RP, I_ULAP, I_XVM, I_UC, I_UMAX,
     I_CD, I_RLAM, I_FLOW, I_CISO, I_BISO, I_WV, I_ZV, I_FS, I_FC, I_VS, I_SIG2, I_SIG0, I_SIG1,
-    I_VEPS, I_FL, I_KSTOP, I_ASTOP, I_HW, I_PFLOOR, I_MFLOOR, I_VMIN,
-) = range(36)
-N_FIELDS = 36
+    I_VEPS, I_FL, I_KSTOP, I_ASTOP, I_HW, I_PFLOOR, I_MFLOOR, I_VMIN, I_RSUP,
+) = range(37)
+N_FIELDS = 37
 # derived columns appended by RodlessCylinderParams.to_array()
 (D_AREA, D_CRIT, D_PSIC, D_PSIL, D_INVK, D_COEF, D_SQRTRTS, D_KV, D_SFULL) = range(N_FIELDS, N_FIELDS + 9)
 N_PARAMS = N_FIELDS + 9
 assert RodlessCylinderParams.names()[I_VMIN] == "min_chamber_volume"
 assert RodlessCylinderParams.names()[I_SIG1] == "bristle_damping"
+assert RodlessCylinderParams.names()[I_RSUP] == "supply_line_resistance"
 assert len(RodlessCylinderParams.names()) == N_FIELDS
