@@ -1,15 +1,18 @@
 """Diagnosis on records from a generator independent of the workflow's own simulator: a rigid
 axis (the slider's physics: mass, viscous and tanh-regularised Coulomb friction, 002 eq (1))
-integrated by scipy's Radau under a PD position loop, with or without an effect the
-catalogue does not have (mechanical backlash between drive and load; a position-dependent
-spring force, e.g. a cable chain). None of the workflow's kernels, controllers or noise code is
-used to make these records.
+integrated by scipy's Radau under a PD position loop, with or without an effect: mechanical
+backlash between drive and load (in the catalogue since the slider has a second body; also
+diagnosed with the catalogue minus backlash, as an effect outside it), a position-dependent
+spring force (e.g. a cable chain, outside the catalogue). None of the workflow's kernels,
+controllers or noise code is used to make these records.
 
-Expected: off-catalogue effects -> ``unexplained`` (or ambiguous), never a confident wrong
-name; an effect-free record with mains hum and sensor offsets -> ``none``; an in-catalogue
-effect -> named with the residual left near the noise floor. Also: the noise floor and the
-residual per step are reported with units, and a base fit that cannot work is an error that
-says why (no sentinel value reported as a shrink).
+Expected: effects outside the catalogue in use -> ``unexplained`` (or ambiguous), never a
+confident wrong name; backlash with the whole catalogue -> named, its play recovered although
+the generator's contact (2e5 N/m, 100 N s/m viscous, engaged over 10 um) differs from the
+model's (1e6 N/m, 240 N s/m); an effect-free record with mains hum and sensor offsets ->
+``none``; an in-catalogue effect -> named with the residual left near the noise floor. Also:
+the noise floor and the residual per step are reported with units, and a base fit that cannot
+work is an error that says why (no sentinel value reported as a shrink).
 """
 
 from __future__ import annotations
@@ -92,18 +95,22 @@ def axis_record(effect: str | None, seed: int, duration: float, *, fc: float = F
     return Record(DT, fs, {"x": xs}, f"axis {effect or 'effect-free'} seed {seed}")
 
 
-def _run(effect, seed, *, base_effect=None, records=False, **kw):
+def _run(effect, seed, *, base_effect=None, records=False, effects=None, **kw):
     spec = diagnosis_plant("slider")
     fit = axis_record(effect, seed, 5.0, **kw)
     hold = axis_record(effect, seed + 1000, 3.0, **kw)
     base = base_for(spec, base_effect)
-    res = diagnose("slider", [fit], [hold], base=base, max_effects=2, maps=False)
+    res = diagnose("slider", [fit], [hold], base=base, max_effects=2, maps=False, effects=effects)
     return (res, fit, hold) if records else res
+
+
+#: the slider's catalogue without backlash: the backlash record then carries an effect outside it
+WITHOUT_BACKLASH = ["coulomb", "stribeck", "force_offset", "sensor_delay"]
 
 
 @pytest.fixture(scope="module")
 def backlash_run():
-    return _run("backlash", 1, records=True)
+    return _run("backlash", 1, records=True, effects=WITHOUT_BACKLASH)
 
 
 @pytest.fixture(scope="module")
@@ -111,7 +118,16 @@ def backlash(backlash_run):
     return backlash_run[0]
 
 
-def test_backlash_is_unexplained_not_named(backlash):
+def test_backlash_is_named_with_its_play():
+    res = _run("backlash", 1)
+    assert res.verdict == "named" and [e["name"] for e in res.effects] == ["backlash"], (res.verdict, res.reason)
+    got = res.effects[0]["parameters"]
+    assert got["backlash_gap"] == pytest.approx(1e-4, rel=0.15)
+    assert got["load_mass_fraction"] == pytest.approx(0.2, rel=0.25)
+    assert res.residual[-1]["floors"]["x"] <= UNEXPLAINED_FACTOR
+
+
+def test_backlash_outside_the_catalogue_in_use_is_unexplained_not_named(backlash):
     res = backlash
     assert res.verdict in ("unexplained", "ambiguous"), (res.verdict, res.reason, res.effects)
     if res.verdict == "unexplained":

@@ -77,7 +77,7 @@ def test_stribeck_slider_matches_radau_reference():
     f = np.repeat(rng.uniform(-30, 30, 40), 25)  # 1 s of random force steps, through v = 0
     y = simulate_slider(p, f, dt)
     ref = reference_rollout(registry.get("slider"), sl.rest_state(p), f[:, None], p.to_array(), dt,
-                            rtol=1e-10, atol=np.array([1e-12, 1e-10]))
+                            rtol=1e-10, atol=np.array([1e-12, 1e-10, 1e-12, 1e-10]))
     assert np.max(np.abs(y[:, 0] - ref[:, 0])) < 2e-8  # 20 nm over 37 mm of travel
     assert np.max(np.abs(y[:, 1] - ref[:, 1])) < 1e-6
     assert np.ptp(y[:, 0]) > 0.01
@@ -112,23 +112,23 @@ def test_sticks_below_breakaway_and_slides_above():
 
 def test_friction_helper_matches_the_rhs():
     p = SliderParams(force_offset=0.5)
-    dy = np.empty(2)
+    dy = np.empty(sl.N_STATES)
     for v in (-0.3, -4e-3, -1e-4, 0.0, 2e-4, 6e-3, 0.5):
-        registry.get("slider").kernels.rhs(np.array([0.1, v]), np.array([0.0]), p.to_array(), dy)
+        registry.get("slider").kernels.rhs(np.array([0.1, v, 0.1, v]), np.array([0.0]), p.to_array(), dy)
         assert dy[1] == pytest.approx(-(slider_friction(v, p) + 0.5) / p.mass, rel=1e-12, abs=1e-12)
 
 
-def numerical_jacobian(y, p_arr):
-    J = np.empty((2, 2))
-    h = np.array([1e-9, 1e-9])
-    for j in range(2):
+def numerical_jacobian(y, p_arr, f=0.0):
+    n = y.size
+    J = np.empty((n, n))
+    for j in range(n):
         yp, ym = y.copy(), y.copy()
-        yp[j] += h[j]
-        ym[j] -= h[j]
-        fp, fm = np.empty(2), np.empty(2)
-        registry.get("slider").kernels.rhs(yp, np.array([0.0]), p_arr, fp)
-        registry.get("slider").kernels.rhs(ym, np.array([0.0]), p_arr, fm)
-        J[:, j] = (fp - fm) / (2 * h[j])
+        yp[j] += 1e-9
+        ym[j] -= 1e-9
+        fp, fm = np.empty(n), np.empty(n)
+        registry.get("slider").kernels.rhs(yp, np.array([f]), p_arr, fp)
+        registry.get("slider").kernels.rhs(ym, np.array([f]), p_arr, fm)
+        J[:, j] = (fp - fm) / 2e-9
     return J
 
 
@@ -145,7 +145,7 @@ def test_stiffness_bound_covers_the_numerical_jacobian(params):
     worst = 0.0
     for x in (0.0, 0.5 * L, L + pen, -pen):
         for v in (0.0, 1e-7, -1e-6, params.friction_sign_velocity, -params.stribeck_velocity, 0.3):
-            lam = np.abs(np.linalg.eigvals(numerical_jacobian(np.array([x, v]), pa)))
+            lam = np.abs(np.linalg.eigvals(numerical_jacobian(np.array([x, v, x, v]), pa)))
             worst = max(worst, lam.max())
     assert worst <= 1.02 * bound
     assert worst >= 0.3 * bound
@@ -172,7 +172,7 @@ def test_batch_equals_single_and_serial_equals_parallel():
     params = [SliderParams(mass=rng.uniform(0.5, 2.0), force_offset=rng.uniform(-2, 2)) for _ in range(70)]
     F = np.repeat(rng.uniform(-40, 40, (70, 20)), 10, axis=1)
     Yb = simulate_slider(params, F, 1e-3)  # 70 copies -> parallel kernel
-    assert Yb.shape == (70, 201, 2)
+    assert Yb.shape == (70, 201, sl.N_STATES)
     for i in (0, 33, 69):
         np.testing.assert_array_equal(Yb[i], simulate_slider(params[i], F[i], 1e-3))
     P = np.stack([q.to_array() for q in params])
@@ -180,13 +180,110 @@ def test_batch_equals_single_and_serial_equals_parallel():
     out = []
     for kernel in (registry.get("slider").kernels.step_serial, registry.get("slider").kernels.step_parallel):
         Y = np.stack([sl.rest_state(q) for q in params])
-        W = np.zeros((70, 5, 2))
+        W = np.zeros((70, 5, sl.N_STATES))
         c = np.zeros(70, dtype=np.int64)
         for k in range(50):
             kernel(Y, F[:, k : k + 1].copy(), P, 1e-3, nsub, W, c)
         out.append(Y)
     assert np.array_equal(out[0], out[1])
     assert np.all(c == 0)  # the guard has nothing to clamp
+
+
+# ---------------------------------------------------------------------------- backlash
+PLAY = dataclasses.replace(SliderParams(), backlash_gap=1e-4, stroke=10.0)
+
+
+def test_backlash_force_is_a_dead_zone_that_never_pulls():
+    from hydro_envs.laws.contact import backlash_force
+
+    g, k, a = 1e-4, 1e6, 2.0
+    assert backlash_force(0.0, 1.0, g, k, a) == 0.0
+    assert backlash_force(0.99e-4, -1.0, g, k, a) == 0.0
+    assert backlash_force(g + 1e-6, 0.0, g, k, a) == pytest.approx(1.0)  # drive pushes the load +x
+    assert backlash_force(-g - 1e-6, 0.0, g, k, a) == pytest.approx(-1.0)
+    assert backlash_force(g + 1e-12, 0.1, g, k, a) == pytest.approx(0.0, abs=1e-5)  # continuous at contact
+    assert backlash_force(g + 1e-6, -1.0, g, k, a) == 0.0  # separating fast: no pull
+    assert backlash_force(-g - 1e-6, 1.0, g, k, a) == 0.0
+
+
+def test_play_conserves_momentum_without_friction_and_stops():
+    """The contact is internal: with friction, offset and stops off, total momentum grows by the
+    applied impulse only, through several impacts across the play."""
+    p = dataclasses.replace(PLAY, coulomb_friction=0.0, static_friction=0.0, viscous_friction=0.0)
+    f = np.repeat([20.0, -20.0, 20.0, -20.0], 50)
+    y = simulate_slider(p, f, 1e-4)
+    mu = p.load_mass_fraction
+    mom = p.mass * (mu * y[:, sl.V] + (1 - mu) * y[:, sl.VD])
+    impulse = np.concatenate([[0.0], np.cumsum(f) * 1e-4])
+    np.testing.assert_allclose(mom, impulse, atol=1e-12)
+    assert np.max(np.abs(y[:, sl.XD] - y[:, sl.X])) > p.backlash_gap  # in contact at times
+
+
+def test_load_moves_on_its_own_friction_while_the_drive_crosses_the_play():
+    """Pushed +x, then the force reversed: the drive leaves the load, which slides on its own
+    friction share (no contact force) until the drive, having crossed the play of 2 g, meets it
+    from the other side and pulls it back."""
+    p = PLAY
+    dt = 1e-4
+    f = np.concatenate([np.full(2000, 20.0), np.full(2000, -20.0)])
+    y = simulate_slider(p, f, dt, n_sub=4)
+    mu = p.load_mass_fraction
+    k0 = 2000
+    d = y[:, sl.XD] - y[:, sl.X]
+    # before the reversal: in contact on the +x side, the drive ahead by g plus the deflection
+    assert p.backlash_gap < d[k0] < p.backlash_gap + 20.0 / p.coupling_stiffness
+    # the drive meets the load on the other side of the play
+    meet = k0 + int(np.argmax(d[k0:] < -p.backlash_gap))
+    assert meet > k0 + 5 and y[meet, sl.V] > 0.0  # the load is still sliding +x
+    acc = np.gradient(y[:, sl.V], dt)
+    leave = k0 + int(np.argmax(d[k0:] < p.backlash_gap))  # contact released
+    free = np.arange(leave + 2, meet - 2)
+    fric = mu * slider_friction(y[free, sl.V], p)
+    np.testing.assert_allclose(acc[free], -fric / (mu * p.mass), rtol=1e-3)
+    # after the meeting the drive pulls it back: the load reverses
+    assert np.min(y[meet:, sl.V]) < -0.05
+
+
+def test_backlash_stiffness_bound_covers_the_numerical_jacobian():
+    p = dataclasses.replace(PLAY, stroke=0.2)
+    bound = max(stiffness_modes(p).values())
+    pa = p.to_array()
+    g = p.backlash_gap
+    pen = p.force_max / p.coupling_stiffness
+    worst = 0.0
+    for d in (0.0, g + 0.5 * pen, -g - pen):
+        for v, vd in ((0.0, 0.0), (0.01, 0.0), (0.0, -0.2), (p.friction_sign_velocity, 0.1)):
+            lam = np.abs(np.linalg.eigvals(numerical_jacobian(np.array([0.1, v, 0.1 + d, vd]), pa)))
+            worst = max(worst, lam.max())
+    assert worst <= 1.02 * bound
+    assert worst >= 0.3 * bound
+    # the contact mode alone, sliding fast (friction slope small), against its own bound
+    contact = max(np.abs(np.linalg.eigvals(numerical_jacobian(np.array([0.1, 0.2, 0.1 + d, 0.2]), pa))).max()
+                  for d in (g + 0.5 * pen, -g - pen))
+    assert 0.3 * stiffness_modes(p)["backlash"] <= contact <= 1.02 * stiffness_modes(p)["backlash"]
+
+
+def test_drive_track_recovers_the_hidden_drive_from_load_and_force():
+    """The observer of the driven body (hidden state behind the play) from a noisy load
+    position and the force: within a few um of the truth once the first contact is made; with
+    the wrong play it is off by the play's difference; without a play it is the load."""
+    from hydro_envs.plants.slider.observer import drive_track
+    from identification.diagnosis.records import smoothed
+
+    p = dataclasses.replace(PLAY, stroke=0.2)
+    dt = 1e-3
+    rng = np.random.default_rng(4)
+    f = np.repeat(rng.uniform(-25, 25, 40), 100)  # 4 s of force steps, many reversals
+    y = simulate_slider(p, f, dt, y0=np.array([0.1, 0.0, 0.1, 0.0]))[:-1]
+    x = smoothed(y[:, sl.X] + 1e-6 * rng.standard_normal(f.size), dt)
+    xd, _ = drive_track(p, x, f, dt)
+    settled = slice(200, None)
+    err = np.sqrt(np.mean((xd[settled] - y[settled, sl.XD]) ** 2))
+    assert err < 5e-6, err
+    wrong, _ = drive_track(dataclasses.replace(p, backlash_gap=0.5 * p.backlash_gap), x, f, dt)
+    assert np.sqrt(np.mean((wrong[settled] - y[settled, sl.XD]) ** 2)) > 3e-5
+    same, _ = drive_track(dataclasses.replace(p, backlash_gap=0.0), x, f, dt)
+    np.testing.assert_array_equal(same, x)
 
 
 def test_simulate_rejects_bad_input():
@@ -228,8 +325,8 @@ def pd_experiment(params, x_ref, v_ref, dt, seed, kp=2.5e5, kd=1000.0):
     state, e.g. encoder + tachometer); the record gets sensor noise. Returns f, x (noisy)."""
     rng = np.random.default_rng(seed)
     P = params.to_array()[None, :]
-    Y = np.array([[x_ref[0], 0.0]])
-    W = np.zeros((1, 5, 2))
+    Y = np.array([[x_ref[0], 0.0, x_ref[0], 0.0]])
+    W = np.zeros((1, 5, sl.N_STATES))
     c = np.zeros(1, dtype=np.int64)
     nsub = np.array([substeps_from_stiffness(stiffness_modes(params), dt, sl.ACCURATE_SAFETY)[0]], dtype=np.int64)
     U = np.zeros((1, 1))

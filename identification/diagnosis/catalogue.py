@@ -163,6 +163,14 @@ _EFFECTS: list[Effect] = [
         "near standstill",
     ),
     Effect(
+        "backlash", "Backlash (play between the drive and the measured load)",
+        "lost motion at every reversal of the drive force: the measured position lags the "
+        "commanded motion by up to twice the play, then the load is caught with a jolt (residual "
+        "concentrated just after force reversals, of either sign)",
+        separating_experiment="a slow triangle of the drive with a second sensor on the driven "
+        "side (motor encoder): the two positions differ by a dead band of 2 g at each reversal",
+    ),
+    Effect(
         "pressure_friction", "Pressure-dependent friction",
         "friction residual growing with the pressure difference across the piston seal "
         "(residual vs |p1 - p2|)",

@@ -12,14 +12,29 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["BASES", "initial_state", "controller", "settling_time"]
+__all__ = ["BASES", "initial_state", "hidden_states", "controller", "settling_time"]
 
 _SERVO = "002_af30b681d6ccfd6c.txt"
 
 
 def initial_state(params, m):
-    """State at a window start: measured position, estimated velocity."""
-    return np.array([m["x"], m.get("v", 0.0)])
+    """State at a window start: measured position, estimated velocity; the driven body at
+    ``xd``, ``vd`` of :func:`hidden_states` where given (with a play), else at the load."""
+    x = m["x"]
+    v = m.get("v", 0.0)
+    return np.array([x, v, m.get("xd", x), m.get("vd", v)])
+
+
+def hidden_states(params, channels, inputs, dt):
+    """Driven-body position ``xd`` [m] and velocity ``vd`` [m/s] at every sample of a record,
+    implied by its measured position and force (:func:`~.observer.drive_track`); {} without a
+    play or without the position."""
+    if params.backlash_gap <= 0.0 or "x" not in channels:
+        return {}
+    from hydro_envs.plants.slider.observer import drive_track
+
+    xd, vd = drive_track(params, channels["x"], inputs[:, 0], dt)
+    return {"xd": xd, "vd": vd}
 
 
 def controller(meas, ref, params):
@@ -55,6 +70,13 @@ _EFFECTS = {
         null={"force_offset": 0.0},
         source="slider F_0 (model.py): a constant force opposing +x; the EMPS reference model "
         "(Janot, Gautier, Brunot 2019) carries one, OF = -3.16 N"),
+    "backlash": dict(
+        parameters=(dict(field="backlash_gap", bounds=(2e-6, 5e-3), start=3e-5, draw=(5e-5, 2e-4)),
+                    dict(field="load_mass_fraction", bounds=(0.02, 0.98), start=0.3, draw=(0.15, 0.4),
+                         log=False)),
+        null={"backlash_gap": 0.0},
+        source="model.py dead-zone play between drive and load (Nordin & Gutman 2002, Automatica 38:1633); "
+        "plays of 0.05-0.2 mm: ball-screw nuts without preload, belt and gear stages"),
     "sensor_delay": dict(
         parameters=(dict(field="delay", bounds=(1e-5, 0.05), start=2e-3, draw=(2e-3, 6e-3), log=False),),
         null={"delay": 0.0}, channels=("x",),
@@ -67,7 +89,7 @@ BASES = {
         base_fit=("mass", "viscous_friction"),
         # 1 um encoder, 0.02 N load cell
         noise={"x": 1e-6, "f": 0.02},
-        initial_state=initial_state, controller=controller,
+        initial_state=initial_state, controller=controller, hidden_states=hidden_states,
         position_channel="x", position_state="x",
         reference_centre=_reference_centre, reference_amplitude=0.06, reference_speed=0.05,
         # warm-up: 3 times the stage's m/b = 50 ms

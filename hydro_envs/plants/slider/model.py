@@ -10,16 +10,25 @@ on the batched kernel and :mod:`identification.slider` identifies its parameters
 State (SI)::
 
     index  name  unit  meaning
-    0      x     m     position, 0 at the lower end stop, ``stroke`` at the upper one
-    1      v     m/s   velocity
+    0      x     m     position of the measured body, 0 at the lower end stop, ``stroke`` at the upper one
+    1      v     m/s   its velocity
+    2      xd    m     position of the driven body (= x for a rigid drive)
+    3      vd    m/s   its velocity
 
-Input: ``u[0] = f`` [N], the applied force (positive towards +x).
+Input: ``u[0] = f`` [N], the applied force (positive towards +x), acting on the driven body.
 
-Equations::
+Equations, rigid drive (``backlash_gap = 0``, the default; x_d, v_d follow x, v)::
 
     x' = v
     m v' = f - F_0 - F_f(v) + F_stop(x, v)
     F_f(v) = (F_C + (F_S - F_C) exp(-|v| / v_S)) tanh(v / v_eps) + b v     (002 eq (1))
+
+With a play of ``+-g`` between the driven body (mass ``(1 - mu) m``) and the measured load
+(``mu m``), each carrying its share of F_0 and of the friction::
+
+    mu m v'        = F_c - mu F_0 - mu F_f(v) + F_stop(x, v)
+    (1 - mu) m v_d' = f - (1 - mu) F_0 - (1 - mu) F_f(v_d) - F_c
+    F_c = backlash_force(x_d - x, v_d - v, g, k_c, alpha_c)   (dead zone, Hunt-Crossley contact)
 
 ``F_0`` is a constant force opposing +x: gravity on an inclined stage, cable-chain drag, or
 a force-sensor bias (they are indistinguishable from force/position data). The friction law
@@ -53,10 +62,11 @@ from collections.abc import Sequence
 import numba as nb
 import numpy as np
 
-from hydro_envs.laws.contact import end_stop_force
+from hydro_envs.laws.contact import backlash_force, end_stop_force
 from hydro_envs.laws.friction import stribeck_exponential
 from hydro_envs.plants.slider.params import (  # noqa: F401  (re-exported)
-    I_ASTOP, I_B, I_F0, I_FC, I_FMAX, I_FS, I_KSTOP, I_L, I_M, I_VEPS, I_VS, N_PARAMS, PLANT, SliderParams,
+    I_AC, I_ASTOP, I_B, I_F0, I_FC, I_FMAX, I_FS, I_GAP, I_KC, I_KSTOP, I_L, I_M, I_MU, I_VEPS, I_VS, N_PARAMS,
+    PLANT, SliderParams,
 )
 from hydro_envs.plants.slider.spec import SPEC
 from hydro_envs.sim.simulate import simulate
@@ -70,6 +80,8 @@ __all__ = [
     "N_STATES",
     "X",
     "V",
+    "XD",
+    "VD",
     "slider_rhs",
     "slider_guard",
     "slider_friction",
@@ -79,10 +91,10 @@ __all__ = [
     "ACCURATE_SAFETY",
 ]
 
-STATE_NAMES = ("x", "v")
-STATE_UNITS = ("m", "m/s")
-N_STATES = 2
-X, V = range(N_STATES)
+STATE_NAMES = ("x", "v", "xd", "vd")
+STATE_UNITS = ("m", "m/s", "m", "m/s")
+N_STATES = 4
+X, V, XD, VD = range(N_STATES)
 
 #: sensor outputs (noise-free): measured channel -> the state index it reads, and measured
 #: channel -> the state index whose time derivative it reads
@@ -100,15 +112,30 @@ ACCURATE_SAFETY = 0.2
 
 @nb.njit(cache=True, error_model="numpy")
 def slider_rhs(y, u, p, dy):
-    """Time derivative ``dy`` of ``y = (x, v)`` under applied force ``u[0]`` [N]."""
+    """Time derivative ``dy`` of ``y = (x, v, x_d, v_d)`` under applied force ``u[0]`` [N]."""
     x = y[X]
     v = y[V]
-    f_friction = stribeck_exponential(
-        v, p[I_FC], p[I_FS], p[I_VS], p[I_B], p[I_VEPS]
-    )  # 002 eq (1), tanh sign 003 eq (12)
+    gap = p[I_GAP]
     f_stop = end_stop_force(x, v, 0.0, p[I_L], p[I_KSTOP], p[I_ASTOP])
+    if gap <= 0.0:  # rigid drive: one body, the driven states follow the measured ones
+        f_friction = stribeck_exponential(
+            v, p[I_FC], p[I_FS], p[I_VS], p[I_B], p[I_VEPS]
+        )  # 002 eq (1), tanh sign 003 eq (12)
+        dy[X] = v
+        dy[V] = (u[0] - p[I_F0] - f_friction + f_stop) / p[I_M]
+        dy[XD] = dy[X]
+        dy[VD] = dy[V]
+        return
+    mu = p[I_MU]
+    md = 1.0 - mu
+    vd = y[VD]
+    f_load = mu * stribeck_exponential(v, p[I_FC], p[I_FS], p[I_VS], p[I_B], p[I_VEPS])
+    f_drive = md * stribeck_exponential(vd, p[I_FC], p[I_FS], p[I_VS], p[I_B], p[I_VEPS])
+    f_c = backlash_force(y[XD] - x, vd - v, gap, p[I_KC], p[I_AC])
     dy[X] = v
-    dy[V] = (u[0] - p[I_F0] - f_friction + f_stop) / p[I_M]
+    dy[V] = (f_c - mu * p[I_F0] - f_load + f_stop) / (mu * p[I_M])
+    dy[XD] = vd
+    dy[VD] = (u[0] - md * p[I_F0] - f_drive - f_c) / (md * p[I_M])
 
 
 @nb.njit(cache=True, error_model="numpy")
@@ -133,10 +160,13 @@ def stiffness_modes(params: SliderParams) -> dict[str, float]:
       ``(F_S / v_eps + b + (F_S - F_C) / v_S) / m`` (tanh slope times the largest magnitude
       F_S, viscous slope, and the Stribeck decay slope, which is negative damping).
     * ``end_stop``: contact spring ``sqrt(k / m)`` plus its damping ``alpha F_max / m`` at
-      the penetration where the stop holds ``force_max`` (as the servo cylinder).
+      the penetration where the stop holds ``force_max`` (as the servo cylinder); with a play
+      on the load's mass ``mu m``.
+    * ``backlash`` (with a play): the drive-load contact on the reduced mass
+      ``mu (1 - mu) m``, spring plus damping at the full force, as the end stop.
     """
     m = params.mass
-    return {
+    modes = {
         "friction": (
             params.static_friction / params.friction_sign_velocity
             + params.viscous_friction
@@ -146,12 +176,23 @@ def stiffness_modes(params: SliderParams) -> dict[str, float]:
         "end_stop": math.sqrt(params.stop_stiffness / m)
         + params.stop_damping * (params.force_max + params.static_friction) / m,
     }
+    if params.backlash_gap > 0.0:
+        # the end stop acts on the load alone, the contact across the play on the reduced mass;
+        # the friction of each body scales with its mass, so its rate per unit mass is unchanged
+        mu = params.load_mass_fraction
+        m_load = mu * m
+        m_red = mu * (1.0 - mu) * m
+        modes["end_stop"] = math.sqrt(params.stop_stiffness / m_load) + params.stop_damping * (
+            params.force_max + params.static_friction) / m_load
+        modes["backlash"] = math.sqrt(params.coupling_stiffness / m_red) + params.coupling_damping * (
+            params.force_max + params.static_friction) / m_red
+    return modes
 
 
 def rest_state(params: SliderParams, x: float | None = None) -> np.ndarray:
     """State at rest at ``x`` (default mid-stroke)."""
     y = np.zeros(N_STATES)
-    y[X] = 0.5 * params.stroke if x is None else x
+    y[X] = y[XD] = 0.5 * params.stroke if x is None else x
     return y
 
 
@@ -167,10 +208,11 @@ def simulate_slider(
     """Roll the slider out under a zero-order-held force on the batched RK4 kernel.
 
     ``force`` [N] has shape ``(n,)`` (one record) or ``(batch, n)``; ``params`` is one
-    parameter set or one per record; ``y0`` is ``(2,)`` or ``(batch, 2)`` (default: rest at
-    mid-stroke). Sub-steps follow from :func:`stiffness_modes` with ``safety`` (default
-    :data:`ACCURATE_SAFETY`, see there) unless ``n_sub`` is given.
-    Returns states ``(n + 1, 2)`` or ``(batch, n + 1, 2)``: row ``k`` is the state at
+    parameter set or one per record; ``y0`` is ``(4,)`` or ``(batch, 4)``, or ``(x, v)`` with
+    the driven body at the measured one (default: rest at mid-stroke). Sub-steps follow from
+    :func:`stiffness_modes` with ``safety`` (default :data:`ACCURATE_SAFETY`, see there) unless
+    ``n_sub`` is given.
+    Returns states ``(n + 1, 4)`` or ``(batch, n + 1, 4)``: row ``k`` is the state at
     ``t = k dt``, and ``force[k]`` acts on ``[k dt, (k + 1) dt)``.
     """
     force = np.asarray(force, dtype=np.float64)
@@ -189,7 +231,10 @@ def simulate_slider(
     if y0 is None:
         Y = np.stack([rest_state(q) for q in plist])
     else:
-        Y = np.array(np.broadcast_to(np.asarray(y0, dtype=np.float64), (batch, N_STATES)))
+        y0 = np.asarray(y0, dtype=np.float64)
+        if y0.shape[-1] == 2:  # (x, v): the driven body at the measured one
+            y0 = np.concatenate([y0, y0], axis=-1)
+        Y = np.array(np.broadcast_to(y0, (batch, N_STATES)))
     if not np.all(np.isfinite(Y)):
         raise ValueError("y0 contains NaN or inf")
     if n_sub is None:

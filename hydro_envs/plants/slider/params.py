@@ -52,6 +52,25 @@ class SliderParams(PhysicalParams):
     stop_damping: float = physical(
         2.0, "s/m", (0.0, 100.0), "assumed: Hunt-Crossley alpha, restitution ~0.3 at 0.5 m/s"
     )
+    backlash_gap: float = physical(
+        0.0, "m", (0.0, 0.01),
+        "assumed: rigid drive (0); > 0: a play of +-gap between the driven part and the measured "
+        "load (gear, screw nut, coupling; hydro_envs.laws.contact.backlash_force)",
+    )
+    load_mass_fraction: float = physical(
+        0.2, "1", (0.01, 0.99),
+        "assumed: the measured load beyond the play carries this fraction of the mass and of the "
+        "friction (guide friction grows with the carried weight); used only with a play",
+    )
+    coupling_stiffness: float = physical(
+        1e6, "N/m", (1e3, 1e9),
+        "assumed: drive-load contact across the play, 10 um at 10 N (a small screw or belt stage)",
+    )
+    coupling_damping: float = physical(
+        240.0, "N s/m", (0.0, 1e5),
+        "assumed: damping ratio 0.3 of the contact mode of the default stage (reduced mass "
+        "0.16 kg at load_mass_fraction 0.2; lubricated gear or nut contact, restitution about 0.4)",
+    )
 
     def _check_relations(self) -> None:
         if self.static_friction < self.coulomb_friction:
@@ -61,7 +80,8 @@ class SliderParams(PhysicalParams):
             )
 
 
-(I_M, I_FC, I_FS, I_VS, I_B, I_F0, I_VEPS, I_L, I_FMAX, I_KSTOP, I_ASTOP) = range(11)
-N_PARAMS = 11
+(I_M, I_FC, I_FS, I_VS, I_B, I_F0, I_VEPS, I_L, I_FMAX, I_KSTOP, I_ASTOP, I_GAP, I_MU, I_KC, I_AC) = range(15)
+N_PARAMS = 15
 assert SliderParams.names()[I_ASTOP] == "stop_damping"
+assert SliderParams.names()[I_AC] == "coupling_damping"
 assert len(SliderParams.names()) == N_PARAMS
