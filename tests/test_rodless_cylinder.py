@@ -164,6 +164,24 @@ def test_fast_nozzle_law_equals_the_reference_law():
                 assert fast == pytest.approx(ref, rel=1e-12, abs=1e-20)
 
 
+def test_nozzle_slope_is_the_derivative_of_the_flow():
+    """The analytic slope d mdot / d p_1 used by the supply droop's Newton steps against a central
+    difference of the flow, on both sides of the critical, subsonic and laminar-tail regimes and
+    for back-flow."""
+    from hydro_envs.laws.nozzle_fast import nozzle_flow_constants, nozzle_mass_flow_fast, nozzle_mass_flow_slope_fast
+
+    consts = nozzle_flow_constants(1.4, 0.999)
+    rt = math.sqrt(287.0 * 293.15)
+    for p_1 in (2e5, 4e5, 5.5e5, 6.99e5, 7.0005e5, 7.2e5, 9e5, 1.5e6):
+        m, dm = nozzle_mass_flow_slope_fast(1.4e-6, p_1, 7e5, rt, 0.999, *consts)
+        assert m == pytest.approx(nozzle_mass_flow_fast(1.4e-6, p_1, 7e5, rt, 0.999, *consts), rel=1e-14)
+        h = 1e-3 * abs(p_1 - 7e5) if abs(p_1 - 7e5) > 1e3 else 0.05
+        fd = (nozzle_mass_flow_fast(1.4e-6, p_1 + h, 7e5, rt, 0.999, *consts)
+              - nozzle_mass_flow_fast(1.4e-6, p_1 - h, 7e5, rt, 0.999, *consts)) / (2 * h)
+        assert dm == pytest.approx(fd, rel=1e-5, abs=1e-16), p_1
+        assert dm >= 0.0
+
+
 def test_parameter_array_round_trip_with_derived_columns():
     arr = NOMINAL.to_array()
     assert arr.shape == (rc.N_PARAMS,) and arr[rc.D_AREA] == pytest.approx(A, rel=1e-15)

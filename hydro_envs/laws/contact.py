@@ -17,9 +17,10 @@ import numba as nb
 
 __all__ = ["end_stop_force", "hunt_crossley_force", "backlash_force", "CONTACT_DAMPING_RAMP"]
 
-#: penetration [m] over which the damper of :func:`backlash_force` engages (assumed: 1 um,
-#: far below a play of 0.05-0.2 mm and above round-off)
-CONTACT_DAMPING_RAMP = 1e-6
+#: penetration [m] over which the damper of :func:`backlash_force` engages (assumed: 10 um, the
+#: lubricant film squeezed out at first contact; a tenth of a 0.1 mm play). A shorter ramp is
+#: a stiffer spring while it engages: ``c v / ramp`` at closing speed v.
+CONTACT_DAMPING_RAMP = 1e-5
 
 
 @nb.njit(cache=True, error_model="numpy")

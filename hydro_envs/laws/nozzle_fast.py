@@ -19,7 +19,7 @@ import math
 
 import numba
 
-__all__ = ["nozzle_flow_constants", "nozzle_mass_flow_fast"]
+__all__ = ["nozzle_flow_constants", "nozzle_mass_flow_fast", "nozzle_mass_flow_slope_fast"]
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -74,3 +74,47 @@ def nozzle_mass_flow_fast(cd_area, p_up, p_down, sqrt_rt_up, ratio_lam, crit, ps
     else:
         psi = psi_lam * (1.0 - ratio) / (1.0 - ratio_lam)
     return s * cd_area * pu * psi / sqrt_rt_up
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def nozzle_mass_flow_slope_fast(cd_area, p_1, p_2, sqrt_rt_up, ratio_lam, crit, psi_c, psi_lam, inv_kappa, coef):
+    """:func:`nozzle_mass_flow_fast` from ``p_1`` to ``p_2`` and its derivative with respect to
+    ``p_1`` at fixed ``p_2`` (same arguments): ``(mdot [kg/s], d mdot / d p_1 [kg/(s Pa)])``.
+
+    With ``K = cd_area / sqrt_rt_up`` and the flow function ``psi(r)``: for ``p_1 >= p_2``,
+    ``mdot = K p_1 psi(p_2 / p_1)`` and the slope is ``K (psi(r) - r psi'(r))``; for
+    ``p_1 < p_2``, ``mdot = -K p_2 psi(p_1 / p_2)`` and the slope is ``K psi'(r)`` in magnitude
+    (positive: more ``p_1`` means less back-flow). ``psi' = 0`` choked, ``coef (q' (2 q - r) - q)
+    / (2 psi)`` subsonic with ``q = r^(1/k)``, ``q' = q / (k r)``, ``-psi_lam / (1 - ratio_lam)``
+    on the linear tail.
+    """
+    if p_1 >= p_2:
+        pu = p_1
+        pd = p_2
+        forward = True
+    else:
+        pu = p_2
+        pd = p_1
+        forward = False
+    if pu <= 0.0:
+        return 0.0, 0.0
+    k = cd_area / sqrt_rt_up
+    r = max(pd / pu, 0.0)
+    if r <= crit:
+        psi = psi_c
+        dpsi = 0.0
+    elif r <= ratio_lam:
+        q = math.exp(inv_kappa * math.log(r))
+        t = q * (q - r)
+        if t > 0.0:
+            psi = math.sqrt(coef * t)
+            dpsi = coef * (inv_kappa * q / r * (2.0 * q - r) - q) / (2.0 * psi)
+        else:
+            psi = 0.0
+            dpsi = 0.0
+    else:
+        psi = psi_lam * (1.0 - r) / (1.0 - ratio_lam)
+        dpsi = -psi_lam / (1.0 - ratio_lam)
+    if forward:
+        return k * pu * psi, k * (psi - r * dpsi)
+    return -k * pu * psi, -k * dpsi

@@ -62,7 +62,7 @@ from collections.abc import Sequence
 import numba as nb
 import numpy as np
 
-from hydro_envs.laws.contact import backlash_force, end_stop_force
+from hydro_envs.laws.contact import CONTACT_DAMPING_RAMP, backlash_force, end_stop_force
 from hydro_envs.laws.friction import stribeck_exponential
 from hydro_envs.plants.slider.params import (  # noqa: F401  (re-exported)
     I_AC, I_ASTOP, I_B, I_F0, I_FC, I_FMAX, I_FS, I_GAP, I_KC, I_KSTOP, I_L, I_M, I_MU, I_VEPS, I_VS, N_PARAMS,
@@ -86,6 +86,7 @@ __all__ = [
     "slider_guard",
     "slider_friction",
     "stiffness_modes",
+    "backlash_contact_rate",
     "simulate_slider",
     "rest_state",
     "ACCURATE_SAFETY",
@@ -163,7 +164,7 @@ def stiffness_modes(params: SliderParams) -> dict[str, float]:
       the penetration where the stop holds ``force_max`` (as the servo cylinder); with a play
       on the load's mass ``mu m``.
     * ``backlash`` (with a play): the drive-load contact on the reduced mass
-      ``mu (1 - mu) m``, spring plus damping at the full force, as the end stop.
+      ``mu (1 - mu) m`` (:func:`backlash_contact_rate`).
     """
     m = params.mass
     modes = {
@@ -184,9 +185,22 @@ def stiffness_modes(params: SliderParams) -> dict[str, float]:
         m_red = mu * (1.0 - mu) * m
         modes["end_stop"] = math.sqrt(params.stop_stiffness / m_load) + params.stop_damping * (
             params.force_max + params.static_friction) / m_load
-        modes["backlash"] = math.sqrt(params.coupling_stiffness / m_red) + params.coupling_damping * (
-            params.force_max + params.static_friction) / m_red
+        modes["backlash"] = backlash_contact_rate(params, m_red)
     return modes
+
+
+def backlash_contact_rate(params: SliderParams, mass: float) -> float:
+    """Largest eigenvalue magnitude [1/s] of the play's contact acting on ``mass`` [kg].
+
+    The contact spring ``k`` plus the slope of the damper while it engages over
+    :data:`~hydro_envs.laws.contact.CONTACT_DAMPING_RAMP`, ``c v / ramp``, at the fastest closing
+    speed: the drive accelerated by the full force over twice the play,
+    ``v = sqrt(4 g F_max / ((1 - mu) m))``; then the damper ``c / mass``.
+    """
+    md = (1.0 - params.load_mass_fraction) * params.mass
+    v_close = math.sqrt(4.0 * params.backlash_gap * (params.force_max + params.static_friction) / md)
+    k_eff = params.coupling_stiffness + params.coupling_damping * v_close / CONTACT_DAMPING_RAMP
+    return math.sqrt(k_eff / mass) + params.coupling_damping / mass
 
 
 def rest_state(params: SliderParams, x: float | None = None) -> np.ndarray:

@@ -19,8 +19,6 @@ at the first contact.
 
 from __future__ import annotations
 
-import math
-
 import numba as nb
 import numpy as np
 
@@ -29,6 +27,7 @@ from hydro_envs.laws.friction import stribeck_exponential
 from hydro_envs.plants.slider.params import (
     I_B, I_F0, I_FC, I_FS, I_GAP, I_KC, I_AC, I_M, I_MU, I_VEPS, I_VS, SliderParams,
 )
+from hydro_envs.plants.slider.model import backlash_contact_rate
 from hydro_envs.sim.stiffness import substeps_from_stiffness
 
 __all__ = ["drive_track"]
@@ -82,7 +81,7 @@ def drive_track(params: SliderParams, x: np.ndarray, f: np.ndarray, dt: float) -
     modes = {
         "friction": (params.static_friction / params.friction_sign_velocity + params.viscous_friction
                      + (params.static_friction - params.coulomb_friction) / params.stribeck_velocity) / params.mass,
-        "contact": math.sqrt(params.coupling_stiffness / md) + params.coupling_damping / md,
+        "contact": backlash_contact_rate(params, md),
     }
     n_sub = substeps_from_stiffness(modes, dt)[0]
     xd = np.empty_like(x)
