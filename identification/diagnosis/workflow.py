@@ -33,7 +33,9 @@ One round (:func:`diagnose`)::
        refitted in pairs and judged by the same rules; a winning pair names both members, in
        order of the residual each explains (two effects that only together explain the data:
        Coulomb friction and a constant force on a heavy axis).
-    Repeat with the accepted effect added until nothing more is accepted (``max_effects``).
+    Repeat with the accepted effect added until nothing more is accepted (``max_effects``), or
+    until the held-out residual left is at the noise floor (``AT_NOISE_FLOOR`` floors in every
+    channel: what is left is noise, and a further gain would fit it).
     Several named effects are listed in order of the held-out residual each explains in the final
     model (:func:`.pairs.explained_in_final_model`), not in the order the rounds found them.
     One verdict for the run: ``unexplained`` when the last model leaves more than the plant's
@@ -92,6 +94,7 @@ __all__ = ["Model", "Candidate", "Round", "DiagnosisResult", "diagnose", "fit_mo
 # re-exported here (reports, synthetic data and tests import them from this module)
 from identification.diagnosis.models import (  # noqa: F401
     ACCEPT_GAIN,
+    AT_NOISE_FLOOR,
     BASE_FIT_FACTOR,
     BOUND_TOL,
     COLD_START_SCORE,
@@ -299,6 +302,13 @@ def diagnose(plant: str | DiagnosisPlant, records: Sequence[Record], holdout: Se
         in_floor: dict[str, float] | None = None
         locate = residual_maps(spec, cur.model, records, sigma) if maps else {}
         pred = prediction_residual(spec, cur.model, records, sigma) if maps else {}
+        if accepted:
+            (left,) = heldout_rms(spec, [cur.model], holdout)
+            if max(ratios(left, floor).values(), default=math.inf) <= AT_NOISE_FLOOR:
+                say(f"  the residual left is at the noise floor (<= {AT_NOISE_FLOOR:g} floors in every channel): "
+                    "nothing more to name")
+                rounds.append(Round(h_cur, h_nr, locate, pred, [], "none"))
+                break
         cands = _candidates(spec, cur.model, effects)
         if not cands:
             rounds.append(Round(h_cur, h_nr, locate, pred, [], "none"))
