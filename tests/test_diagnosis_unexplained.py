@@ -1,7 +1,7 @@
 """Diagnosis on records from a generator independent of the workflow's own simulator: a rigid
 axis (the slider's physics: mass, viscous and tanh-regularised Coulomb friction, 002 eq (1))
 integrated by scipy's Radau under a PD position loop, with or without an effect: mechanical
-backlash between drive and load (in the catalogue since the slider has a second body; also
+backlash between drive and load (in the catalogue: the slider's driven body behind a play; also
 diagnosed with the catalogue minus backlash, as an effect outside it), a position-dependent
 spring force (e.g. a cable chain, outside the catalogue). None of the workflow's kernels,
 controllers or noise code is used to make these records.
