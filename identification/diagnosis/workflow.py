@@ -302,9 +302,9 @@ def diagnose(plant: str | DiagnosisPlant, records: Sequence[Record], holdout: Se
         in_floor: dict[str, float] | None = None
         locate = residual_maps(spec, cur.model, records, sigma) if maps else {}
         pred = prediction_residual(spec, cur.model, records, sigma) if maps else {}
+        cur_left = _floors_left(spec, cur.model, holdout, floor) if accepted else None
         if accepted:
-            (left,) = heldout_rms(spec, [cur.model], holdout)
-            if max(ratios(left, floor).values(), default=math.inf) <= AT_NOISE_FLOOR:
+            if max(cur_left.values(), default=math.inf) <= AT_NOISE_FLOOR:
                 say(f"  the residual left is at the noise floor (<= {AT_NOISE_FLOOR:g} floors in every channel): "
                     "nothing more to name")
                 rounds.append(Round(h_cur, h_nr, locate, pred, [], "none"))
@@ -346,9 +346,8 @@ def diagnose(plant: str | DiagnosisPlant, records: Sequence[Record], holdout: Se
                 e.name, scores.get(e.name, 0.0), vals, ses, dict(fit.result.nrmse) if fit.result else {}, nr, h,
                 (h_cur - h) / h_cur, plausible, ident, reasons, time.perf_counter() - tc, fit.model, fit))
             if not settled and plausible and ident and (h_cur - h) / h_cur >= accept_gain:
-                (left,) = heldout_rms(spec, [fit.model], holdout)
-                left_floors = max(ratios(left, floor).values(), default=math.inf)
-                settled = left_floors <= SETTLED_FRACTION * spec.unexplained_factor
+                left = _floors_left(spec, fit.model, holdout, floor)
+                settled = max(left.values(), default=math.inf) <= SETTLED_FRACTION * spec.unexplained_factor
         if in_floor is None:
             in_floor = input_noise_floor(spec, cur.model, holdout)
         if in_floor:
@@ -363,8 +362,9 @@ def diagnose(plant: str | DiagnosisPlant, records: Sequence[Record], holdout: Se
             decision, sep = _check_correlated(spec, next(c for c in results if c.name == decision),
                                               [a["name"] for a in accepted], decision, sep)
         if decision == "none" and len(accepted) + 2 <= max_effects:
-            (left,) = heldout_rms(spec, [cur.model], holdout)
-            if max(ratios(left, floor).values(), default=0.0) > spec.unexplained_factor:
+            if cur_left is None:
+                cur_left = _floors_left(spec, cur.model, holdout, floor)
+            if max(cur_left.values(), default=0.0) > spec.unexplained_factor:
                 say("  no single effect wins and the residual stays above the noise floor: pairs")
                 pairs = pair_candidates(spec, cur.model, results, records, holdout, sigma, h_cur, accept_gain)
                 pair_decision, pair_sep = _decide(spec, pairs, accept_gain, margin)
@@ -419,6 +419,13 @@ def diagnose(plant: str | DiagnosisPlant, records: Sequence[Record], holdout: Se
     return DiagnosisResult(spec.name, verdict, accepted, rounds, base_model, cur.model, base_fit, notes,
                            time.perf_counter() - t0, sigma, ambiguous, floor, residual, mismatch, reason, factor)
 
+
+
+def _floors_left(spec: DiagnosisPlant, model: Model, holdout: Sequence[Record],
+                 floor: dict[str, Any]) -> dict[str, float]:
+    """Held-out residual of ``model`` per channel, in noise floors."""
+    (left,) = heldout_rms(spec, [model], holdout)
+    return ratios(left, floor)
 
 
 def _named(spec: DiagnosisPlant, name: str, best: Candidate, h_cur: float, h_nr: dict[str, float],

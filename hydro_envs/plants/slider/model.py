@@ -87,6 +87,7 @@ __all__ = [
     "slider_friction",
     "stiffness_modes",
     "backlash_contact_rate",
+    "drive_acceleration",
     "simulate_slider",
     "rest_state",
     "ACCURATE_SAFETY",
@@ -128,15 +129,23 @@ def slider_rhs(y, u, p, dy):
         dy[VD] = dy[V]
         return
     mu = p[I_MU]
-    md = 1.0 - mu
     vd = y[VD]
     f_load = mu * stribeck_exponential(v, p[I_FC], p[I_FS], p[I_VS], p[I_B], p[I_VEPS])
-    f_drive = md * stribeck_exponential(vd, p[I_FC], p[I_FS], p[I_VS], p[I_B], p[I_VEPS])
     f_c = backlash_force(y[XD] - x, vd - v, gap, p[I_KC], p[I_AC])
     dy[X] = v
     dy[V] = (f_c - mu * p[I_F0] - f_load + f_stop) / (mu * p[I_M])
     dy[XD] = vd
-    dy[VD] = (u[0] - md * p[I_F0] - f_drive - f_c) / (md * p[I_M])
+    dy[VD] = drive_acceleration(p, vd, u[0], f_c)
+
+
+@nb.njit(cache=True, error_model="numpy", inline="always")
+def drive_acceleration(p, vd, f, f_c):
+    """Acceleration [m/s^2] of the driven body behind a play: ``(1 - mu) m v_d' = f - (1 - mu)
+    (F_0 + F_f(v_d)) - F_c`` under the applied force ``f`` [N] and the contact force ``f_c`` [N]
+    it passes to the load."""
+    md = 1.0 - p[I_MU]
+    f_drive = md * stribeck_exponential(vd, p[I_FC], p[I_FS], p[I_VS], p[I_B], p[I_VEPS])
+    return (f - md * p[I_F0] - f_drive - f_c) / (md * p[I_M])
 
 
 @nb.njit(cache=True, error_model="numpy")
@@ -167,6 +176,9 @@ def stiffness_modes(params: SliderParams) -> dict[str, float]:
       ``mu (1 - mu) m`` (:func:`backlash_contact_rate`).
     """
     m = params.mass
+    # with a play the end stop acts on the load alone, the contact across the play on the
+    # reduced mass; each body's friction scales with its mass, so its rate per unit mass is unchanged
+    m_stop = params.load_mass_fraction * m if params.backlash_gap > 0.0 else m
     modes = {
         "friction": (
             params.static_friction / params.friction_sign_velocity
@@ -174,18 +186,12 @@ def stiffness_modes(params: SliderParams) -> dict[str, float]:
             + (params.static_friction - params.coulomb_friction) / params.stribeck_velocity
         )
         / m,
-        "end_stop": math.sqrt(params.stop_stiffness / m)
-        + params.stop_damping * (params.force_max + params.static_friction) / m,
+        "end_stop": math.sqrt(params.stop_stiffness / m_stop)
+        + params.stop_damping * (params.force_max + params.static_friction) / m_stop,
     }
     if params.backlash_gap > 0.0:
-        # the end stop acts on the load alone, the contact across the play on the reduced mass;
-        # the friction of each body scales with its mass, so its rate per unit mass is unchanged
         mu = params.load_mass_fraction
-        m_load = mu * m
-        m_red = mu * (1.0 - mu) * m
-        modes["end_stop"] = math.sqrt(params.stop_stiffness / m_load) + params.stop_damping * (
-            params.force_max + params.static_friction) / m_load
-        modes["backlash"] = backlash_contact_rate(params, m_red)
+        modes["backlash"] = backlash_contact_rate(params, mu * (1.0 - mu) * m)
     return modes
 
 

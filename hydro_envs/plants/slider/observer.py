@@ -23,11 +23,8 @@ import numba as nb
 import numpy as np
 
 from hydro_envs.laws.contact import backlash_force
-from hydro_envs.laws.friction import stribeck_exponential
-from hydro_envs.plants.slider.params import (
-    I_B, I_F0, I_FC, I_FS, I_GAP, I_KC, I_AC, I_M, I_MU, I_VEPS, I_VS, SliderParams,
-)
-from hydro_envs.plants.slider.model import backlash_contact_rate
+from hydro_envs.plants.slider.model import backlash_contact_rate, drive_acceleration, stiffness_modes
+from hydro_envs.plants.slider.params import I_AC, I_GAP, I_KC, SliderParams
 from hydro_envs.sim.stiffness import substeps_from_stiffness
 
 __all__ = ["drive_track"]
@@ -35,10 +32,8 @@ __all__ = ["drive_track"]
 
 @nb.njit(cache=True, error_model="numpy", inline="always")
 def _drive_accel(p, xd, vd, xl, vl, f):
-    md = 1.0 - p[I_MU]
-    fr = md * stribeck_exponential(vd, p[I_FC], p[I_FS], p[I_VS], p[I_B], p[I_VEPS])
-    fc = backlash_force(xd - xl, vd - vl, p[I_GAP], p[I_KC], p[I_AC])
-    return (f - md * p[I_F0] - fr - fc) / (md * p[I_M])
+    """The model's driven body against the load at ``xl``, ``vl`` as measured."""
+    return drive_acceleration(p, vd, f, backlash_force(xd - xl, vd - vl, p[I_GAP], p[I_KC], p[I_AC]))
 
 
 @nb.njit(cache=True, error_model="numpy")
@@ -78,11 +73,7 @@ def drive_track(params: SliderParams, x: np.ndarray, f: np.ndarray, dt: float) -
         return x.copy(), v
     f = np.ascontiguousarray(f, dtype=np.float64)
     md = (1.0 - params.load_mass_fraction) * params.mass
-    modes = {
-        "friction": (params.static_friction / params.friction_sign_velocity + params.viscous_friction
-                     + (params.static_friction - params.coulomb_friction) / params.stribeck_velocity) / params.mass,
-        "contact": backlash_contact_rate(params, md),
-    }
+    modes = {"friction": stiffness_modes(params)["friction"], "contact": backlash_contact_rate(params, md)}
     n_sub = substeps_from_stiffness(modes, dt)[0]
     xd = np.empty_like(x)
     vd = np.empty_like(x)
