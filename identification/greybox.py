@@ -354,6 +354,10 @@ def _fit_metrics(prob: _Problem, theta: np.ndarray, nsub: int) -> dict[str, Any]
     return {"nrmse": nrmse, "mse": mse, "nrmse_e": nr_e, "mse_e": mse_e, "offsets": offs}
 
 
+# see fit_greybox's ``cost_ceiling``
+CEILING_GAIN_FRACTION = 0.01
+
+
 def fit_greybox(
     base: PhysicalParams,
     fit: Sequence[str],
@@ -373,6 +377,8 @@ def fit_greybox(
     offsets: Sequence[str] = (),
     progress: Callable[[int, int], None] | None = None,
     max_substep_ratio: float | None = None,
+    cost_tol: float | None = None,
+    cost_ceiling: float | None = None,
 ) -> GreyboxResult:
     """Fit parameters ``fit`` of ``base`` to the experiments (see the module docstring).
 
@@ -405,6 +411,18 @@ def fit_greybox(
     the start values' sub-steps are rejected (the solver sees a residual far above its last one
     and shrinks its step), so a fit does not wander into parameter sets whose integration costs
     ten times the start's (None: no cap).
+
+    ``cost_tol``: an iteration that lowers the cost by less than this (absolute, in the units
+    of the weighted cost ``0.5 sum (r / sigma)^2``) ends the fit, as ``tol`` does relative to
+    the cost (None: only ``tol``). With noise-level weights a fall of 0.5 is a chi-square
+    change of 1; a fit creeping along a flat valley (a Stribeck velocity on a record without
+    Stribeck friction) otherwise spends its remaining evaluations on such steps.
+
+    ``cost_ceiling``: the cost of a model this fit extends (None: not known). An iteration that
+    ends above it and lowers the cost by less than ``CEILING_GAIN_FRACTION`` of the cost ends
+    the fit: it is creeping towards a model that explains less than the one it extends
+    (a LuGre bristle model fitted to a record with a static friction curve, held at 200 times
+    the current model's cost by its stiffness cap).
     """
     if jacobian not in ("central", "forward"):
         raise GreyboxError(f"jacobian must be 'central' or 'forward', got {jacobian!r}")
@@ -415,9 +433,25 @@ def fit_greybox(
     ev = _Evaluator(prob, base, fd_step, progress, (2 if reweight else 1) * 2 * max_nfev + 1, max_substep_ratio)
 
     def solve(theta_start):
-        return optimize.least_squares(ev.fun, theta_start, jac=ev.jac_forward if jacobian == "forward" else ev.jac,
-                                      bounds=(prob.lo, prob.hi), method="trf",
-                                      x_scale=1.0, ftol=tol, xtol=tol, gtol=tol, max_nfev=max_nfev)
+        last_cost = [math.inf]
+
+        def stop_when_flat(intermediate_result: optimize.OptimizeResult) -> None:
+            cost = float(intermediate_result.cost)
+            gained, last_cost[0] = last_cost[0] - cost, cost
+            if cost_tol is not None and 0.0 <= gained < cost_tol:
+                raise StopIteration
+            if cost_ceiling is not None and cost > cost_ceiling and 0.0 <= gained < CEILING_GAIN_FRACTION * cost:
+                raise StopIteration
+
+        sol = optimize.least_squares(ev.fun, theta_start, jac=ev.jac_forward if jacobian == "forward" else ev.jac,
+                                     bounds=(prob.lo, prob.hi), method="trf",
+                                     x_scale=1.0, ftol=tol, xtol=tol, gtol=tol, max_nfev=max_nfev,
+                                     callback=None if cost_tol is None and cost_ceiling is None else stop_when_flat)
+        if sol.status == -2:  # stopped by stop_when_flat
+            sol.success = True
+            sol.message = ("an iteration lowered the cost by less than cost_tol or, above cost_ceiling, by less "
+                           f"than {CEILING_GAIN_FRACTION:g} of it")
+        return sol
 
     sol = solve(np.clip(theta0, prob.lo, prob.hi))
     notes: list[str] = []

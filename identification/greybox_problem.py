@@ -234,13 +234,19 @@ class _Problem:
         Pall = np.ascontiguousarray(np.repeat(P, n_exp, axis=0))
         exp_idx = np.tile(np.arange(n_exp), c).astype(np.int64)
         Y0 = np.empty((c * n_exp, self.n_states))
+        names = type(self.base).names()
+        prms: dict[int, PhysicalParams] = {}  # one validated parameter set per copy, shared by its windows
         for i in range(c * n_exp):
             e = self.experiments[exp_idx[i]]
             if callable(e.y0):
-                try:
-                    prm = type(self.base)(**dict(zip(type(self.base).names(), Pall[i])))
-                except ParameterError:
-                    prm = self.base
+                copy = i // n_exp
+                prm = prms.get(copy)
+                if prm is None:
+                    try:
+                        prm = type(self.base)(**dict(zip(names, Pall[i])))
+                    except ParameterError:
+                        prm = self.base
+                    prms[copy] = prm
                 Y0[i] = e.y0(prm)
             else:
                 Y0[i] = e.y0

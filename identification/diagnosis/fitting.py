@@ -22,6 +22,11 @@ from identification.diagnosis.models import Model, _channels, _delayed_channels,
 # weights), so 1e-5 stops when a step gains < 1e-5 N/2 (Delta chi^2 < 0.6 on the rodless
 # record): far below one standard error; 1e-8 spent 3-6 more evaluations on cost changes < 0.1
 FIT_TOL = 1e-5
+# ... and an iteration that lowers the weighted cost by less than FIT_COST_TOL (a chi-square
+# change of 1 at noise-level weights) ends it: on the effect-free rodless record the Stribeck
+# refit spent its last 16 of 22 evaluations lowering the cost (about 25000) by 20 in all,
+# 0.4-6 per accepted step, along the flat direction of an absent Stribeck velocity
+FIT_COST_TOL = 0.5
 # a fit rejects trial points whose stiffness bound needs more than this many times the
 # sub-steps of its start (identification.greybox.fit_greybox): the cold Stribeck refit of a
 # rodless record (20 s, hidden underlap) ran to F_S = 312 N at v_S = 0.2 mm/s, 282 sub-steps
@@ -39,13 +44,14 @@ class FitOutcome:
 
 
 def fit_model(spec: DiagnosisPlant, model: Model, records: Sequence[Record], *, max_nfev: int = 25,
-              sigma: dict[str, float] | None = None) -> FitOutcome:
+              sigma: dict[str, float] | None = None, cost_ceiling: float | None = None) -> FitOutcome:
     """Grey-box fit of the base-fit parameters and every present effect's parameters.
 
     ``sigma``: fixed channel weights (the round's noise-level estimates, so every candidate of
     a round is fitted under the same weights); None: estimated (greybox's reweighting, as for
     the base fit). The iterations use forward-difference Jacobians (half the simulations of
-    central ones); the standard errors come from a central one."""
+    central ones); the standard errors come from a central one. ``cost_ceiling``: the cost of
+    the model this one extends, under the same weights (``identification.greybox.fit_greybox``)."""
     t0 = time.perf_counter()
     names, bounds, log = _fit_names(spec, model)
     present = present_effects(spec, model)
@@ -59,7 +65,8 @@ def fit_model(spec: DiagnosisPlant, model: Model, records: Sequence[Record], *, 
     off = spec.sensor_offsets if model.offsets is not None else ()
     res = gb.fit_greybox(base, names, exps, _channels(spec), bounds=bounds, sigma=sigma, log_scale=log,
                          max_nfev=max_nfev, tol=FIT_TOL, tie=_tie_function(spec, base, present), jacobian="forward",
-                         offsets=off, max_substep_ratio=FIT_MAX_SUBSTEP_RATIO)
+                         offsets=off, max_substep_ratio=FIT_MAX_SUBSTEP_RATIO, cost_tol=FIT_COST_TOL,
+                         cost_ceiling=cost_ceiling)
     params = res.params
     if params is None:  # relation violated: keep the raw values (flagged implausible later)
         params = _raw(base, res.values)

@@ -45,17 +45,23 @@ One round (:func:`diagnose`)::
     channels it acts on (:func:`effect_channels`); the base-fit parameters are refined within
     ``BASE_FIT_FACTOR`` of the start model's values.
 
-Cost (target: the whole catalogue on one 20 s record in < 2 min on 2 cores; the kernel
-rollouts are ~95 % of the time, so the levers cut rollouts): every candidate of a round is fitted
-under the round's fixed channel weights (the noise levels of the current fit: one solve, not a
-solve, a reweighting and a second solve), with forward-difference Jacobians in the iterations
-(p instead of 2p perturbed copies; the statistics use a central one); the second, cold start
-runs only for candidates the score test ranks as plausible or whose warm fit fails or ends on
-a bound or a relation, and not after a candidate of the round has already left a correct
-model's residual (``SETTLED_FRACTION``); candidates that explain < 0.5 % of the residual
-(``HOPELESS_SCORE``) get a warm refit of at most ``HOPELESS_NFEV`` evaluations -- every
-candidate of a round is refitted and scored on the held-out data, except that a round after a
-named effect in which every candidate is hopeless ends without refits.
+Cost (target: the whole catalogue on one 20 s record plus 10 s held out in <= 60 s on 2
+cores; the kernel rollouts are ~95 % of the time, so the levers cut rollouts): every candidate
+of a round is fitted under the round's fixed channel weights (the noise levels of the current
+fit: one solve, not a solve, a reweighting and a second solve), with forward-difference
+Jacobians in the iterations (p instead of 2p perturbed copies); a fit stops when an iteration
+gains less than a chi-square change of 1, or creeps (< 1 % per iteration) above the cost of the
+model it extends; the warm refit starts from the better of the effect's catalogue start and a
+point nearer its null value. The second, cold start (and the start grid after it) runs only
+for candidates the score test ranks as plausible or whose warm fit fails or ends on a bound or
+a relation, not when the warm refit already leaves a correct model's residual, and not after a
+candidate of the round has done so (``SETTLED_FRACTION``: the later candidates get their warm
+refit only, a sensor delay one pass of its search, and those that explain < 0.5 % of the
+residual are not refitted). Candidates that explain < 0.5 % of the residual
+(``HOPELESS_SCORE``) get a warm refit of at most ``HOPELESS_NFEV`` evaluations; a round after a
+named effect in which every candidate is hopeless ends without refits. The sensor-delay search
+scans a coarse grid, then the fine one around its minimum, and later passes only near the last
+delay.
 
 Sensor offsets of pressure channels (``DiagnosisPlant.sensor_offsets``): every round also
 refits a measuring-chain candidate ``sensor_offsets`` (a constant per channel, profiled out of
@@ -324,15 +330,23 @@ def diagnose(plant: str | DiagnosisPlant, records: Sequence[Record], holdout: Se
         results: list[Candidate] = []
         settled = False  # a candidate of this round already leaves a correct model's residual
         for e in cands:
+            if settled and scores.get(e.name, 0.0) < HOPELESS_SCORE:
+                say(f"  candidate {e.name} (signature {scores.get(e.name, 0.0):.4f}): not refitted")
+                results.append(Candidate(e.name, scores.get(e.name, 0.0), {}, {}, {}, {}, math.inf, -math.inf,
+                                         False, False, [NOT_REFITTED], 0.0))
+                continue
             say(f"  candidate {e.name} (signature {scores.get(e.name, 0.0):.4f})"
-                + (" (warm refit only)" if settled and e.kind != "sensor" else ""))
+                + (" (warm refit only)" if settled else ""))
             tc = time.perf_counter()
             try:
                 if e.kind == "sensor":
-                    fit = _fit_delay(spec, cur.model, records, sigma, e, start_model, scores.get(e.name, 0.0))
+                    fit = _fit_delay(spec, cur.model, records, sigma, e, start_model, scores.get(e.name, 0.0),
+                                     cold=not settled)
                 else:
                     fit = _fit_candidate(spec, cur.model, start_model, e.name, records, sigma,
-                                         scores.get(e.name, 0.0), cold=not settled)
+                                         scores.get(e.name, 0.0), cold=not settled,
+                                         ceiling=cur.result.cost if cur.result is not None else None,
+                                         settles=lambda f: _settles(spec, f.model, holdout, floor))
             except (ParameterError, gb.GreyboxError) as err:
                 results.append(Candidate(e.name, scores.get(e.name, 0.0), {}, {}, {}, {}, math.inf, -math.inf,
                                          False, False, [f"fit failed: {err}"], time.perf_counter() - tc))
@@ -346,8 +360,7 @@ def diagnose(plant: str | DiagnosisPlant, records: Sequence[Record], holdout: Se
                 e.name, scores.get(e.name, 0.0), vals, ses, dict(fit.result.nrmse) if fit.result else {}, nr, h,
                 (h_cur - h) / h_cur, plausible, ident, reasons, time.perf_counter() - tc, fit.model, fit))
             if not settled and plausible and ident and (h_cur - h) / h_cur >= accept_gain:
-                left = _floors_left(spec, fit.model, holdout, floor)
-                settled = max(left.values(), default=math.inf) <= SETTLED_FRACTION * spec.unexplained_factor
+                settled = _settles(spec, fit.model, holdout, floor)
         if in_floor is None:
             in_floor = input_noise_floor(spec, cur.model, holdout)
         if in_floor:
@@ -419,6 +432,17 @@ def diagnose(plant: str | DiagnosisPlant, records: Sequence[Record], holdout: Se
     return DiagnosisResult(spec.name, verdict, accepted, rounds, base_model, cur.model, base_fit, notes,
                            time.perf_counter() - t0, sigma, ambiguous, floor, residual, mismatch, reason, factor)
 
+
+
+NOT_REFITTED = (f"not refitted: its signature explains < {HOPELESS_SCORE:.1%} of the residual and an earlier "
+                "candidate of the round already leaves a correct model's residual")
+
+
+def _settles(spec: DiagnosisPlant, model: Model, holdout: Sequence[Record], floor: dict[str, Any]) -> bool:
+    """Whether ``model`` leaves a correct model's held-out residual: at most ``SETTLED_FRACTION``
+    of the plant's ``unexplained_factor`` noise floors in every channel."""
+    left = _floors_left(spec, model, holdout, floor)
+    return max(left.values(), default=math.inf) <= SETTLED_FRACTION * spec.unexplained_factor
 
 
 def _floors_left(spec: DiagnosisPlant, model: Model, holdout: Sequence[Record],
