@@ -184,14 +184,15 @@ class _Evaluator:
 
     def __init__(self, prob: _Problem, base: PhysicalParams, fd_step: float,
                  progress: Callable[[int, int], None] | None, max_calls: int,
-                 max_substep_ratio: float | None = None) -> None:
+                 max_substep_ratio: float | None = None, substep_reference: int | None = None) -> None:
         self.prob, self.fd_step, self.progress, self.max_calls = prob, fd_step, progress, max_calls
         self.p = len(prob.names)
         # the start values' sub-steps; a stiffer candidate raises it (per-call maximum)
         self.nsub = prob.nsub(base.to_array()[None, :]) if prob.fixed_nsub is None else prob.fixed_nsub
         # trial points needing more than this many sub-steps are rejected (None: no cap)
+        ref = max(self.nsub, substep_reference or 0)
         self.cap = (None if max_substep_ratio is None or prob.fixed_nsub is not None
-                    else max(self.nsub, int(math.ceil(max_substep_ratio * self.nsub))))
+                    else max(self.nsub, int(math.ceil(max_substep_ratio * ref))))
         self.rejected = 0
         self.nfev = 0
         self.njev = 0
@@ -377,6 +378,7 @@ def fit_greybox(
     offsets: Sequence[str] = (),
     progress: Callable[[int, int], None] | None = None,
     max_substep_ratio: float | None = None,
+    substep_reference: int | None = None,
     cost_tol: float | None = None,
     cost_ceiling: float | None = None,
 ) -> GreyboxResult:
@@ -410,7 +412,9 @@ def fit_greybox(
     ``max_substep_ratio``: trial points whose stiffness bound needs more than this many times
     the start values' sub-steps are rejected (the solver sees a residual far above its last one
     and shrinks its step), so a fit does not wander into parameter sets whose integration costs
-    ten times the start's (None: no cap).
+    ten times the start's (None: no cap); ``substep_reference``: sub-steps the ratio multiplies
+    when they exceed the start's (a fit started near an effect's null value keeps the room of
+    the effect's usual start).
 
     ``cost_tol``: an iteration that lowers the cost by less than this (absolute, in the units
     of the weighted cost ``0.5 sum (r / sigma)^2``) ends the fit, as ``tol`` does relative to
@@ -430,7 +434,8 @@ def fit_greybox(
     prob = _build_problem(base, fit, experiments, channels, sigma,
                           True if log_scale is None else log_scale, bounds, n_substeps, tie, offsets)
     theta0 = prob.to_theta(np.array([getattr(base, n) for n in prob.names]))
-    ev = _Evaluator(prob, base, fd_step, progress, (2 if reweight else 1) * 2 * max_nfev + 1, max_substep_ratio)
+    ev = _Evaluator(prob, base, fd_step, progress, (2 if reweight else 1) * 2 * max_nfev + 1, max_substep_ratio,
+                    substep_reference)
 
     def solve(theta_start):
         last_cost = [math.inf]
@@ -461,7 +466,7 @@ def fit_greybox(
 
     if ev.rejected:
         notes.append(f"{ev.rejected} trial point(s) rejected: their stiffness bound needed more than "
-                     f"{ev.cap} sub-steps per sample ({max_substep_ratio:g} x the start's)")
+                     f"{ev.cap} sub-steps per sample ({max_substep_ratio:g} x the start's or the reference's)")
     theta = sol.x
     # statistics: a central Jacobian, except after forward-difference iterations, whose last
     # Jacobian the solver evaluated at sol.x already (forward differences of step fd_step:

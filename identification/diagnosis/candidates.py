@@ -83,12 +83,12 @@ class Candidate:
 
 
 def _weighted_costs(spec: DiagnosisPlant, models: Sequence[Model], records: Sequence[Record],
-                    sigma: dict[str, float]) -> tuple[np.ndarray, np.ndarray]:
+                    sigma: dict[str, float], stride: int = 1) -> tuple[np.ndarray, np.ndarray]:
     """Weighted squared simulation residual over the scored samples of ``records`` per model
     (one batched simulation per distinct delay; non-finite -> inf) and the number of scored
-    residuals it sums."""
+    residuals it sums; ``stride``: on every ``stride``-th window only."""
     costs, counts = [], []
-    for exps, outs in _simulate(spec, models, records, per_copy_substeps=True):
+    for exps, outs in _simulate(spec, models, records, per_copy_substeps=True, stride=stride):
         c, n = 0.0, 0
         for ex, o in zip(exps, outs):
             sel = _scored(ex)
@@ -104,6 +104,10 @@ def _weighted_costs(spec: DiagnosisPlant, models: Sequence[Model], records: Sequ
 
 # points per parameter of the start grid of a cold refit (1, 2, >= 3 parameters)
 START_GRID_POINTS = (9, 5, 3)
+# start points (the grid, the warm start's candidates) are compared on every START_STRIDE-th
+# window: they only choose where a fit starts, and the fit sees every window (the grid of a
+# two-parameter effect is 25 simulations: 12 s of a 72 s rodless record with Stribeck friction)
+START_STRIDE = 3
 # grid points whose stiffness bound needs more than FIT_MAX_SUBSTEP_RATIO times the sub-steps of
 # the fit they try to improve are skipped, as a fit rejects such trial points: a static friction
 # 14 times the Coulomb level on the rodless cylinder needs 195 sub-steps per ms against the fit's
@@ -115,8 +119,8 @@ def _grid_start(spec: DiagnosisPlant, model: Model, name: str, records: Sequence
     """A third start for effect ``name``'s parameters when the warm and cold refits stuck in a
     local minimum: the best point of a grid over the plausibility bounds (interior points,
     log-spaced for log parameters) added to ``model`` (the cold-start parameters), if its
-    weighted simulation residual on ``records`` is already below that of the best refit
-    ``fitted`` (one batched simulation); else None. The output-error cost of an effect that
+    weighted simulation residual on every ``START_STRIDE``-th window of ``records`` is already
+    below that of the best refit ``fitted`` there (one batched simulation); else None. The output-error cost of an effect that
     changes an integrating plant's free run is far from quadratic: from the catalogue start
     (10 um) a hidden 34 um servo-valve overlap was fitted as 27.5 um, held-out NRMSE 0.15
     instead of 0.004; the grid point 40 um is below that fit's cost, and the refit from it
@@ -144,7 +148,7 @@ def _grid_start(spec: DiagnosisPlant, model: Model, name: str, records: Sequence
             continue
         models.append(m)
         values.append(vals)
-    costs, _ = _weighted_costs(spec, models, records, sigma)
+    costs, _ = _weighted_costs(spec, models, records, sigma, stride=START_STRIDE)
     return values[int(np.argmin(costs))]
 
 
@@ -312,7 +316,8 @@ def _warm_start(spec: DiagnosisPlant, current: Model, name: str, records: Sequen
                 sigma: dict[str, float]) -> dict[str, float] | None:
     """Start values of effect ``name``'s first parameter for the warm refit: the catalogue start
     (None) unless a point nearer the null value (:data:`WARM_START_FRACTIONS`, strictly inside
-    the bounds) has a lower weighted simulation residual on ``records``."""
+    the bounds) has a lower weighted simulation residual on every ``START_STRIDE``-th window of
+    ``records``."""
     r = effect(name).on(spec.name)
     q = r.parameters[0]
     at_start = with_effect(spec, current, name)
@@ -334,14 +339,14 @@ def _warm_start(spec: DiagnosisPlant, current: Model, name: str, records: Sequen
         values.append({q.field: v})
     if len(models) == 1:
         return None
-    costs, _ = _weighted_costs(spec, models, records, sigma)
+    costs, _ = _weighted_costs(spec, models, records, sigma, stride=START_STRIDE)
     return values[int(np.argmin(costs))]
 
 
 def _fit_candidate(spec: DiagnosisPlant, current: Model, start: Model, name: str,
                    records: Sequence[Record], sigma: dict[str, float] | None = None,
                    score: float = 1.0, cold: bool = True, ceiling: float | None = None,
-                   settles: Callable[[FitOutcome], bool] | None = None) -> FitOutcome:
+                   settles: Callable[[FitOutcome], bool] | None = None, cost_tol: float | None = None) -> FitOutcome:
     """Refit with effect ``name`` added from the current fit (warm start; the effect at its
     catalogue start or nearer its null value, :func:`_warm_start`), and -- when the
     score test ranks the candidate as plausible (``score >= COLD_START_SCORE``), or the warm fit
@@ -358,13 +363,17 @@ def _fit_candidate(spec: DiagnosisPlant, current: Model, start: Model, name: str
     ``settles(fit)``: whether a refit leaves a correct model's held-out residual; a plausible,
     identifiable warm refit that does is kept without the other starts (they could lower the
     residual by noise only: on the rodless record with hidden Stribeck friction the cold refit
-    and the start grid took 17 s to reach the warm refit's minimum again)."""
+    and the start grid took 17 s to reach the warm refit's minimum again). ``cost_tol``: of
+    every refit (:func:`fit_model`)."""
     e = effect(name)
     nfev = HOPELESS_NFEV if score < HOPELESS_SCORE else 25
     try:
         first = _warm_start(spec, current, name, records, sigma) if sigma is not None else None
+        # a start nearer the null keeps the stiffness room of the catalogue start
+        ref = (None if first is None else
+               substeps(registry.get(type(current.params).plant), with_effect(spec, current, name).params, records[0].dt))
         warm = fit_model(spec, with_effect(spec, current, name, first), records, sigma=sigma, max_nfev=nfev,
-                         cost_ceiling=ceiling)
+                         cost_ceiling=ceiling, substep_reference=ref, cost_tol=cost_tol)
     except (ParameterError, gb.GreyboxError):
         warm = None
     if warm is not None and score < HOPELESS_SCORE:
@@ -394,7 +403,7 @@ def _fit_candidate(spec: DiagnosisPlant, current: Model, start: Model, name: str
     else:
         try:
             cold = fit_model(spec, with_effect(spec, current.copy(params=cold_params), name), records,
-                             sigma=sigma, max_nfev=nfev, cost_ceiling=ceiling)
+                             sigma=sigma, max_nfev=nfev, cost_ceiling=ceiling, cost_tol=cost_tol)
         except (ParameterError, gb.GreyboxError):
             if warm is None:
                 raise
@@ -407,7 +416,7 @@ def _fit_candidate(spec: DiagnosisPlant, current: Model, start: Model, name: str
         return best
     try:
         third = fit_model(spec, with_effect(spec, current.copy(params=cold_params), name, grid), records,
-                          sigma=sigma, max_nfev=nfev, cost_ceiling=ceiling)
+                          sigma=sigma, max_nfev=nfev, cost_ceiling=ceiling, cost_tol=cost_tol)
     except (ParameterError, gb.GreyboxError):
         return best
     return third if _mean(third.result.nrmse) < _mean(best.result.nrmse) else best

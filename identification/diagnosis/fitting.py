@@ -22,11 +22,22 @@ from identification.diagnosis.models import Model, _channels, _delayed_channels,
 # weights), so 1e-5 stops when a step gains < 1e-5 N/2 (Delta chi^2 < 0.6 on the rodless
 # record): far below one standard error; 1e-8 spent 3-6 more evaluations on cost changes < 0.1
 FIT_TOL = 1e-5
-# ... and an iteration that lowers the weighted cost by less than FIT_COST_TOL (a chi-square
-# change of 1 at noise-level weights) ends it: on the effect-free rodless record the Stribeck
-# refit spent its last 16 of 22 evaluations lowering the cost (about 25000) by 20 in all,
-# 0.4-6 per accepted step, along the flat direction of an absent Stribeck velocity
+# ... and, for candidate refits, an iteration that lowers the weighted cost by less than
+# FIT_COST_TOL chi-square units at the sensor noise (:func:`noise_cost_tol`: the weights are
+# the base fit's residual levels, so one unit of cost is (sigma / noise)^2 chi-square units) ends
+# it: on the effect-free rodless record the Stribeck refit spent its last 16 of 22 evaluations
+# lowering the cost (about 25000, weights at the noise) by 20 in all, 0.4-6 per accepted step,
+# along the flat direction of an absent Stribeck velocity
 FIT_COST_TOL = 0.5
+
+
+def noise_cost_tol(sigma: dict[str, float], floor: dict[str, dict[str, Any]]) -> float | None:
+    """``FIT_COST_TOL`` chi-square units at the white sensor noise of ``floor`` in the units of the
+    cost weighted by ``sigma``: ``FIT_COST_TOL min_k (noise_k / sigma_k)^2`` over the channels
+    both know (None: none does)."""
+    r = [(floor[k]["sensor_noise"] / v) ** 2 for k, v in sigma.items()
+         if k in floor and v > 0 and floor[k].get("sensor_noise", 0.0) > 0]
+    return FIT_COST_TOL * min(r) if r else None
 # a fit rejects trial points whose stiffness bound needs more than this many times the
 # sub-steps of its start (identification.greybox.fit_greybox): the cold Stribeck refit of a
 # rodless record (20 s, hidden underlap) ran to F_S = 312 N at v_S = 0.2 mm/s, 282 sub-steps
@@ -44,14 +55,17 @@ class FitOutcome:
 
 
 def fit_model(spec: DiagnosisPlant, model: Model, records: Sequence[Record], *, max_nfev: int = 25,
-              sigma: dict[str, float] | None = None, cost_ceiling: float | None = None) -> FitOutcome:
+              sigma: dict[str, float] | None = None, cost_ceiling: float | None = None,
+              substep_reference: int | None = None, cost_tol: float | None = None) -> FitOutcome:
     """Grey-box fit of the base-fit parameters and every present effect's parameters.
 
     ``sigma``: fixed channel weights (the round's noise-level estimates, so every candidate of
     a round is fitted under the same weights); None: estimated (greybox's reweighting, as for
     the base fit). The iterations use forward-difference Jacobians (half the simulations of
     central ones); the standard errors come from a central one. ``cost_ceiling``: the cost of
-    the model this one extends, under the same weights (``identification.greybox.fit_greybox``)."""
+    the model this one extends, under the same weights; ``substep_reference``: sub-steps the
+    stiffness cap multiplies when above the start's; ``cost_tol``: an iteration gaining less
+    ends the fit (all three ``identification.greybox.fit_greybox``)."""
     t0 = time.perf_counter()
     names, bounds, log = _fit_names(spec, model)
     present = present_effects(spec, model)
@@ -65,8 +79,8 @@ def fit_model(spec: DiagnosisPlant, model: Model, records: Sequence[Record], *, 
     off = spec.sensor_offsets if model.offsets is not None else ()
     res = gb.fit_greybox(base, names, exps, _channels(spec), bounds=bounds, sigma=sigma, log_scale=log,
                          max_nfev=max_nfev, tol=FIT_TOL, tie=_tie_function(spec, base, present), jacobian="forward",
-                         offsets=off, max_substep_ratio=FIT_MAX_SUBSTEP_RATIO, cost_tol=FIT_COST_TOL,
-                         cost_ceiling=cost_ceiling)
+                         offsets=off, max_substep_ratio=FIT_MAX_SUBSTEP_RATIO, cost_tol=cost_tol,
+                         cost_ceiling=cost_ceiling, substep_reference=substep_reference)
     params = res.params
     if params is None:  # relation violated: keep the raw values (flagged implausible later)
         params = _raw(base, res.values)
@@ -85,17 +99,18 @@ def _raw(base: PhysicalParams, values: dict[str, float]) -> PhysicalParams:
 
 
 def _simulate(spec: DiagnosisPlant, models: Sequence[Model], records: Sequence[Record], *,
-              per_copy_substeps: bool = False):
+              per_copy_substeps: bool = False, stride: int = 1):
     """Outputs of every model on the windows of ``records``: list per model of (experiments,
     outputs per experiment). ``per_copy_substeps``: each model integrated with its own
-    stiffness bound's sub-steps (default: the batch's largest, as in a fit's Jacobian)."""
+    stiffness bound's sub-steps (default: the batch's largest, as in a fit's Jacobian);
+    ``stride``: every ``stride``-th window only."""
     out = []
     by_delay: dict[float, list[int]] = {}
     for i, m in enumerate(models):
         by_delay.setdefault(m.delay, []).append(i)
     res: dict[int, Any] = {}
     for d, idx in by_delay.items():
-        exps = segments(records, spec, delay=d, delayed_channels=_delayed_channels(spec))
+        exps = segments(records, spec, delay=d, delayed_channels=_delayed_channels(spec))[::stride]
         base = models[idx[0]].params
         values = [{n: float(getattr(models[i].params, n)) for n in type(base).names()
                    if float(getattr(models[i].params, n)) != float(getattr(base, n))} for i in idx]
