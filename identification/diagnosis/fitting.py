@@ -132,13 +132,13 @@ def _band_limited(err: np.ndarray, dt: float, band: float) -> np.ndarray:
     return signal.filtfilt(b, a, err)
 
 
-def _nrmse(exps, outs, band: float = 0.0) -> dict[str, float]:
-    """Free-run NRMSE per channel over the scored samples of every window:
-    ``||LP(y - y_hat)|| / ||y - mean_window(y)||`` with the error low-passed (zero phase) at
-    ``band`` Hz (0: raw), pooled over windows. A free run that is not finite scores ``inf``; a
-    channel that is constant over the scored samples raises :class:`DiagnosisDataError`."""
+def _error_sums(exps, outs, band: float = 0.0):
+    """Per channel over the scored samples of every window: the sum of squares of the free-run
+    error low-passed (zero phase) at ``band`` Hz (0: raw), that of the measured signal about its
+    window mean, and the number of samples."""
     num: dict[str, float] = {}
     den: dict[str, float] = {}
+    cnt: dict[str, int] = {}
     for e, o in zip(exps, outs):
         sel = slice(None) if e.weights is None else e.weights > 0
         for k, v in o.items():
@@ -146,6 +146,11 @@ def _nrmse(exps, outs, band: float = 0.0) -> dict[str, float]:
             err = _band_limited(y - v[sel], e.dt, band)
             num[k] = num.get(k, 0.0) + float(np.sum(err**2))
             den[k] = den.get(k, 0.0) + float(np.sum((y - y.mean()) ** 2))
+            cnt[k] = cnt.get(k, 0) + err.size
+    return num, den, cnt
+
+
+def _nrmse_of_sums(num, den, exps) -> dict[str, float]:
     nr = {}
     for k in num:
         if not den[k] > 0:
@@ -155,9 +160,35 @@ def _nrmse(exps, outs, band: float = 0.0) -> dict[str, float]:
     return nr
 
 
+def rms_of_sums(num: dict[str, float], cnt: dict[str, int]) -> dict[str, float]:
+    """RMS per channel from :func:`_error_sums`' error sums and counts (``inf``: not finite)."""
+    return {k: (math.sqrt(s / cnt[k]) if math.isfinite(s) and cnt[k] else math.inf) for k, s in num.items()}
+
+
+def _nrmse(exps, outs, band: float = 0.0) -> dict[str, float]:
+    """Free-run NRMSE per channel over the scored samples of every window:
+    ``||LP(y - y_hat)|| / ||y - mean_window(y)||`` with the error low-passed (zero phase) at
+    ``band`` Hz (0: raw), pooled over windows. A free run that is not finite scores ``inf``; a
+    channel that is constant over the scored samples raises :class:`DiagnosisDataError`."""
+    num, den, _ = _error_sums(exps, outs, band)
+    return _nrmse_of_sums(num, den, exps)
+
+
+def heldout_scores(spec: DiagnosisPlant, models: Sequence[Model],
+                   records: Sequence[Record]) -> list[tuple[dict[str, float], dict[str, float]]]:
+    """Per model, from one free run of the windows of ``records``: the NRMSE per measured channel
+    (:func:`_nrmse`) and the RMS [channel unit] of the same band-limited error over the scored
+    samples (``inf`` when the free run is not finite)."""
+    out = []
+    for exps, outs in _simulate(spec, models, records):
+        num, den, cnt = _error_sums(exps, outs, spec.score_bandwidth)
+        out.append((_nrmse_of_sums(num, den, exps), rms_of_sums(num, cnt)))
+    return out
+
+
 def heldout_nrmse(spec: DiagnosisPlant, models: Sequence[Model], records: Sequence[Record]) -> list[dict[str, float]]:
     """Free-run NRMSE per measured channel of every model on the windows of ``records``."""
-    return [_nrmse(exps, outs, spec.score_bandwidth) for exps, outs in _simulate(spec, models, records)]
+    return [nr for nr, _ in heldout_scores(spec, models, records)]
 
 
 def _rms_difference(spec: DiagnosisPlant, exps, outs_a, outs_b) -> dict[str, float]:

@@ -34,7 +34,7 @@ from typing import Any
 import numpy as np
 from scipy import signal
 
-from identification.diagnosis.fitting import _band_limited, _simulate, input_noise_floor
+from identification.diagnosis.fitting import _band_limited, _error_sums, _simulate, input_noise_floor, rms_of_sums
 from identification.diagnosis.models import Model, _scored
 from identification.diagnosis.plants import DiagnosisPlant
 from identification.diagnosis.records import Record, noise_estimate, velocity_estimate
@@ -97,16 +97,8 @@ def _errors(spec: DiagnosisPlant, models: Sequence[Model], records: Sequence[Rec
 def heldout_rms(spec: DiagnosisPlant, models: Sequence[Model], records: Sequence[Record]) -> list[dict[str, float]]:
     """Per model: the RMS per channel [channel unit] of the band-limited free-run error over the
     scored samples of the windows of ``records`` (``inf`` when the free run is not finite)."""
-    res = []
-    for _, wins in _errors(spec, models, records):
-        acc: dict[str, list[float]] = {}
-        for w in wins:
-            for k, err in w.items():
-                a = acc.setdefault(k, [0.0, 0])
-                a[0] += float(np.sum(err**2))
-                a[1] += err.size
-        res.append({k: (math.sqrt(s / n) if math.isfinite(s) and n else math.inf) for k, (s, n) in acc.items()})
-    return res
+    return [rms_of_sums(*_error_sums(exps, outs, spec.score_bandwidth)[::2])
+            for exps, outs in _simulate(spec, models, records)]
 
 
 def ratios(rms: dict[str, float], floor: dict[str, dict[str, Any]]) -> dict[str, float]:

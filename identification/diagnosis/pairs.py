@@ -10,6 +10,13 @@ from the current model; a pair is accepted under the rules of a single candidate
 identifiable parameters, held-out gain >= the acceptance gain, not resting on one held-out
 window) and both members are named.
 
+A member's single refit must be plausible: one that ends on a plausibility bound or breaks a
+parameter relation (a static friction fitted below the Coulomb level) says the data push that
+effect out of its physical range, which a partner's parameters do not widen (slider record with
+an unmodelled spring: the pairs with such a Stribeck refit ended on the same bounds, 31 s of a
+103 s run). A pair's refit starts from its members' single refits when they fit better than
+their catalogue starts.
+
 :func:`explained_in_final_model` orders the effects a run named by the held-out residual each
 explains in the final model (the score with the effect, and every effect that needs it, set to
 its null value, minus the final score): the greedy rounds find effects in an order that local
@@ -28,7 +35,7 @@ from collections.abc import Sequence
 
 from hydro_envs.params import ParameterError
 from identification import greybox as gb
-from identification.diagnosis.candidates import Candidate, _judge
+from identification.diagnosis.candidates import START_STRIDE, Candidate, _judge, _weighted_costs
 from identification.diagnosis.catalogue import CATALOGUE, effect
 from identification.diagnosis.fitting import _check_windows, _mean, fit_model, heldout_nrmse
 from identification.diagnosis.models import Model, null_base, prerequisites, present_effects, with_effect
@@ -43,10 +50,13 @@ PAIR_MEMBERS = 3
 
 def pair_candidates(spec: DiagnosisPlant, current: Model, singles: Sequence[Candidate], records: Sequence[Record],
                     holdout: Sequence[Record], sigma: dict[str, float], h_cur: float,
-                    accept_gain: float) -> list[Candidate]:
+                    accept_gain: float, ceiling: float | None = None, cost_tol: float | None = None
+                    ) -> list[Candidate]:
     """Refits of the current model with two plant effects added, scored and judged like single
-    candidates (name ``"a+b"``, ``a`` the member with the better single score)."""
-    live = sorted((c for c in singles if c.model is not None and math.isfinite(c.heldout)
+    candidates (name ``"a+b"``, ``a`` the member with the better single score). A pair's refit
+    starts from the better (:func:`_pair_start`) of the members' catalogue starts and their single
+    refits' values; ``ceiling`` and ``cost_tol`` as for single refits (:func:`.fitting.fit_model`)."""
+    live = sorted((c for c in singles if c.model is not None and math.isfinite(c.heldout) and c.plausible
                    and c.name in CATALOGUE and effect(c.name).kind == "plant"),  # not the sensor-offset candidate
                   key=lambda c: c.heldout)[:PAIR_MEMBERS]
     out: list[Candidate] = []
@@ -55,7 +65,8 @@ def pair_candidates(spec: DiagnosisPlant, current: Model, singles: Sequence[Cand
             continue
         t0 = time.perf_counter()
         try:
-            fit = fit_model(spec, with_effect(spec, with_effect(spec, current, a.name), b.name), records, sigma=sigma)
+            fit = fit_model(spec, _pair_start(spec, current, a, b, records, sigma), records, sigma=sigma,
+                            cost_ceiling=ceiling, cost_tol=cost_tol)
         except (ParameterError, gb.GreyboxError):
             continue
         (nr,) = heldout_nrmse(spec, [fit.model], holdout)
@@ -77,6 +88,22 @@ def pair_candidates(spec: DiagnosisPlant, current: Model, singles: Sequence[Cand
                              fit.model, fit))
     _check_windows(spec, current, out, holdout, accept_gain)
     return out
+
+
+def _pair_start(spec: DiagnosisPlant, current: Model, a: Candidate, b: Candidate, records: Sequence[Record],
+                sigma: dict[str, float]) -> Model:
+    """``current`` with effects ``a`` and ``b`` added at their catalogue starts, or at the values
+    of their single refits when those give the lower weighted simulation residual on every
+    ``START_STRIDE``-th window (one batched simulation). From the catalogue starts a pair refit
+    repeats most of what the single refits already walked (slider record with an unmodelled
+    spring: three pair refits, 60 s)."""
+    at_start = with_effect(spec, with_effect(spec, current, a.name), b.name)
+    try:
+        at_singles = with_effect(spec, with_effect(spec, current, a.name, a.parameters), b.name, b.parameters)
+    except ParameterError:  # e.g. the single refits' levels break a relation together
+        return at_start
+    costs, _ = _weighted_costs(spec, [at_start, at_singles], records, sigma, stride=START_STRIDE)
+    return at_singles if costs[1] < costs[0] else at_start
 
 
 def explained_in_final_model(spec: DiagnosisPlant, model: Model, names: Sequence[str],

@@ -143,6 +143,7 @@ from identification.diagnosis.fitting import (  # noqa: F401
     _window_sums,
     fit_model,
     heldout_nrmse,
+    heldout_scores,
     input_noise_floor,
 )
 from identification.diagnosis.residuals import (  # noqa: F401
@@ -329,6 +330,19 @@ def diagnose(plant: str | DiagnosisPlant, records: Sequence[Record], holdout: Se
             rounds.append(Round(h_cur, h_nr, locate, pred, [], "none"))
             break
         results: list[Candidate] = []
+        cost_tol = noise_cost_tol(sigma, floor)
+        scored: dict[int, tuple[Model, dict[str, float], dict[str, float]]] = {}
+
+        def score_of(m: Model) -> tuple[dict[str, float], dict[str, float]]:
+            """Held-out NRMSE and residual in noise floors of ``m`` (one free run per model)."""
+            if id(m) not in scored:
+                ((nr_m, rms_m),) = heldout_scores(spec, [m], holdout)
+                scored[id(m)] = (m, nr_m, ratios(rms_m, floor))
+            return scored[id(m)][1:]
+
+        def leaves_correct(m: Model) -> bool:
+            return _settled_by(spec, score_of(m)[1])
+
         settled = False  # a candidate of this round already leaves a correct model's residual
         rival_score = HOPELESS_SCORE  # in a settled round, candidates scoring below this are not refitted
         for e in cands:
@@ -348,13 +362,12 @@ def diagnose(plant: str | DiagnosisPlant, records: Sequence[Record], holdout: Se
                     fit = _fit_candidate(spec, cur.model, start_model, e.name, records, sigma,
                                          scores.get(e.name, 0.0), cold=not settled,
                                          ceiling=cur.result.cost if cur.result is not None else None,
-                                         settles=lambda f: _settles(spec, f.model, holdout, floor),
-                                         cost_tol=noise_cost_tol(sigma, floor))
+                                         settles=lambda f: leaves_correct(f.model), cost_tol=cost_tol)
             except (ParameterError, gb.GreyboxError) as err:
                 results.append(Candidate(e.name, scores.get(e.name, 0.0), {}, {}, {}, {}, math.inf, -math.inf,
                                          False, False, [f"fit failed: {err}"], time.perf_counter() - tc))
                 continue
-            (nr,) = heldout_nrmse(spec, [fit.model], holdout)
+            nr = score_of(fit.model)[0]
             h = _mean(nr)
             vals, ses, plausible, ident, reasons = _judge(spec, e, fit)
             if not math.isfinite(h):
@@ -363,7 +376,7 @@ def diagnose(plant: str | DiagnosisPlant, records: Sequence[Record], holdout: Se
                 e.name, scores.get(e.name, 0.0), vals, ses, dict(fit.result.nrmse) if fit.result else {}, nr, h,
                 (h_cur - h) / h_cur, plausible, ident, reasons, time.perf_counter() - tc, fit.model, fit))
             if not settled and plausible and ident and (h_cur - h) / h_cur >= accept_gain:
-                settled = _settles(spec, fit.model, holdout, floor)
+                settled = leaves_correct(fit.model)
                 if settled:
                     rival_score = max(HOPELESS_SCORE, SETTLED_RIVAL_RATIO * scores.get(e.name, 0.0))
         if in_floor is None:
@@ -384,7 +397,9 @@ def diagnose(plant: str | DiagnosisPlant, records: Sequence[Record], holdout: Se
                 cur_left = _floors_left(spec, cur.model, holdout, floor)
             if max(cur_left.values(), default=0.0) > spec.unexplained_factor:
                 say("  no single effect wins and the residual stays above the noise floor: pairs")
-                pairs = pair_candidates(spec, cur.model, results, records, holdout, sigma, h_cur, accept_gain)
+                pairs = pair_candidates(spec, cur.model, results, records, holdout, sigma, h_cur, accept_gain,
+                                        ceiling=cur.result.cost if cur.result is not None else None,
+                                        cost_tol=cost_tol)
                 pair_decision, pair_sep = _decide(spec, pairs, accept_gain, margin)
                 results = results + pairs
                 if pair_decision != "none":
@@ -449,10 +464,9 @@ NOT_REFITTED = ("not refitted: an earlier candidate of the round already leaves 
                 f"one's signature explains < {SETTLED_RIVAL_RATIO:g} times as much of it (or < {HOPELESS_SCORE:.1%})")
 
 
-def _settles(spec: DiagnosisPlant, model: Model, holdout: Sequence[Record], floor: dict[str, Any]) -> bool:
-    """Whether ``model`` leaves a correct model's held-out residual: at most ``SETTLED_FRACTION``
-    of the plant's ``unexplained_factor`` noise floors in every channel."""
-    left = _floors_left(spec, model, holdout, floor)
+def _settled_by(spec: DiagnosisPlant, left: dict[str, float]) -> bool:
+    """Whether a held-out residual of ``left`` noise floors per channel is a correct model's: at
+    most ``SETTLED_FRACTION`` of the plant's ``unexplained_factor`` in every channel."""
     return max(left.values(), default=math.inf) <= SETTLED_FRACTION * spec.unexplained_factor
 
 
