@@ -35,11 +35,11 @@ COLD_START_SCORE = 0.05
 # below this score (the signature explains < 0.5 % of the weighted residual: on the
 # hidden-effect tests the true effect scored >= 0.013, effect-free records ~0) a candidate is
 # ranked hopeless: its refit (warm start only) stops after HOPELESS_NFEV residual evaluations
-# instead of 25; it is still refitted and scored on the held-out data like every other candidate,
-# except in a round after a named effect where every candidate is hopeless: that round ends
-# without refits (on the effect-free rodless record the two hopeless candidates took 10 and 8
-# evaluations for a held-out change of +0.1 % and -42 %: the first few steps already show the
-# effect explains nothing)
+# instead of 25; in the first round it is still refitted and scored on the held-out data like
+# every other candidate (on the effect-free rodless record the two hopeless candidates took 10
+# and 8 evaluations for a held-out change of +0.1 % and -42 %: the first few steps already show
+# the effect explains nothing); after a named effect it is not refitted (a round where every
+# candidate is hopeless ends without refits)
 HOPELESS_SCORE = 0.005
 HOPELESS_NFEV = 5
 # a round is settled once a plausible, identifiable candidate that passes ``accept_gain`` leaves at
