@@ -120,13 +120,13 @@ def _grid_start(spec: DiagnosisPlant, model: Model, name: str, records: Sequence
     local minimum: the best point of a grid over the plausibility bounds (interior points,
     log-spaced for log parameters) added to ``model`` (the cold-start parameters), if its
     weighted simulation residual on every ``START_STRIDE``-th window of ``records`` is already
-    below that of the best refit ``fitted`` there (one batched simulation); else None. The output-error cost of an effect that
-    changes an integrating plant's free run is far from quadratic: from the catalogue start
-    (10 um) a hidden 34 um servo-valve overlap was fitted as 27.5 um, held-out NRMSE 0.15
-    instead of 0.004; the grid point 40 um is below that fit's cost, and the refit from it
-    finds 34 um. (Taking the grid's best point as *the* cold start instead lost a slider
-    Stribeck case: a coarse grid point of a correlated pair (F_S, v_S) led to a worse minimum
-    than the catalogue start.)"""
+    below that of the best refit ``fitted`` there (:func:`_best_start`); else None. The
+    output-error cost of an effect that changes an integrating plant's free run is far from
+    quadratic: from the catalogue start (10 um) a hidden 34 um servo-valve overlap was fitted
+    as 27.5 um, held-out NRMSE 0.15 instead of 0.004; the grid point 40 um is below that fit's
+    cost, and the refit from it finds 34 um. (Taking the grid's best point as *the* cold start
+    instead lost a slider Stribeck case: a coarse grid point of a correlated pair (F_S, v_S)
+    led to a worse minimum than the catalogue start.)"""
     r = effect(name).on(spec.name)
     n = START_GRID_POINTS[min(len(r.parameters), len(START_GRID_POINTS)) - 1]
     axes = []
@@ -148,6 +148,13 @@ def _grid_start(spec: DiagnosisPlant, model: Model, name: str, records: Sequence
             continue
         models.append(m)
         values.append(vals)
+    return _best_start(spec, models, values, records, sigma)
+
+
+def _best_start(spec: DiagnosisPlant, models: Sequence[Model], values: Sequence[Any],
+                records: Sequence[Record], sigma: dict[str, float]) -> Any:
+    """``values[i]`` of the start model ``models[i]`` with the lowest weighted simulation residual
+    on every ``START_STRIDE``-th window of ``records`` (one batched simulation)."""
     costs, _ = _weighted_costs(spec, models, records, sigma, stride=START_STRIDE)
     return values[int(np.argmin(costs))]
 
@@ -337,10 +344,7 @@ def _warm_start(spec: DiagnosisPlant, current: Model, name: str, records: Sequen
         except ParameterError:
             continue
         values.append({q.field: v})
-    if len(models) == 1:
-        return None
-    costs, _ = _weighted_costs(spec, models, records, sigma, stride=START_STRIDE)
-    return values[int(np.argmin(costs))]
+    return None if len(models) == 1 else _best_start(spec, models, values, records, sigma)
 
 
 def _fit_candidate(spec: DiagnosisPlant, current: Model, start: Model, name: str,

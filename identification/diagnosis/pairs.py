@@ -35,7 +35,7 @@ from collections.abc import Sequence
 
 from hydro_envs.params import ParameterError
 from identification import greybox as gb
-from identification.diagnosis.candidates import START_STRIDE, Candidate, _judge, _weighted_costs
+from identification.diagnosis.candidates import Candidate, _best_start, _judge
 from identification.diagnosis.catalogue import CATALOGUE, effect
 from identification.diagnosis.fitting import _check_windows, _mean, fit_model, heldout_nrmse
 from identification.diagnosis.models import Model, null_base, prerequisites, present_effects, with_effect
@@ -93,17 +93,16 @@ def pair_candidates(spec: DiagnosisPlant, current: Model, singles: Sequence[Cand
 def _pair_start(spec: DiagnosisPlant, current: Model, a: Candidate, b: Candidate, records: Sequence[Record],
                 sigma: dict[str, float]) -> Model:
     """``current`` with effects ``a`` and ``b`` added at their catalogue starts, or at the values
-    of their single refits when those give the lower weighted simulation residual on every
-    ``START_STRIDE``-th window (one batched simulation). From the catalogue starts a pair refit
-    repeats most of what the single refits already walked (slider record with an unmodelled
-    spring: three pair refits, 60 s)."""
+    of their single refits when those give the lower weighted simulation residual
+    (:func:`.candidates._best_start`). From the catalogue starts a pair refit repeats most of
+    what the single refits already walked (slider record with an unmodelled spring: three pair
+    refits, 60 s)."""
     at_start = with_effect(spec, with_effect(spec, current, a.name), b.name)
     try:
         at_singles = with_effect(spec, with_effect(spec, current, a.name, a.parameters), b.name, b.parameters)
     except ParameterError:  # e.g. the single refits' levels break a relation together
         return at_start
-    costs, _ = _weighted_costs(spec, [at_start, at_singles], records, sigma, stride=START_STRIDE)
-    return at_singles if costs[1] < costs[0] else at_start
+    return _best_start(spec, [at_start, at_singles], [at_start, at_singles], records, sigma)
 
 
 def explained_in_final_model(spec: DiagnosisPlant, model: Model, names: Sequence[str],
