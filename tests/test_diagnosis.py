@@ -370,3 +370,24 @@ def test_pairs_leave_out_the_sensor_offset_candidate():
     m = Model(RodlessCylinderParams())
     c = Candidate(SENSOR_OFFSETS, 0.0, {}, {}, {}, {}, 0.01, 0.1, True, True, [], 0.0, model=m)
     assert pair_candidates(spec, m, [c], [], [], {}, 0.02, 0.1) == []
+
+
+def test_pairs_leave_out_implausible_single_refits(monkeypatch):
+    """A single refit on a plausibility bound or breaking a parameter relation does not join a
+    pair: with one of two singles implausible there is nothing to pair (no refit runs)."""
+    from identification.diagnosis import pairs
+    from identification.diagnosis.candidates import Candidate
+    from identification.diagnosis.pairs import pair_candidates
+    from identification.diagnosis.workflow import Model
+
+    from hydro_envs.plants.slider.params import SliderParams
+
+    tried = []
+    monkeypatch.setattr(pairs, "_pair_start", lambda spec, cur, a, b, *r: tried.append((a.name, b.name)) or cur)
+    monkeypatch.setattr(pairs, "fit_model", lambda *a, **k: pytest.fail(f"pair {tried[-1]} refitted"))
+    spec = diagnosis_plant("slider")
+    m = Model(SliderParams())
+    ok = Candidate("force_offset", 0.1, {"force_offset": 1.0}, {}, {}, {}, 0.01, 0.1, True, False, [], 0.0, model=m)
+    bad = Candidate("backlash", 0.1, {"backlash_gap": 2e-6}, {}, {}, {}, 0.005, 0.2, False, True,
+                    ["backlash_gap = 2e-06 on its plausibility bound"], 0.0, model=m)
+    assert pair_candidates(spec, m, [ok, bad], [], [], {}, 0.02, 0.1) == [] and not tried
