@@ -5,7 +5,8 @@ A plant lives in one folder, ``hydro_envs/plants/<name>/``, with modules of fixe
 =================  ==========================================================================
 ``params.py``      the validated parameter dataclass (value, unit, range, source per field)
 ``model.py``       state layout, numba right-hand side and guard, stiffness bound, outputs
-``kernels.py``     the right-hand side bound to the shared RK4 integrator (compiled, cached)
+``kernels.py``     the right-hand side bound to the shared RK4 integrator (compiled, cached);
+                   optionally ``for_params(P)``: the env step kernels for parameter rows ``P``
 ``energy.py``      energy/mass-balance terms and guard checks of the soak test
 ``validation.py``  rows comparing the model with numbers printed in its seed paper
 ``experiments.py`` virtual experiments of the rig (optional)

@@ -902,3 +902,32 @@ def test_render_rgb_array():
     env = gym.make(ENV_ID)
     env.reset(seed=0)
     assert env.render() is None
+
+
+def test_env_step_kernels_follow_the_supply_droop_and_agree_bit_for_bit():
+    """Without droop the envs step with the stiff-supply kernels (no droop solve to compile): the
+    same numbers as the full right-hand side; a copy with droop switches every copy to the full one."""
+    import gymnasium as gym
+
+    from hydro_envs.plants.rodless_cylinder import kernels as K
+
+    def run(force_full: bool, droop: float = 0.0) -> tuple[np.ndarray, object]:
+        venv = gym.make_vec("hydro_envs/RodlessCylinder-v0", num_envs=4, vectorization_mode="vector_entry_point")
+        opts = {"params": {"supply_line_resistance": droop}} if droop else None
+        venv.reset(seed=5, options=opts)
+        b = venv.unwrapped._batch
+        acts = np.random.default_rng(0).uniform(-1, 1, (150, 4, 1)).astype(np.float32)
+        venv.step(acts[0])
+        if force_full:
+            b.step_kernel = K.step_parallel
+        for a in acts[1:]:
+            venv.step(a)
+        return b.Y.copy(), b.step_kernel
+
+    y_stiff, kernel = run(False)
+    assert kernel.py_func.__name__ == "_step_parallel_stiff"
+    y_full, _ = run(True)
+    assert np.array_equal(y_stiff, y_full)
+    y_droop, kernel = run(False, droop=5e8)
+    assert kernel is K.step_parallel
+    assert not np.allclose(y_droop, y_stiff)

@@ -222,8 +222,6 @@ class PlantBatch:
             self.spec = None
         self.n = n
         self.parallel = parallel
-        kernels = self.plant_spec.kernels
-        self.step_kernel = kernels.step_parallel if parallel else kernels.step_serial
         self.episode_steps = episode_steps
         self.safety = float(safety)
         ns = self.plant.N_STATES
@@ -241,6 +239,18 @@ class PlantBatch:
         self.params: list[PhysicalParams] = [self.base_params] * n
         self.rngs: list[np.random.Generator | None] = [None] * n
         self._reset_params: PhysicalParams = self.base_params
+        self.select_step_kernel()
+
+    def select_step_kernel(self) -> None:
+        """Bind ``step_kernel`` to the plant's serial or parallel step; a plant whose kernels
+        module has ``for_params(P)`` picks them for the current parameter rows (called after
+        the rows change: resets, restores)."""
+        kernels = self.plant_spec.kernels
+        pick = getattr(kernels, "for_params", None)
+        if pick is not None:
+            kernels = pick(self.P)
+        self.step_kernel = kernels.step_parallel if self.parallel else kernels.step_serial
+        self._kernel_stale = False
 
     # ------------------------------------------------------------------ task hooks
     def reset_task(self, i: int, rng: np.random.Generator, p: PhysicalParams, options: Mapping[str, Any]) -> None:
@@ -437,6 +447,7 @@ class PlantBatch:
                 setattr(self, k, v)
         self.params[:] = snap["params"]
         self.rngs[:] = snap["rngs"]
+        self._kernel_stale = True
         for r, st in zip(self.rngs, snap["rng_states"]):
             if r is not None:
                 r.bit_generator.state = st
@@ -459,9 +470,12 @@ class PlantBatch:
         self.clamps[i] = 0
         self.W[i] = 0.0
         self.rngs[i] = rng
+        self._kernel_stale = True
 
     def advance(self, actions: np.ndarray) -> None:
         """Apply checked, clipped ``actions`` ``(n, action_dim)`` for one env step."""
+        if self._kernel_stale:
+            self.select_step_kernel()
         self.prev_a[:] = self.last_a
         self.last_a[:] = actions
         self.apply_actions()
@@ -553,6 +567,8 @@ class BatchedEnv(gym.Env):
                 b.last_a[0] = b.prev_a[0]
                 raise
         b.apply_actions()
+        if b._kernel_stale:
+            b.select_step_kernel()
         b.step_kernel(b.Y, b.U, b.P, b.dt, b.NSUB, b.W, b.clamps)
         b.K[0] += 1
         b.observe()
