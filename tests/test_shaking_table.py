@@ -934,3 +934,24 @@ def test_observation_carries_the_reference_motion():
             assert obs[11] * 0.5 == pytest.approx(v, rel=1e-4, abs=1e-7)
             assert obs[12] * half == pytest.approx(x, rel=1e-4, abs=1e-7)
     env.close()
+
+
+def test_earthquake_filter_without_scipy_signal_equals_scipy_bit_for_bit():
+    """The tabulated Kanai-Tajimi design and the compiled lfilter reproduce scipy exactly, so
+    earthquake references are the same as with scipy.signal (which a reset no longer imports)."""
+    from hydro_envs.envs.shaking_table import references as R
+    from hydro_envs.laws.filters import lfilter_from_rest
+
+    b, a = R.kanai_tajimi_digital(1e-3)
+    kt = R.KANAI_TAJIMI
+    wg, zg, wf, zf = kt["omega_g"], kt["zeta_g"], kt["omega_f"], kt["zeta_f"]
+    num = np.polymul([2.0 * zg * wg, wg * wg], [1.0, 0.0, 0.0])
+    den = np.polymul([1.0, 2.0 * zg * wg, wg * wg], [1.0, 2.0 * zf * wf, wf * wf])
+    bz, az = signal.bilinear(num, den, fs=1.0 / 1e-3)
+    assert np.array_equal(b, bz) and np.array_equal(a, az)
+    x = np.random.default_rng(3).standard_normal(5000)
+    assert np.array_equal(lfilter_from_rest(b, a, x), signal.lfilter(bz, az, x))
+    bb, aa = signal.butter(3, 0.1)
+    assert np.array_equal(lfilter_from_rest(2.0 * bb, 2.0 * aa, x), signal.lfilter(2.0 * bb, 2.0 * aa, x))
+    with pytest.raises(ValueError, match="equal length"):
+        lfilter_from_rest(np.ones(3), np.ones(2), x)

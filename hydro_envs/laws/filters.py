@@ -20,7 +20,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-__all__ = ["butterworth_lowpass_sos", "sos_filter_step", "backward_difference"]
+__all__ = ["butterworth_lowpass_sos", "sos_filter_step", "lfilter_from_rest", "backward_difference"]
 
 #: ``scipy.signal.butter(8, 40.0, fs=1000.0, output="sos")`` (the 003 sec. 4 filter at the table's
 #: 1 kHz), tabulated so that making an env does not import scipy.signal (about 1 s); a test
@@ -80,6 +80,44 @@ def sos_filter_step(sos, zi, x):
         zi[s, 1] = sos[s, 2] * x - sos[s, 5] * y
         x = y
     return x
+
+
+def lfilter_from_rest(b: np.ndarray, a: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """``scipy.signal.lfilter(b, a, x)`` from rest, for 1-D ``b`` and ``a`` of equal length.
+
+    Transposed direct form II after dividing ``b`` and ``a`` by ``a[0]``::
+
+        y_k      = z_0 + b_0 x_k
+        z_n      = z_{n+1} + b_{n+1} x_k - a_{n+1} y_k      (n < N - 2)
+        z_{N-2}  = b_{N-1} x_k - a_{N-1} y_k
+
+    in scipy's order of operations, so the output equals scipy's bit for bit (test), without
+    importing scipy.signal (0.7 s). Units: any; returns a float array like ``x``.
+    """
+    b = np.asarray(b, dtype=np.float64)
+    a = np.asarray(a, dtype=np.float64)
+    x = np.ascontiguousarray(x, dtype=np.float64)
+    if b.ndim != 1 or b.shape != a.shape or b.size < 1 or a[0] == 0.0 or x.ndim != 1:
+        raise ValueError(f"lfilter_from_rest needs 1-D b and a of equal length >= 1 with a[0] != 0 and a "
+                         f"1-D x, got shapes {b.shape}, {a.shape}, {x.shape}")
+    y = np.empty_like(x)
+    _lfilter_loop(b / a[0], a / a[0], x, np.zeros(max(b.size - 1, 1)), y)
+    return y
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _lfilter_loop(b, a, x, z, y):
+    n_b = b.shape[0]
+    for k in range(x.shape[0]):
+        xk = x[k]
+        if n_b > 1:
+            yk = z[0] + b[0] * xk
+            for n in range(n_b - 2):
+                z[n] = z[n + 1] + xk * b[n + 1] - yk * a[n + 1]
+            z[n_b - 2] = xk * b[n_b - 1] - yk * a[n_b - 1]
+        else:
+            yk = xk * b[0]
+        y[k] = yk
 
 
 @numba.njit(cache=True, error_model="numpy")
