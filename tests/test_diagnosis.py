@@ -403,3 +403,14 @@ def test_delay_search_weights_the_delayed_channel_by_its_fitted_residual():
     assert res.effects and res.effects[0]["name"] == "sensor_delay"
     fitted = res.effects[0]["final_parameters"]["delay"]
     assert fitted == pytest.approx(case.drawn["delay"], rel=0.02)
+
+
+def test_grid_start_is_judged_on_every_window():
+    """Servo, hidden 34.1 um overlap: the warm refit stops at 26 um; on every third window it
+    looks better than the grid point 40 um, on all windows it does not, and the refit from 40 um
+    finds the truth."""
+    case = hidden_effect_records("servo_cylinder", "valve_lap", 7000, duration=8.0)
+    res = diagnose("servo_cylinder", [case.fit], [case.holdout], base=case.base.params, max_effects=1, maps=False)
+    assert res.effects and res.effects[0]["name"] == "valve_lap"
+    fitted = res.effects[0]["final_parameters"]["valve_overlap"]
+    assert fitted == pytest.approx(case.drawn["valve_overlap"], rel=0.02)
