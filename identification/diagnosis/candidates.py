@@ -243,10 +243,11 @@ def _delay_search_weights(spec: DiagnosisPlant, sigma: dict[str, float], fit: Fi
 def _alternate_delay(spec: DiagnosisPlant, model: Model, records: Sequence[Record], sigma: dict[str, float],
                      p, passes: int = 4, max_nfev: int = 25) -> FitOutcome:
     """Alternate a grid search of the delay (:func:`_delay_grid_search`: the whole range first,
-    then around the last delay, with the delayed channels weighted by their residual at the last
-    fit, :func:`_delay_search_weights`) with a refit of the other parameters at that delay (at
-    most ``max_nfev`` evaluations, the round's weights) until the delay moves by less than a
-    quarter sample (at most ``passes`` times)."""
+    then around the last delay) with a refit of the other parameters at that delay (at most
+    ``max_nfev`` evaluations) until the delay moves by less than a quarter sample (at most
+    ``passes`` times). The first pass searches and refits at the round's weights, later passes
+    with the delayed channels weighted by their residual at the last fit
+    (:func:`_delay_search_weights`), so a refit's cost after the first pass is in those units."""
     current = model
     fit = None
     se = math.nan
