@@ -196,7 +196,23 @@ def _memory_child(n: int, steps: int) -> None:
     a = np.zeros((n, 1), dtype=np.float32)
     for _ in range(steps):
         venv.step(a)
-    print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss)  # KiB on Linux
+    print(_peak_rss_kib())
+
+
+def _peak_rss_kib() -> int:
+    """Peak resident set size of this process [KiB]: ``VmHWM`` of ``/proc/self/status``.
+
+    ``getrusage`` is no substitute in a child: Linux carries the parent's peak at ``fork`` into
+    the child's ``ru_maxrss``, so a child of a large parent reports the parent's peak.
+    """
+    try:
+        with open("/proc/self/status") as f:
+            for line in f:
+                if line.startswith("VmHWM:"):
+                    return int(line.split()[1])
+    except OSError:
+        pass
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss  # KiB on Linux, bytes on macOS
 
 
 def peak_rss_mib(n: int, steps: int) -> float:
