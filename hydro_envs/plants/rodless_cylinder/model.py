@@ -229,8 +229,12 @@ def supply_port_pressure(p, s_plus, s_minus, pa, ta, pb, tb):
     rises with ``p`` (an edge's flow is ``p_up`` times a flow function that grows as the
     pressure ratio falls), so ``p_lo = p_s / (1 + R mdot_P(p_s) / p_s)`` has ``g <= 0`` and
     ``p_s`` has ``g >= 0``. Newton steps from ``p_s`` with the slope of
-    :func:`_port_draw_slope` (``g' = 1 + R mdot_P' >= 1``); a step that would leave the
-    bracket bisects it; until a step is below 1e-12 of ``p_s`` (2-5 steps with the nozzle law).
+    :func:`_port_draw_slope` (``g' = 1 + R mdot_P' >= 1``), safeguarded by the bracket: a
+    step that would leave it, or that follows a Newton step that did not halve ``|g|``, bisects
+    it instead. The second rule matters where the root lies near a chamber pressure: ``mdot_P``
+    is steepest there (the laminar tail of eqs (3)-(4) around equal pressures), and plain
+    Newton hops from side to side, shrinking the bracket by ~1 % per step. Until a step is
+    below 1e-12 of ``p_s`` (3-5 flow evaluations with the nozzle law).
     """
     ps = p[I_PS]
     r = p[I_RSUP]
@@ -242,15 +246,20 @@ def supply_port_pressure(p, s_plus, s_minus, pa, ta, pb, tb):
     hi = ps
     lo = ps / (1.0 + r * m / ps)
     x = ps
-    for _ in range(60):
-        x_new = x - (x - ps + r * m) / (1.0 + r * dm)
-        if x_new < lo or x_new > hi:  # outside the bracket: bisect it instead
+    g = r * m
+    g_before = math.inf
+    for _ in range(100):
+        x_new = x - g / (1.0 + r * dm)
+        bisect = x_new < lo or x_new > hi or abs(g) > 0.5 * abs(g_before)
+        if bisect:  # outside the bracket, or the last Newton step did not halve |g|
             x_new = 0.5 * (lo + hi)
         if abs(x_new - x) <= 1e-12 * ps:
             return x_new
         x = x_new
         m, dm = _port_draw_slope(p, s_plus, s_minus, pa, ta, pb, tb, x)
-        if x - ps + r * m > 0.0:
+        g_before = math.inf if bisect else g  # after a bisection, Newton again
+        g = x - ps + r * m
+        if g > 0.0:
             hi = x
         else:
             lo = x
