@@ -119,6 +119,22 @@ def test_stribeck_exponential_limits_and_hand_value():
             -stribeck_exponential(vv, FC_004, FS_004, VS_004, B_004, 1e-4))
 
 
+def test_stribeck_exponential_slope_bound_covers_the_derivative():
+    """|dF/dv| of the exponential Stribeck law (central differences) never exceeds the bound;
+    the bound is exact where one term vanishes: f_s / v_eps + b at v = 0, b far out."""
+    args = (FC_004, FS_004, VS_004, B_004, 1e-3)
+    worst = 0.0
+    for v in np.concatenate([-np.geomspace(1e-6, 1.0, 400), [0.0], np.geomspace(1e-6, 1.0, 400)]):
+        h = 1e-9
+        d = abs(laws.stribeck_exponential(v + h, *args) - laws.stribeck_exponential(v - h, *args)) / (2 * h)
+        bound = laws.stribeck_exponential_slope_bound(v, *args)
+        assert d <= bound * (1 + 1e-5) + 1e-6, (v, d, bound)
+        worst = max(worst, d / bound)
+    assert worst > 0.99
+    assert laws.stribeck_exponential_slope_bound(0.0, *args) == pytest.approx(FS_004 / 1e-3 + B_004, rel=1e-12)
+    assert laws.stribeck_exponential_slope_bound(1.0, *args) == pytest.approx(B_004, rel=1e-9)
+
+
 def test_stribeck_gaussian_vs_exponential_and_tanh_gain_mapping():
     fc, fs, vs, b = 573.72, 1254.16, 0.014, 429.4  # 003 Table 2
     args = (fc, fs, vs, b, 0.0)

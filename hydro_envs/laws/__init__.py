@@ -8,6 +8,7 @@ friction (:mod:`hydro_envs.laws.friction`)
     coulomb_friction(v, f_c, v_eps)                   002 eq (1), 003 eq (11)
     viscous_friction(v, b)                            002 eq (1), 003 eq (11)
     stribeck_exponential(v, f_c, f_s, v_s, b, v_eps)  002 eq (1)
+    stribeck_exponential_slope_bound(v, ...)          |dF/dv| of the above (sub-step control)
     stribeck_gaussian(v, f_c, f_s, v_s, b, v_eps)     003 eqs (11)-(12), v_eps = 1/beta
     dahl_friction_rate(v, f, f_c, sigma0)             001 eq (1), sigma0 = gamma f_c^2
     dahl_friction_step_exact(f, v, f_c, sigma0, dt)   001 eq (1), closed form
@@ -104,6 +105,7 @@ from hydro_envs.laws.friction import (
     lugre_friction,
     lugre_g,
     stribeck_exponential,
+    stribeck_exponential_slope_bound,
     stribeck_gaussian,
     tanh_sign,
     viscous_friction,
@@ -152,6 +154,7 @@ __all__ = [
     "coulomb_friction",
     "viscous_friction",
     "stribeck_exponential",
+    "stribeck_exponential_slope_bound",
     "stribeck_gaussian",
     "dahl_friction_rate",
     "dahl_friction_step_exact",

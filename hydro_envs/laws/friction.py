@@ -99,6 +99,30 @@ def stribeck_exponential(v, f_c, f_s, v_s, b, v_eps):
 
 
 @numba.njit(cache=True, error_model="numpy")
+def stribeck_exponential_slope_bound(v, f_c, f_s, v_s, b, v_eps):
+    """Upper bound of ``|dF/dv|`` of :func:`stribeck_exponential` at velocity ``v``.
+
+    dF/dv = b + g(v) sech^2(v / v_eps) / v_eps - (f_s - f_c) / v_s exp(-|v| / v_s) |tanh(v / v_eps)|
+
+    (the sign's regularisation, steepest at v = 0 with ``f_s / v_eps``; the Stribeck dip,
+    a negative slope of at most ``(f_s - f_c) / v_s``); the bound adds the magnitudes.
+    Over all v it is at most ``b + f_s / v_eps + (f_s - f_c) / v_s``.
+    Units: as :func:`stribeck_exponential` -> [N s/m]. Source: the derivative of that law.
+    """
+    e = math.exp(-abs(v) / v_s)
+    g = f_c + (f_s - f_c) * e
+    if v_eps > 0.0:
+        x = min(abs(v) / v_eps, 350.0)
+        c = math.cosh(x)
+        sign_slope = g / (v_eps * c * c)
+        t = math.tanh(x)
+    else:
+        sign_slope = 0.0
+        t = 1.0
+    return b + sign_slope + abs(f_s - f_c) / v_s * e * t
+
+
+@numba.njit(cache=True, error_model="numpy")
 def stribeck_gaussian(v, f_c, f_s, v_s, b, v_eps):
     """Gaussian Stribeck friction with tanh sign, 003 eqs (11)-(12).
 

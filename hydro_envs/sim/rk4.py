@@ -11,7 +11,10 @@ inlined (``inline="always"``) into a few lines of each plant's ``kernels.py`` th
 right-hand side (``step_serial``, ``step_parallel``, ``trajectories``, ``derivatives``): the
 loops exist once, each plant compiles only its own model, and every binding is cached on disk.
 ``rhs_along`` evaluates the right-hand side along a recorded trajectory (derivative outputs
-such as an acceleration).
+such as an acceleration). ``rk4_advance_refined`` is ``rk4_advance`` for a plant with a mode
+that is stiff only in a small region of the state space (a regularised friction sign near zero
+velocity): sub-steps sized for the other modes, each redone in finer sub-steps where the
+plant's ``shallow`` test fails along it.
 
 Batch layout: states ``Y (n, n_states)``, inputs ``U (n, n_inputs)``, parameters
 ``P (n, n_params)``, sub-steps ``NSUB (n,)``, workspace ``W (n, 5, n_states)`` (k1..k4 and the
@@ -24,7 +27,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-__all__ = ["rk4_advance", "rk4_trajectory", "rhs_along"]
+__all__ = ["rk4_advance", "rk4_advance_refined", "rk4_trajectory", "rhs_along"]
 
 
 @nb.njit(cache=True, error_model="numpy", inline="always")
@@ -59,6 +62,60 @@ def rk4_advance(rhs, guard, y, u, p, h, n_sub, work):
         for j in range(ny):
             y[j] += sixth * (k1[j] + 2.0 * k2[j] + 2.0 * k3[j] + k4[j])
         clamps += guard(y, p)
+    return clamps
+
+
+@nb.njit(cache=True, error_model="numpy", inline="always")
+def rk4_advance_refined(rhs, guard, shallow, y, u, p, h, n_sub, m, work, back):
+    """``rk4_advance`` with local refinement: each of the ``n_sub`` steps of ``h`` seconds is
+    one classical RK4 step where ``shallow(y_start, x, p, h)`` holds at its start state, its
+    three stage states and its end state, and is redone as ``m`` steps of ``h / m`` where it
+    fails at any of them. ``shallow`` tells whether the plant's locally stiff mode lets an RK4
+    step of ``h`` stay stable at ``x`` (for a friction curve: its slope at the velocity of
+    ``x`` inside the stability bound of ``h``, and the velocity still of the sign it had at
+    ``y_start``); ``m`` must make ``h / m`` stable everywhere. ``back (n_states,)`` is
+    scratch. Returns guard clamps. An accepted step has classical RK4's arithmetic.
+    """
+    if m <= 1:
+        return rk4_advance(rhs, guard, y, u, p, h, n_sub, work)
+    ny = y.shape[0]
+    stage = work[4]
+    half = 0.5 * h
+    sixth = h / 6.0
+    clamps = 0
+    for _ in range(n_sub):
+        for j in range(ny):
+            back[j] = y[j]
+        ok = shallow(back, y, p, h)
+        s = 0
+        while ok and s < 4:
+            if s == 0:
+                for j in range(ny):
+                    stage[j] = y[j]
+            else:
+                c = h if s == 3 else half
+                prev = work[s - 1]
+                for j in range(ny):
+                    stage[j] = y[j] + c * prev[j]
+                ok = shallow(back, stage, p, h)
+            if ok:
+                rhs(stage, u, p, work[s])
+            s += 1
+        if ok:
+            k1 = work[0]
+            k2 = work[1]
+            k3 = work[2]
+            k4 = work[3]
+            for j in range(ny):
+                y[j] += sixth * (k1[j] + 2.0 * k2[j] + 2.0 * k3[j] + k4[j])
+            ok = shallow(back, y, p, h)
+            if ok:
+                clamps += guard(y, p)
+            else:
+                for j in range(ny):
+                    y[j] = back[j]
+        if not ok:
+            clamps += rk4_advance(rhs, guard, y, u, p, h / m, m, work)
     return clamps
 
 

@@ -3,7 +3,10 @@
 ``step_serial`` / ``step_parallel`` advance a batch by one env step (the single env uses the
 serial one: a parallel region costs more to enter than a whole step); ``trajectories`` runs
 whole input sequences (:func:`hydro_envs.sim.simulate`); ``derivatives`` evaluates the
-right-hand side along recorded trajectories. Layouts: :mod:`hydro_envs.sim.rk4`.
+right-hand side along recorded trajectories. Layouts: :mod:`hydro_envs.sim.rk4`. All of them
+step with :func:`~hydro_envs.sim.rk4.rk4_advance_refined`: with a bristle state (LuGre, the
+default) that is ``rk4_advance``; with the static friction curve a sub-step is redone in finer
+ones where the curve is steep along it (near zero velocity).
 
 :func:`for_params` gives an env the step kernels it needs: without supply droop in any copy
 (``supply_line_resistance = 0``, the seed's stiff supply and every default set) the same steps
@@ -22,30 +25,54 @@ from hydro_envs.plants.rodless_cylinder.model import I_RSUP
 from hydro_envs.plants.rodless_cylinder.model import rodless_cylinder_rhs as rhs
 from hydro_envs.plants.rodless_cylinder.model import rodless_cylinder_rhs_stiff_supply as rhs_stiff
 from hydro_envs.plants.rodless_cylinder.model import rodless_cylinder_guard as guard
-from hydro_envs.sim.rk4 import rhs_along, rk4_advance, rk4_trajectory
+from hydro_envs.plants.rodless_cylinder.model import static_friction_refinement, static_friction_shallow
+from hydro_envs.sim.rk4 import rhs_along, rk4_advance_refined
 
 __all__ = ["step_serial", "step_parallel", "trajectories", "derivatives", "rhs", "guard", "for_params"]
+
+
+@nb.njit(cache=True, error_model="numpy", inline="always")
+def _advance(f, y, u, p, h, n_sub, work, back):
+    """``n_sub`` RK4 sub-steps of ``h`` with right-hand side ``f``; with the static friction
+    curve a sub-step is redone finer where the curve is steep along it (the sub-step count
+    of ``stiffness_modes`` leaves that region out)."""
+    return rk4_advance_refined(f, guard, static_friction_shallow, y, u, p, h, n_sub,
+                               static_friction_refinement(p, h), work, back)
 
 
 @nb.njit(cache=True, error_model="numpy")
 def step_serial(Y, U, P, dt, NSUB, W, clamps):
     """Advance every copy by one step of ``dt`` seconds in ``NSUB[i]`` sub-steps (serial)."""
+    back = np.empty(Y.shape[1])
     for i in range(Y.shape[0]):
-        clamps[i] += rk4_advance(rhs, guard, Y[i], U[i], P[i], dt / NSUB[i], NSUB[i], W[i])
+        clamps[i] += _advance(rhs, Y[i], U[i], P[i], dt / NSUB[i], NSUB[i], W[i], back)
 
 
 @nb.njit(cache=True, error_model="numpy", parallel=True)
 def step_parallel(Y, U, P, dt, NSUB, W, clamps):
     """Advance every copy by one step of ``dt`` seconds in ``NSUB[i]`` sub-steps (threads)."""
     for i in nb.prange(Y.shape[0]):
-        clamps[i] += rk4_advance(rhs, guard, Y[i], U[i], P[i], dt / NSUB[i], NSUB[i], W[i])
+        back = np.empty(Y.shape[1])
+        clamps[i] += _advance(rhs, Y[i], U[i], P[i], dt / NSUB[i], NSUB[i], W[i], back)
 
 
 @nb.njit(cache=True, error_model="numpy", parallel=True)
 def trajectories(Y0, U, P, dt, NSUB, W, OUT, clamps):
     """Whole trajectories ``OUT[i] (T + 1, n_states)`` under inputs ``U[i] (T, n_in)``."""
+    ny = Y0.shape[1]
     for i in nb.prange(Y0.shape[0]):
-        clamps[i] += rk4_trajectory(rhs, guard, Y0[i], U[i], P[i], dt, NSUB[i], W[i], OUT[i])
+        back = np.empty(ny)
+        out = OUT[i]
+        for j in range(ny):
+            out[0, j] = Y0[i, j]
+        h = dt / NSUB[i]
+        n = 0
+        for k in range(U.shape[1]):
+            y = out[k + 1]
+            for j in range(ny):
+                y[j] = out[k, j]
+            n += _advance(rhs, y, U[i, k], P[i], h, NSUB[i], W[i], back)
+        clamps[i] += n
 
 
 @nb.njit(cache=True, error_model="numpy", parallel=True)
@@ -57,14 +84,16 @@ def derivatives(X, U, P, OUT):
 
 @nb.njit(cache=True, error_model="numpy")
 def _step_serial_stiff(Y, U, P, dt, NSUB, W, clamps):
+    back = np.empty(Y.shape[1])
     for i in range(Y.shape[0]):
-        clamps[i] += rk4_advance(rhs_stiff, guard, Y[i], U[i], P[i], dt / NSUB[i], NSUB[i], W[i])
+        clamps[i] += _advance(rhs_stiff, Y[i], U[i], P[i], dt / NSUB[i], NSUB[i], W[i], back)
 
 
 @nb.njit(cache=True, error_model="numpy", parallel=True)
 def _step_parallel_stiff(Y, U, P, dt, NSUB, W, clamps):
     for i in nb.prange(Y.shape[0]):
-        clamps[i] += rk4_advance(rhs_stiff, guard, Y[i], U[i], P[i], dt / NSUB[i], NSUB[i], W[i])
+        back = np.empty(Y.shape[1])
+        clamps[i] += _advance(rhs_stiff, Y[i], U[i], P[i], dt / NSUB[i], NSUB[i], W[i], back)
 
 
 _STIFF = types.SimpleNamespace(step_serial=_step_serial_stiff, step_parallel=_step_parallel_stiff)

@@ -89,12 +89,13 @@ import numba as nb
 import numpy as np
 
 from hydro_envs.laws.contact import end_stop_force
-from hydro_envs.laws.friction import stribeck_exponential
+from hydro_envs.laws.friction import stribeck_exponential, stribeck_exponential_slope_bound
 from hydro_envs.laws.nozzle_fast import nozzle_mass_flow_fast, nozzle_mass_flow_slope_fast
 from hydro_envs.laws.orifice import circular_orifice_area, iso6358_mass_flow_laminar
 from hydro_envs.laws.pneumatic_chamber import chamber_pressure_rate, gas_internal_energy
 from hydro_envs.laws.stribeck_lugre import lugre_exponential_rate
 from hydro_envs.laws.valve import second_order_valve_acceleration
+from hydro_envs.sim.stiffness import DEFAULT_SAFETY, RK4_REAL_STABILITY_LIMIT
 from hydro_envs.plants.rodless_cylinder.params import (  # noqa: F401  (re-exported)
     D_AREA, D_COEF, D_CRIT, D_INVK, D_KV, D_PSIC, D_PSIL, D_SFULL, D_SQRTRTS,
     ATM, I_ASTOP, I_BISO, I_CD, I_CISO, I_D, I_FC, I_FL, I_FLOW, I_FS, I_HW, I_K, I_KSTOP, I_L,
@@ -110,6 +111,9 @@ __all__ = [
     "rodless_cylinder_rhs_stiff_supply",
     "fixed_supply_pressure",
     "rodless_cylinder_guard",
+    "static_friction_rate",
+    "static_friction_shallow",
+    "static_friction_refinement",
     "stiffness_modes",
     "piston_area",
     "centre_pressure",
@@ -350,6 +354,44 @@ def _rhs(supply, y, u, p, dy):
     dy[Z] = dz
 
 
+# ------------------------------------------------------- sub-steps of the static friction curve
+_STABLE_H_LAMBDA = DEFAULT_SAFETY * RK4_REAL_STABILITY_LIMIT
+
+
+@nb.njit(cache=True, error_model="numpy")
+def static_friction_rate(v, p):
+    """Upper bound [1/s] of ``|d vdot / d v|`` from eq (18) with the static curve (no bristle
+    state) at velocity ``v``: the curve's slope (sign regularisation, Stribeck dip, viscous
+    sigma) plus the Hunt-Crossley stop damping at full thrust ``alpha A (1.5 p_s - p_floor)``,
+    over ``M``. Largest at v = 0: ``F_s / (v_eps M)`` and more."""
+    f_max = p[D_AREA] * (1.5 * p[I_PS] - p[I_PFLOOR])
+    slope = stribeck_exponential_slope_bound(v, p[I_FC], p[I_FS], p[I_VS], p[I_SIG2], p[I_VEPS])
+    return (slope + p[I_ASTOP] * f_max) / p[I_M]
+
+
+@nb.njit(cache=True, error_model="numpy")
+def static_friction_shallow(y0, y, p, h):
+    """True where an RK4 sub-step of ``h`` seconds stays stable on the static friction curve at
+    state ``y``: the velocity has the sign it had at the step's start ``y0`` (no pass through
+    the steep zero-velocity region in between) and ``h`` times :func:`static_friction_rate`
+    is inside RK4's real-axis bound (with the sub-step safety factor)."""
+    if (y[V] > 0.0) != (y0[V] > 0.0):
+        return False
+    return h * static_friction_rate(y[V], p) <= _STABLE_H_LAMBDA
+
+
+@nb.njit(cache=True, error_model="numpy")
+def static_friction_refinement(p, h):
+    """Sub-steps per step of ``h`` seconds that keep the static curve's steepest slope (at any
+    velocity; :func:`~hydro_envs.laws.friction.stribeck_exponential_slope_bound`) stable: 1
+    with a bristle state (LuGre, ``stiffness_modes`` bounds it)."""
+    if p[I_SIG0] > 0.0:
+        return 1
+    f_max = p[D_AREA] * (1.5 * p[I_PS] - p[I_PFLOOR])
+    lam = (p[I_SIG2] + p[I_FS] / p[I_VEPS] + abs(p[I_FS] - p[I_FC]) / p[I_VS] + p[I_ASTOP] * f_max) / p[I_M]
+    return max(1, int(math.ceil(h * lam / _STABLE_H_LAMBDA - 1e-12)))
+
+
 @nb.njit(cache=True, error_model="numpy")
 def rodless_cylinder_guard(y, p):
     """Project the state back onto the physical set after a sub-step; return #clamps."""
@@ -510,8 +552,12 @@ def stiffness_modes(params: RodlessCylinderParams) -> dict[str, float]:
       velocity row of the Jacobian): viscous sigma, the Hunt-Crossley stop damping at full
       thrust ``alpha F_max``, and the friction law's own slope. LuGre: bristle relaxation while
       sliding ``sigma0 v_max / F_c`` (v_max from :func:`speed_bound`) plus ``(2 sigma1 + sigma +
-      alpha F_max)/M``; stuck: ``sqrt(sigma0/M)`` plus the same dampings. Static curve: slope
-      of the tanh curve at v = 0, ``F_s / (M v_eps)``, plus the dampings.
+      alpha F_max)/M``; stuck: ``sqrt(sigma0/M)`` plus the same dampings. Static curve: only
+      the dampings ``(sigma + alpha F_max)/M``. Its steep part, the slope ``F_s / (M v_eps)`` of
+      the regularised sign within a few ``v_eps`` of v = 0 (and the Stribeck dip), is stiff
+      only there: the kernels (:mod:`.kernels`) take sub-steps sized by the other modes and
+      redo a sub-step in :func:`static_friction_refinement` finer ones where
+      :func:`static_friction_shallow` fails along it (:func:`hydro_envs.sim.rk4.rk4_advance_refined`).
     * ``end_stop``: ``sqrt(k/M)`` plus the Hunt-Crossley damping at full thrust, ``alpha F_max / M``.
     * ``heat``: wall exchange ``(kappa - 1) h T_max / (p_e/2 V_min)``.
     """
@@ -546,8 +592,8 @@ def stiffness_modes(params: RodlessCylinderParams) -> dict[str, float]:
         lugre = 2.0 * params.bristle_damping / m + damping
         modes["friction_slip"] = s0 * speed_bound(params) / params.coulomb_friction + lugre
         modes["friction_stick"] = math.sqrt(s0 / m) + lugre
-    else:
-        modes["friction"] = params.static_friction / (params.friction_sign_velocity * m) + damping
+    else:  # the steep zero-velocity part: refined locally by the kernels
+        modes["friction"] = damping
     if params.wall_heat_conductance > 0.0:
         modes["heat"] = (kappa - 1.0) * params.wall_heat_conductance * t_max / (0.5 * params.exhaust_pressure * v_min)
     return modes
