@@ -28,11 +28,13 @@ One round (:func:`diagnose`)::
        winner that does not beat the runner-up, or whose parameters correlate with those of an
        effect named earlier in the run by more than ``AMBIGUOUS_CORRELATION`` in the joint fit,
        -> ``ambiguous: A vs B`` with the experiment that separates them.
-    7. PAIRS (:mod:`.pairs`): when no single effect wins, room for two is left and the
-       residual stays above the plant's noise-floor threshold, the best single refits are
-       refitted in pairs and judged by the same rules; a winning pair names both members, in
-       order of the residual each explains (two effects that only together explain the data:
-       Coulomb friction and a constant force on a heavy axis).
+    7. PAIRS (:mod:`.pairs`): when room for two is left and either no single effect wins while
+       the residual stays above the plant's noise-floor threshold, or the single that wins leaves
+       the held-out residual above it (unexplained), the best single refits are refitted in pairs
+       and judged by the same rules; a winning pair names both members, in order of the residual
+       each explains (two effects that only together explain the data: Coulomb friction and a
+       constant force on a heavy axis). It replaces a winning single only if its held-out error is
+       below the single's by the ambiguity margin.
     Repeat with the accepted effect added until nothing more is accepted (``max_effects``), or
     until the held-out residual left is at the noise floor (``AT_NOISE_FLOOR`` floors in every
     channel: what is left is noise, and a further gain would fit it).
@@ -394,18 +396,33 @@ def diagnose(plant: str | DiagnosisPlant, records: Sequence[Record], holdout: Se
         if decision not in ("none", SENSOR_OFFSETS) and not decision.startswith("ambiguous"):
             decision, sep = _check_correlated(spec, next(c for c in results if c.name == decision),
                                               [a["name"] for a in accepted], decision, sep)
-        if decision == "none" and len(accepted) + 2 <= max_effects:
-            if cur_left is None:
-                cur_left = _floors_left(spec, cur.model, holdout, floor)
-            if max(cur_left.values(), default=0.0) > spec.unexplained_factor:
-                say("  no single effect wins and the residual stays above the noise floor: pairs")
+        if len(accepted) + 2 <= max_effects:
+            why = single = None
+            if decision == "none":
+                if cur_left is None:
+                    cur_left = _floors_left(spec, cur.model, holdout, floor)
+                if max(cur_left.values(), default=0.0) > spec.unexplained_factor:
+                    why = "no single effect wins and the residual stays above the noise floor"
+            elif decision != SENSOR_OFFSETS and not decision.startswith("ambiguous"):
+                single = next(c for c in results if c.name == decision)
+                left = max(score_of(single.model)[1].values(), default=0.0)
+                if left > spec.unexplained_factor:
+                    why = (f"{decision} wins but leaves {left:.3g} noise floors (> {spec.unexplained_factor:g}: "
+                           "unexplained)")
+            if why:
+                say(f"  {why}: pairs")
                 pairs = pair_candidates(spec, cur.model, results, records, holdout, sigma, h_cur, accept_gain,
                                         ceiling=cur.result.cost if cur.result is not None else None,
                                         cost_tol=cost_tol)
                 pair_decision, pair_sep = _decide(spec, pairs, accept_gain, margin)
                 results = results + pairs
-                if pair_decision != "none":
-                    decision, sep = pair_decision, pair_sep
+                if single is None:
+                    if pair_decision != "none":
+                        decision, sep = pair_decision, pair_sep
+                elif "+" in pair_decision and not pair_decision.startswith("ambiguous"):
+                    pair = next(c for c in pairs if c.name == pair_decision)
+                    if pair.heldout * (1 + margin) < single.heldout:  # the pair explains clearly more
+                        decision, sep = pair_decision, pair_sep
         rounds.append(Round(h_cur, h_nr, locate, pred, results, decision, sep))
         say(f"  -> {decision}")
         if decision.startswith("ambiguous"):
