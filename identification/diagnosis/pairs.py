@@ -11,8 +11,9 @@ identifiable parameters, held-out gain >= the acceptance gain, not resting on on
 window) and both members are named. A third effect can mimic part of the pair's signature: on
 the same record a backlash alone won a round (held-out gain 53 %) and left 22645 noise floors,
 the pair of Coulomb friction and the force 1.1. So pairs are also refitted when the single that
-wins leaves the residual above the threshold, and a pair whose held-out error is below the
-single's by the ambiguity margin takes the round.
+wins leaves the residual above the threshold: the pair of the two best other plant effects
+(the winner's own pairs are the next round's single candidates), which takes the round if its
+held-out error is below the single's by the ambiguity margin.
 
 A member's single refit must be plausible: one that ends on a plausibility bound or breaks a
 parameter relation (a static friction fitted below the Coulomb level) says the data push that
@@ -54,15 +55,16 @@ PAIR_MEMBERS = 3
 
 def pair_candidates(spec: DiagnosisPlant, current: Model, singles: Sequence[Candidate], records: Sequence[Record],
                     holdout: Sequence[Record], sigma: dict[str, float], h_cur: float,
-                    accept_gain: float, ceiling: float | None = None, cost_tol: float | None = None
-                    ) -> list[Candidate]:
+                    accept_gain: float, ceiling: float | None = None, cost_tol: float | None = None,
+                    members: int = PAIR_MEMBERS) -> list[Candidate]:
     """Refits of the current model with two plant effects added, scored and judged like single
-    candidates (name ``"a+b"``, ``a`` the member with the better single score). A pair's refit
-    starts from the better (:func:`_pair_start`) of the members' catalogue starts and their single
-    refits' values; ``ceiling`` and ``cost_tol`` as for single refits (:func:`.fitting.fit_model`)."""
+    candidates (name ``"a+b"``, ``a`` the member with the better single score), among the
+    ``members`` best single refits. A pair's refit starts from the better (:func:`_pair_start`)
+    of the members' catalogue starts and their single refits' values; ``ceiling`` and
+    ``cost_tol`` as for single refits (:func:`.fitting.fit_model`)."""
     live = sorted((c for c in singles if c.model is not None and math.isfinite(c.heldout) and c.plausible
                    and c.name in CATALOGUE and effect(c.name).kind == "plant"),  # not the sensor-offset candidate
-                  key=lambda c: c.heldout)[:PAIR_MEMBERS]
+                  key=lambda c: c.heldout)[:members]
     out: list[Candidate] = []
     for a, b in itertools.combinations(live, 2):
         if b.name in prerequisites(spec, a.name) or a.name in prerequisites(spec, b.name):  # e.g. Stribeck on Coulomb

@@ -33,8 +33,9 @@ One round (:func:`diagnose`)::
        the held-out residual above it (unexplained), the best single refits are refitted in pairs
        and judged by the same rules; a winning pair names both members, in order of the residual
        each explains (two effects that only together explain the data: Coulomb friction and a
-       constant force on a heavy axis). It replaces a winning single only if its held-out error is
-       below the single's by the ambiguity margin.
+       constant force on a heavy axis). Beside a winning single only the two best other effects
+       are paired (the winner's pairs are the next round); the pair replaces the single only if
+       its held-out error is below the single's by the ambiguity margin.
     Repeat with the accepted effect added until nothing more is accepted (``max_effects``), or
     until the held-out residual left is at the noise floor (``AT_NOISE_FLOOR`` floors in every
     channel: what is left is noise, and a further gain would fit it).
@@ -91,7 +92,7 @@ from identification import greybox as gb
 from hydro_envs.jsonutil import to_jsonable as jsonable
 from identification.diagnosis.base_estimates import estimate_base, position_shift, shifted
 from identification.diagnosis.catalogue import effect, effects_for
-from identification.diagnosis.pairs import explained_in_final_model, pair_candidates
+from identification.diagnosis.pairs import PAIR_MEMBERS, explained_in_final_model, pair_candidates
 from identification.diagnosis.plants import DiagnosisPlant, diagnosis_plant
 from identification.diagnosis.records import DiagnosisFitError, Record, check_records
 
@@ -411,9 +412,11 @@ def diagnose(plant: str | DiagnosisPlant, records: Sequence[Record], holdout: Se
                            "unexplained)")
             if why:
                 say(f"  {why}: pairs")
-                pairs = pair_candidates(spec, cur.model, results, records, holdout, sigma, h_cur, accept_gain,
+                # beside a winning single: the pair of the two best others (its own pairs are next round's)
+                pairs = pair_candidates(spec, cur.model, [c for c in results if c is not single], records, holdout,
+                                        sigma, h_cur, accept_gain,
                                         ceiling=cur.result.cost if cur.result is not None else None,
-                                        cost_tol=cost_tol)
+                                        cost_tol=cost_tol, members=PAIR_MEMBERS if single is None else 2)
                 pair_decision, pair_sep = _decide(spec, pairs, accept_gain, margin)
                 results = results + pairs
                 if single is None:
