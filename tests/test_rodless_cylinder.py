@@ -909,29 +909,36 @@ def test_render_rgb_array():
 
 
 def test_env_step_kernels_follow_the_supply_droop_and_agree_bit_for_bit():
-    """Without droop the envs step with the stiff-supply kernels (no droop solve to compile): the
-    same numbers as the full right-hand side; a copy with droop switches every copy to the full one."""
+    """Without droop the envs step with the stiff-supply kernels (no droop solve to compile), with
+    a bristle state in every copy without the static curve's refinement: the same numbers as the
+    general kernels; a copy with droop or with the static curve switches every copy over."""
     import gymnasium as gym
 
     from hydro_envs.plants.rodless_cylinder import kernels as K
 
-    def run(force_full: bool, droop: float = 0.0) -> tuple[np.ndarray, object]:
+    def run(force_full: bool, **params) -> tuple[np.ndarray, object]:
         venv = gym.make_vec("hydro_envs/RodlessCylinder-v0", num_envs=4, vectorization_mode="vector_entry_point")
-        opts = {"params": {"supply_line_resistance": droop}} if droop else None
-        venv.reset(seed=5, options=opts)
+        venv.reset(seed=5, options={"params": params} if params else None)
         b = venv.unwrapped._batch
         acts = np.random.default_rng(0).uniform(-1, 1, (150, 4, 1)).astype(np.float32)
         venv.step(acts[0])
+        chosen = b.step_kernel
         if force_full:
             b.step_kernel = K.step_parallel
         for a in acts[1:]:
             venv.step(a)
-        return b.Y.copy(), b.step_kernel
+        return b.Y.copy(), chosen
 
     y_stiff, kernel = run(False)
-    assert kernel.py_func.__name__ == "_step_parallel_stiff"
+    assert kernel.py_func.__name__ == "_step_parallel_stiff_lugre"
     y_full, _ = run(True)
     assert np.array_equal(y_stiff, y_full)
-    y_droop, kernel = run(False, droop=5e8)
-    assert kernel is K.step_parallel
+    y_droop, kernel = run(False, supply_line_resistance=5e8)
+    assert kernel.py_func.__name__ == "_step_parallel_lugre"
+    assert np.array_equal(y_droop, run(True, supply_line_resistance=5e8)[0])
     assert not np.allclose(y_droop, y_stiff)
+    y_static, kernel = run(False, bristle_stiffness=0.0)
+    assert kernel.py_func.__name__ == "_step_parallel_stiff"
+    assert np.array_equal(y_static, run(True, bristle_stiffness=0.0)[0])
+    _, kernel = run(False, bristle_stiffness=0.0, supply_line_resistance=5e8)
+    assert kernel is K.step_parallel

@@ -8,10 +8,12 @@ step with :func:`~hydro_envs.sim.rk4.rk4_advance_refined`: with a bristle state 
 default) that is ``rk4_advance``; with the static friction curve a sub-step is redone in finer
 ones where the curve is steep along it (near zero velocity).
 
-:func:`for_params` gives an env the step kernels it needs: without supply droop in any copy
-(``supply_line_resistance = 0``, the seed's stiff supply and every default set) the same steps
-bound to :func:`~.model.rodless_cylinder_rhs_stiff_supply`, whose compilation skips the droop
-solve (a cold first step 0.8 s shorter); bit-identical results.
+:func:`for_params` gives an env the step kernels it needs, each bit-identical to the general
+ones on the rows it is chosen for: without supply droop in any copy (``supply_line_resistance =
+0``, the seed's stiff supply and every default set) bound to
+:func:`~.model.rodless_cylinder_rhs_stiff_supply`, whose compilation skips the droop solve (a
+cold first step 0.8 s shorter); with a bristle state in every copy (the default) plain
+``rk4_advance`` (the refinement's code adds about 2 s to a cold first step).
 """
 
 from __future__ import annotations
@@ -21,12 +23,12 @@ import types
 import numba as nb
 import numpy as np
 
-from hydro_envs.plants.rodless_cylinder.model import I_RSUP
+from hydro_envs.plants.rodless_cylinder.model import I_RSUP, I_SIG0
 from hydro_envs.plants.rodless_cylinder.model import rodless_cylinder_rhs as rhs
 from hydro_envs.plants.rodless_cylinder.model import rodless_cylinder_rhs_stiff_supply as rhs_stiff
 from hydro_envs.plants.rodless_cylinder.model import rodless_cylinder_guard as guard
 from hydro_envs.plants.rodless_cylinder.model import static_friction_refinement, static_friction_shallow
-from hydro_envs.sim.rk4 import rhs_along, rk4_advance_refined
+from hydro_envs.sim.rk4 import rhs_along, rk4_advance, rk4_advance_refined
 
 __all__ = ["step_serial", "step_parallel", "trajectories", "derivatives", "rhs", "guard", "for_params"]
 
@@ -96,11 +98,43 @@ def _step_parallel_stiff(Y, U, P, dt, NSUB, W, clamps):
         clamps[i] += _advance(rhs_stiff, Y[i], U[i], P[i], dt / NSUB[i], NSUB[i], W[i], back)
 
 
-_STIFF = types.SimpleNamespace(step_serial=_step_serial_stiff, step_parallel=_step_parallel_stiff)
-_DROOP = types.SimpleNamespace(step_serial=step_serial, step_parallel=step_parallel)
+# bristle state (LuGre) in every row: plain RK4 sub-steps, which the refinement reduces to
+@nb.njit(cache=True, error_model="numpy")
+def _step_serial_lugre(Y, U, P, dt, NSUB, W, clamps):
+    for i in range(Y.shape[0]):
+        clamps[i] += rk4_advance(rhs, guard, Y[i], U[i], P[i], dt / NSUB[i], NSUB[i], W[i])
+
+
+@nb.njit(cache=True, error_model="numpy", parallel=True)
+def _step_parallel_lugre(Y, U, P, dt, NSUB, W, clamps):
+    for i in nb.prange(Y.shape[0]):
+        clamps[i] += rk4_advance(rhs, guard, Y[i], U[i], P[i], dt / NSUB[i], NSUB[i], W[i])
+
+
+@nb.njit(cache=True, error_model="numpy")
+def _step_serial_stiff_lugre(Y, U, P, dt, NSUB, W, clamps):
+    for i in range(Y.shape[0]):
+        clamps[i] += rk4_advance(rhs_stiff, guard, Y[i], U[i], P[i], dt / NSUB[i], NSUB[i], W[i])
+
+
+@nb.njit(cache=True, error_model="numpy", parallel=True)
+def _step_parallel_stiff_lugre(Y, U, P, dt, NSUB, W, clamps):
+    for i in nb.prange(Y.shape[0]):
+        clamps[i] += rk4_advance(rhs_stiff, guard, Y[i], U[i], P[i], dt / NSUB[i], NSUB[i], W[i])
+
+
+# (supply droop in some row, static curve in some row) -> step kernels
+_KERNELS = {
+    (True, True): types.SimpleNamespace(step_serial=step_serial, step_parallel=step_parallel),
+    (True, False): types.SimpleNamespace(step_serial=_step_serial_lugre, step_parallel=_step_parallel_lugre),
+    (False, True): types.SimpleNamespace(step_serial=_step_serial_stiff, step_parallel=_step_parallel_stiff),
+    (False, False): types.SimpleNamespace(step_serial=_step_serial_stiff_lugre,
+                                          step_parallel=_step_parallel_stiff_lugre),
+}
 
 
 def for_params(P: np.ndarray) -> types.SimpleNamespace:
-    """Step kernels (``step_serial``, ``step_parallel``) for the parameter rows ``P``: the
-    stiff-supply ones when no row has supply droop, else :func:`step_serial` / :func:`step_parallel`."""
-    return _DROOP if np.any(P[:, I_RSUP] > 0.0) else _STIFF
+    """Step kernels (``step_serial``, ``step_parallel``) for the parameter rows ``P``: without
+    the droop solve when no row has supply droop, without the refinement when every row has a
+    bristle state; :func:`step_serial` / :func:`step_parallel` need neither condition."""
+    return _KERNELS[bool(np.any(P[:, I_RSUP] > 0.0)), bool(np.any(P[:, I_SIG0] <= 0.0))]
