@@ -335,8 +335,9 @@ def test_static_friction_mode_has_the_same_steady_curve():
 def test_static_curve_refined_substeps_match_uniform_fine_substeps():
     """Static friction curve (no bristle state), valve swept through reversals (stick, breakaway,
     Stribeck dip): the kernels' coarse sub-steps with local refinement agree with uniform
-    sub-steps four times finer than the steepest slope needs (1 um encoder, 500 Pa transducers:
-    the differences must be far below); plain RK4 at the coarse sub-step is not even stable."""
+    sub-steps four times finer than the steepest slope needs and with Radau (rtol 1e-10) over the
+    first 2 s (1 um encoder, 500 Pa transducers: the differences must be far below); plain RK4 at
+    the coarse sub-step is not even stable."""
     from hydro_envs.plants.rodless_cylinder.kernels import guard as k_guard
     from hydro_envs.plants.rodless_cylinder.kernels import rhs as k_rhs
     from hydro_envs.sim.rk4 import rk4_trajectory
@@ -353,6 +354,9 @@ def test_static_curve_refined_substeps_match_uniform_fine_substeps():
     assert np.abs(refined[:, rc.Y] - ref[:, rc.Y]).max() < 0.1e-6  # 0.034 um
     assert np.abs(refined[:, rc.PA] - ref[:, rc.PA]).max() < 5.0  # 0.42 Pa
     assert np.abs(refined[:, rc.PB] - ref[:, rc.PB]).max() < 5.0  # 0.53 Pa
+    radau = reference_rollout(registry.get("rodless_cylinder"), y0, u[:2000, None], p.to_array(), DT, atol=ATOL)
+    assert np.abs(refined[:2001, rc.Y] - radau[:, rc.Y]).max() < 0.1e-6  # 0.033 um
+    assert np.abs(refined[:2001, rc.PA:rc.PB + 1] - radau[:, rc.PA:rc.PB + 1]).max() < 5.0  # 0.53 Pa
 
     @nb.njit(cache=False)
     def plain(y0, u, p, n, out):
