@@ -73,49 +73,33 @@ def rk4_advance_refined(rhs, guard, shallow, y, u, p, h, n_sub, m, work, back):
     fails at any of them. ``shallow`` tells whether the plant's locally stiff mode lets an RK4
     step of ``h`` stay stable at ``x`` (for a friction curve: its slope at the velocity of
     ``x`` inside the stability bound of ``h``, and the velocity still of the sign it had at
-    ``y_start``); ``m`` must make ``h / m`` stable everywhere. ``back (n_states,)`` is
-    scratch. Returns guard clamps. An accepted step has classical RK4's arithmetic.
+    ``y_start``); it must read only state components the guard leaves alone. ``m`` must make
+    ``h / m`` stable everywhere. ``back (n_states,)`` is scratch. Returns guard clamps. An
+    accepted step is one ``rk4_advance`` step; its stage states are rebuilt from ``work``.
     """
     if m <= 1:
         return rk4_advance(rhs, guard, y, u, p, h, n_sub, work)
     ny = y.shape[0]
-    stage = work[4]
-    half = 0.5 * h
-    sixth = h / 6.0
     clamps = 0
     for _ in range(n_sub):
         for j in range(ny):
             back[j] = y[j]
-        ok = shallow(back, y, p, h)
-        s = 0
-        while ok and s < 4:
-            if s == 0:
-                for j in range(ny):
-                    stage[j] = y[j]
-            else:
-                c = h if s == 3 else half
-                prev = work[s - 1]
-                for j in range(ny):
-                    stage[j] = y[j] + c * prev[j]
-                ok = shallow(back, stage, p, h)
-            if ok:
-                rhs(stage, u, p, work[s])
-            s += 1
-        if ok:
-            k1 = work[0]
-            k2 = work[1]
-            k3 = work[2]
-            k4 = work[3]
-            for j in range(ny):
-                y[j] += sixth * (k1[j] + 2.0 * k2[j] + 2.0 * k3[j] + k4[j])
+        if shallow(back, y, p, h):
+            c = rk4_advance(rhs, guard, y, u, p, h, 1, work)
             ok = shallow(back, y, p, h)
+            stage = work[4]  # holds the last stage, y + h k3; rebuild the two before it
+            ok = ok and shallow(back, stage, p, h)
+            for s in range(2):
+                if ok:
+                    for j in range(ny):
+                        stage[j] = back[j] + 0.5 * h * work[s][j]
+                    ok = shallow(back, stage, p, h)
             if ok:
-                clamps += guard(y, p)
-            else:
-                for j in range(ny):
-                    y[j] = back[j]
-        if not ok:
-            clamps += rk4_advance(rhs, guard, y, u, p, h / m, m, work)
+                clamps += c
+                continue
+            for j in range(ny):
+                y[j] = back[j]
+        clamps += rk4_advance(rhs, guard, y, u, p, h / m, m, work)
     return clamps
 
 

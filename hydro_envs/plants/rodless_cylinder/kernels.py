@@ -68,12 +68,13 @@ def trajectories(Y0, U, P, dt, NSUB, W, OUT, clamps):
         for j in range(ny):
             out[0, j] = Y0[i, j]
         h = dt / NSUB[i]
+        m = static_friction_refinement(P[i], h)
         n = 0
         for k in range(U.shape[1]):
             y = out[k + 1]
             for j in range(ny):
                 y[j] = out[k, j]
-            n += _advance(rhs, y, U[i, k], P[i], h, NSUB[i], W[i], back)
+            n += rk4_advance_refined(rhs, guard, static_friction_shallow, y, U[i, k], P[i], h, NSUB[i], m, W[i], back)
         clamps[i] += n
 
 

@@ -359,14 +359,20 @@ _STABLE_H_LAMBDA = DEFAULT_SAFETY * RK4_REAL_STABILITY_LIMIT
 
 
 @nb.njit(cache=True, error_model="numpy")
+def _stop_damping_at_full_thrust(p):
+    """Hunt-Crossley stop damping [N s/m] at full thrust ``alpha A (1.5 p_s - p_floor)`` (as in
+    :func:`stiffness_modes`)."""
+    return p[I_ASTOP] * p[D_AREA] * (1.5 * p[I_PS] - p[I_PFLOOR])
+
+
+@nb.njit(cache=True, error_model="numpy")
 def static_friction_rate(v, p):
     """Upper bound [1/s] of ``|d vdot / d v|`` from eq (18) with the static curve (no bristle
     state) at velocity ``v``: the curve's slope (sign regularisation, Stribeck dip, viscous
     sigma) plus the Hunt-Crossley stop damping at full thrust ``alpha A (1.5 p_s - p_floor)``,
     over ``M``. Largest at v = 0: ``F_s / (v_eps M)`` and more."""
-    f_max = p[D_AREA] * (1.5 * p[I_PS] - p[I_PFLOOR])
     slope = stribeck_exponential_slope_bound(v, p[I_FC], p[I_FS], p[I_VS], p[I_SIG2], p[I_VEPS])
-    return (slope + p[I_ASTOP] * f_max) / p[I_M]
+    return (slope + _stop_damping_at_full_thrust(p)) / p[I_M]
 
 
 @nb.njit(cache=True, error_model="numpy")
@@ -387,8 +393,8 @@ def static_friction_refinement(p, h):
     with a bristle state (LuGre, ``stiffness_modes`` bounds it)."""
     if p[I_SIG0] > 0.0:
         return 1
-    f_max = p[D_AREA] * (1.5 * p[I_PS] - p[I_PFLOOR])
-    lam = (p[I_SIG2] + p[I_FS] / p[I_VEPS] + abs(p[I_FS] - p[I_FC]) / p[I_VS] + p[I_ASTOP] * f_max) / p[I_M]
+    lam = (p[I_SIG2] + p[I_FS] / p[I_VEPS] + abs(p[I_FS] - p[I_FC]) / p[I_VS]
+           + _stop_damping_at_full_thrust(p)) / p[I_M]
     return max(1, int(math.ceil(h * lam / _STABLE_H_LAMBDA - 1e-12)))
 
 
