@@ -381,6 +381,7 @@ def fit_greybox(
     substep_reference: int | None = None,
     cost_tol: float | None = None,
     cost_ceiling: float | None = None,
+    cost_target: float | None = None,
 ) -> GreyboxResult:
     """Fit parameters ``fit`` of ``base`` to the experiments (see the module docstring).
 
@@ -427,6 +428,12 @@ def fit_greybox(
     the fit: it is creeping towards a model that explains less than the one it extends
     (a LuGre bristle model fitted to a record with a static friction curve, held at 200 times
     the current model's cost by its stiffness cap).
+
+    ``cost_target``: the cost of a rival model this fit has to fall below to matter (None: no
+    rival). An iteration that ends above it with a gain that, repeated at every evaluation left
+    (``max_nfev``), would still leave the cost above the target ends the fit: it cannot reach
+    the rival (two valve effects refitted as a pair beside a supply droop that leaves 1/800 of
+    their cost).
     """
     if jacobian not in ("central", "forward"):
         raise GreyboxError(f"jacobian must be 'central' or 'forward', got {jacobian!r}")
@@ -439,23 +446,30 @@ def fit_greybox(
 
     def solve(theta_start):
         last_cost = [math.inf]
+        calls = [0]
 
         def stop_when_flat(intermediate_result: optimize.OptimizeResult) -> None:
             cost = float(intermediate_result.cost)
             gained, last_cost[0] = last_cost[0] - cost, cost
+            calls[0] += 1
             if cost_tol is not None and 0.0 <= gained < cost_tol:
                 raise StopIteration
             if cost_ceiling is not None and cost > cost_ceiling and 0.0 <= gained < CEILING_GAIN_FRACTION * cost:
                 raise StopIteration
+            if cost_target is not None and cost > cost_target:
+                left = max_nfev - int(intermediate_result.get("nfev", calls[0] + 1))
+                if 0.0 <= gained and cost - left * gained > cost_target:
+                    raise StopIteration
 
         sol = optimize.least_squares(ev.fun, theta_start, jac=ev.jac_forward if jacobian == "forward" else ev.jac,
                                      bounds=(prob.lo, prob.hi), method="trf",
                                      x_scale=1.0, ftol=tol, xtol=tol, gtol=tol, max_nfev=max_nfev,
-                                     callback=None if cost_tol is None and cost_ceiling is None else stop_when_flat)
+                                     callback=(None if cost_tol is None and cost_ceiling is None and cost_target is None
+                                               else stop_when_flat))
         if sol.status == -2:  # stopped by stop_when_flat
             sol.success = True
-            sol.message = ("an iteration lowered the cost by less than cost_tol or, above cost_ceiling, by less "
-                           f"than {CEILING_GAIN_FRACTION:g} of it")
+            sol.message = ("an iteration lowered the cost by less than cost_tol, above cost_ceiling by less "
+                           f"than {CEILING_GAIN_FRACTION:g} of it, or too little to reach cost_target")
         return sol
 
     sol = solve(np.clip(theta0, prob.lo, prob.hi))

@@ -56,7 +56,8 @@ class FitOutcome:
 
 def fit_model(spec: DiagnosisPlant, model: Model, records: Sequence[Record], *, max_nfev: int = 25,
               sigma: dict[str, float] | None = None, cost_ceiling: float | None = None,
-              substep_reference: int | None = None, cost_tol: float | None = None) -> FitOutcome:
+              substep_reference: int | None = None, cost_tol: float | None = None,
+              cost_target: float | None = None) -> FitOutcome:
     """Grey-box fit of the base-fit parameters and every present effect's parameters.
 
     ``sigma``: fixed channel weights (the round's noise-level estimates, so every candidate of
@@ -65,7 +66,8 @@ def fit_model(spec: DiagnosisPlant, model: Model, records: Sequence[Record], *, 
     central ones); the standard errors come from a central one. ``cost_ceiling``: the cost of
     the model this one extends, under the same weights; ``substep_reference``: sub-steps the
     stiffness cap multiplies when above the start's; ``cost_tol``: an iteration gaining less
-    ends the fit (all three ``identification.greybox.fit_greybox``)."""
+    ends the fit; ``cost_target``: the cost of a rival this fit must fall below (all four
+    ``identification.greybox.fit_greybox``)."""
     t0 = time.perf_counter()
     names, bounds, log = _fit_names(spec, model)
     present = present_effects(spec, model)
@@ -80,7 +82,7 @@ def fit_model(spec: DiagnosisPlant, model: Model, records: Sequence[Record], *, 
     res = gb.fit_greybox(base, names, exps, _channels(spec), bounds=bounds, sigma=sigma, log_scale=log,
                          max_nfev=max_nfev, tol=FIT_TOL, tie=_tie_function(spec, base, present), jacobian="forward",
                          offsets=off, max_substep_ratio=FIT_MAX_SUBSTEP_RATIO, cost_tol=cost_tol,
-                         cost_ceiling=cost_ceiling, substep_reference=substep_reference)
+                         cost_ceiling=cost_ceiling, substep_reference=substep_reference, cost_target=cost_target)
     params = res.params
     if params is None:  # relation violated: keep the raw values (flagged implausible later)
         params = _raw(base, res.values)

@@ -56,12 +56,14 @@ PAIR_MEMBERS = 3
 def pair_candidates(spec: DiagnosisPlant, current: Model, singles: Sequence[Candidate], records: Sequence[Record],
                     holdout: Sequence[Record], sigma: dict[str, float], h_cur: float,
                     accept_gain: float, ceiling: float | None = None, cost_tol: float | None = None,
-                    members: int = PAIR_MEMBERS) -> list[Candidate]:
+                    members: int = PAIR_MEMBERS, rival_cost: float | None = None) -> list[Candidate]:
     """Refits of the current model with two plant effects added, scored and judged like single
     candidates (name ``"a+b"``, ``a`` the member with the better single score), among the
     ``members`` best single refits. A pair's refit starts from the better (:func:`_pair_start`)
     of the members' catalogue starts and their single refits' values; ``ceiling`` and
-    ``cost_tol`` as for single refits (:func:`.fitting.fit_model`)."""
+    ``cost_tol`` as for single refits (:func:`.fitting.fit_model`). ``rival_cost``: the fit
+    cost of a winning single the pairs compete with; a pair refit that cannot fall below it
+    at its current rate stops (``cost_target``)."""
     live = sorted((c for c in singles if c.model is not None and math.isfinite(c.heldout) and c.plausible
                    and c.name in CATALOGUE and effect(c.name).kind == "plant"),  # not the sensor-offset candidate
                   key=lambda c: c.heldout)[:members]
@@ -72,7 +74,7 @@ def pair_candidates(spec: DiagnosisPlant, current: Model, singles: Sequence[Cand
         t0 = time.perf_counter()
         try:
             fit = fit_model(spec, _pair_start(spec, current, a, b, records, sigma), records, sigma=sigma,
-                            cost_ceiling=ceiling, cost_tol=cost_tol)
+                            cost_ceiling=ceiling, cost_tol=cost_tol, cost_target=rival_cost)
         except (ParameterError, gb.GreyboxError):
             continue
         (nr,) = heldout_nrmse(spec, [fit.model], holdout)

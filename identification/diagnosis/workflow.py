@@ -416,7 +416,9 @@ def diagnose(plant: str | DiagnosisPlant, records: Sequence[Record], holdout: Se
                 pairs = pair_candidates(spec, cur.model, [c for c in results if c is not single], records, holdout,
                                         sigma, h_cur, accept_gain,
                                         ceiling=cur.result.cost if cur.result is not None else None,
-                                        cost_tol=cost_tol, members=PAIR_MEMBERS if single is None else 2)
+                                        cost_tol=cost_tol, members=PAIR_MEMBERS if single is None else 2,
+                                        rival_cost=None if single is None or single.fit.result is None
+                                        else single.fit.result.cost)
                 pair_decision, pair_sep = _decide(spec, pairs, accept_gain, margin)
                 results = results + pairs
                 if single is None:
