@@ -48,3 +48,46 @@ def test_temperatures_depend_on_the_valve():
     closed = dataclasses.replace(p, valve_underlap=0.0)
     ea, _ = chamber_temperature_track(closed.to_array(), s[:, rc.Y], s[:, rc.PA], s[:, rc.PB], u, DT)
     assert np.sqrt(np.mean((ea - ta) ** 2)) > 3.0
+
+
+@pytest.mark.parametrize("flow_model, resistance", [(0.0, 0.0), (1.0, 3e8)])
+def test_track_ignores_the_slider_mechanics(flow_model, resistance):
+    """Every field of ``TRACK_IGNORES`` (the key of the diagnosis' track cache leaves them out)
+    changes nothing in the track, with either flow law and a drooping supply; a valve field does."""
+    from hydro_envs.params import ParameterError
+    from hydro_envs.plants.rodless_cylinder.diagnosis import TRACK_IGNORES
+
+    p = dataclasses.replace(RodlessCylinderParams(), valve_underlap=1.27e-4, flow_model=flow_model,
+                            supply_line_resistance=resistance)
+    u, s, _, _ = _record(p, seconds=2.0)
+    args = (s[:, rc.Y], s[:, rc.PA], s[:, rc.PB], u, DT)
+    ref = chamber_temperature_track(p.to_array(), *args)
+    for name in TRACK_IGNORES:
+        v = getattr(p, name)
+        try:
+            q = dataclasses.replace(p, **{name: 1.5 * v if v else 0.5})
+        except ParameterError:
+            q = dataclasses.replace(p, **{name: 0.5 * v})
+        got = chamber_temperature_track(q.to_array(), *args)
+        assert all(np.array_equal(a, b) for a, b in zip(got, ref)), name
+    q = dataclasses.replace(p, valve_underlap=0.5 * p.valve_underlap)
+    assert not np.array_equal(chamber_temperature_track(q.to_array(), *args)[0], ref[0])
+
+
+def test_diagnosis_track_cache_is_keyed_by_record_and_valve():
+    """The diagnosis' hidden states reuse a track for the same record and a parameter set that
+    differs only in the mechanics, and recompute it for another record or valve."""
+    from hydro_envs.plants.rodless_cylinder.diagnosis import hidden_states
+
+    p = dataclasses.replace(RodlessCylinderParams(), valve_underlap=1.27e-4)
+    u, s, _, _ = _record(p, seconds=2.0)
+    chans = {"y": s[:, rc.Y], "pa": s[:, rc.PA], "pb": s[:, rc.PB]}
+    first = hidden_states(p, chans, u[:, None], DT)
+    again = hidden_states(dataclasses.replace(p, viscous_friction=2.0 * p.viscous_friction), chans, u[:, None], DT)
+    assert again["ta"] is first["ta"]
+    other_valve = hidden_states(dataclasses.replace(p, valve_underlap=0.0), chans, u[:, None], DT)
+    assert not np.array_equal(other_valve["ta"], first["ta"])
+    shifted = dict(chans, pa=chans["pa"] + 100.0)
+    assert not np.array_equal(hidden_states(p, shifted, u[:, None], DT)["ta"], first["ta"])
+    direct = chamber_temperature_track(p.to_array(), chans["y"], chans["pa"], chans["pb"], u, DT)
+    assert np.array_equal(direct[0], first["ta"]) and np.array_equal(direct[1], first["tb"])

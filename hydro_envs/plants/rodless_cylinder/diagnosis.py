@@ -11,6 +11,9 @@ called.
 
 from __future__ import annotations
 
+import collections
+import dataclasses
+import hashlib
 import math
 
 import numpy as np
@@ -38,17 +41,42 @@ def initial_state(params, m):
     return y
 
 
+#: parameters the chamber temperature track does not read: the slider's mechanics (it takes the
+#: measured position and pressures as given); a fit that moves only these reuses the track
+#: (tests/test_rodless_observer.py perturbs each one)
+TRACK_IGNORES = ("mass", "static_friction", "coulomb_friction", "stribeck_velocity", "viscous_friction",
+                 "bristle_stiffness", "bristle_damping", "friction_sign_velocity", "load_force", "stop_stiffness",
+                 "stop_damping", "wall_heat_conductance", "pressure_floor")
+_TRACKS: collections.OrderedDict = collections.OrderedDict()
+_TRACKS_KEPT = 32
+
+
 def hidden_states(params, channels, inputs, dt):
     """Chamber temperatures ``ta``, ``tb`` [K] at every sample of a record, implied by its
     measured position and pressures (:func:`~.observer.chamber_temperature_track`); {} without
-    both pressures."""
+    both pressures. The last few tracks are kept, keyed by the record's content and the
+    parameters outside :data:`TRACK_IGNORES`."""
     if not all(c in channels for c in ("y", "pa", "pb")):
         return {}
     from hydro_envs.plants.rodless_cylinder.observer import chamber_temperature_track
 
-    ta, tb = chamber_temperature_track(params.to_array(), channels["y"], channels["pa"], channels["pb"],
-                                       inputs[:, 0], dt)
-    return {"ta": ta, "tb": tb}
+    data = [np.ascontiguousarray(a, dtype=np.float64) for a in (channels["y"], channels["pa"], channels["pb"],
+                                                                inputs[:, 0])]
+    digest = hashlib.blake2b(digest_size=16)
+    for a in data:
+        digest.update(a.tobytes())
+    key = (digest.digest(), float(dt), data[0].size,
+           tuple(float(getattr(params, f.name)) for f in dataclasses.fields(params) if f.name not in TRACK_IGNORES))
+    got = _TRACKS.get(key)
+    if got is None:
+        ta, tb = chamber_temperature_track(params.to_array(), *data, dt)
+        ta.flags.writeable = tb.flags.writeable = False  # shared by every caller of the same key
+        got = _TRACKS[key] = (ta, tb)
+        if len(_TRACKS) > _TRACKS_KEPT:
+            _TRACKS.popitem(last=False)
+    else:
+        _TRACKS.move_to_end(key)
+    return {"ta": got[0], "tb": got[1]}
 
 
 def controller(meas, ref, params):
