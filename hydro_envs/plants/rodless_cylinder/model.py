@@ -109,7 +109,9 @@ __all__ = [
     "STATE_NAMES",
     "rodless_cylinder_rhs",
     "rodless_cylinder_rhs_stiff_supply",
-    "fixed_supply_pressure",
+    "supply_port_pressure",
+    "supply_port_flows",
+    "fixed_supply_flows",
     "rodless_cylinder_guard",
     "static_friction_rate",
     "static_friction_shallow",
@@ -161,16 +163,24 @@ def _edge_flow(p, area, p_up, p_down, t_up, sqrt_rt_up):
     )
 
 
-@nb.njit(cache=True, error_model="numpy")
-def _chamber_flows(p, s_in, s_out, pc, tc, ps):
-    """(mass flow, enthalpy flow) into a chamber at pc, tc fed from the valve's P port at ``ps``
-    through ``s_in`` and vented to R through ``s_out``; upstream temperatures follow the flow
-    direction."""
+@nb.njit(cache=True, error_model="numpy", inline="always")
+def _supply_edge_flow(p, s_in, psv, pc, tc):
+    """Mass flow [kg/s] from the valve's P port at ``psv`` into a chamber at ``pc``, ``tc``
+    through ``s_in`` (eq (3); back-flow from the chamber negative, at the chamber's temperature)."""
+    if psv >= pc:
+        return _edge_flow(p, s_in, psv, pc, p[I_TS], p[D_SQRTRTS])
+    return _edge_flow(p, s_in, psv, pc, tc, math.sqrt(p[I_R] * tc))
+
+
+@nb.njit(cache=True, error_model="numpy", inline="always")
+def _vented_chamber_flows(p, m_in, s_out, pc, tc):
+    """(mass flow, enthalpy flow) into a chamber at pc, tc that receives ``m_in`` [kg/s] from the
+    P port (:func:`_supply_edge_flow`) and is vented to R through ``s_out`` (eq (4));
+    upstream temperatures follow the flow direction."""
     pe = p[I_PE]
     ts = p[I_TS]
     rts = p[D_SQRTRTS]
     rtc = math.sqrt(p[I_R] * tc)
-    m_in = _edge_flow(p, s_in, ps, pc, ts, rts) if ps >= pc else _edge_flow(p, s_in, ps, pc, tc, rtc)  # (3)
     m_out = _edge_flow(p, s_out, pc, pe, tc, rtc) if pc >= pe else _edge_flow(p, s_out, pc, pe, ts, rts)  # (4)
     t_in = ts if m_in >= 0.0 else tc
     t_out = tc if m_out >= 0.0 else ts
@@ -181,41 +191,41 @@ def _chamber_flows(p, s_in, s_out, pc, tc, ps):
 def _port_draw(p, s_plus, s_minus, pa, ta, pb, tb, psv):
     """Net mass flow [kg/s] out of the valve's P port at ``psv`` through its two P edges
     (P->A over ``s_plus``, P->B over ``s_minus``); back-flow from a chamber counts negative."""
-    ts = p[I_TS]
-    rts = p[D_SQRTRTS]
-    if psv >= pa:
-        m_a = _edge_flow(p, s_plus, psv, pa, ts, rts)
-    else:
-        m_a = _edge_flow(p, s_plus, psv, pa, ta, math.sqrt(p[I_R] * ta))
-    if psv >= pb:
-        m_b = _edge_flow(p, s_minus, psv, pb, ts, rts)
-    else:
-        m_b = _edge_flow(p, s_minus, psv, pb, tb, math.sqrt(p[I_R] * tb))
-    return m_a + m_b
+    return _supply_edge_flow(p, s_plus, psv, pa, ta) + _supply_edge_flow(p, s_minus, psv, pb, tb)
 
 
 @nb.njit(cache=True, error_model="numpy")
-def _port_draw_slope(p, s_plus, s_minus, pa, ta, pb, tb, psv):
-    """:func:`_port_draw` and its derivative with respect to the port pressure ``psv``
-    [kg/(s Pa)]: the nozzle law's analytic slope (``flow_model = 0``), a central difference of
-    1e-7 ``psv`` for ISO 6358."""
+def _port_edge_slopes(p, s_plus, s_minus, pa, ta, pb, tb, psv):
+    """The two P-edge flows of :func:`_port_draw` and their derivatives with respect to the
+    port pressure ``psv`` [kg/(s Pa)]: ``(m_a, dm_a, m_b, dm_b)``; the nozzle law's analytic
+    slope (``flow_model = 0``), a central difference of 1e-7 ``psv`` for ISO 6358."""
     if p[I_FLOW] >= 0.5:
         h = 1e-7 * psv
-        m_up = _port_draw(p, s_plus, s_minus, pa, ta, pb, tb, psv + h)
-        m_dn = _port_draw(p, s_plus, s_minus, pa, ta, pb, tb, psv - h)
-        return _port_draw(p, s_plus, s_minus, pa, ta, pb, tb, psv), (m_up - m_dn) / (2.0 * h)
+        m_a = _supply_edge_flow(p, s_plus, psv, pa, ta)
+        m_b = _supply_edge_flow(p, s_minus, psv, pb, tb)
+        dm_a = (_supply_edge_flow(p, s_plus, psv + h, pa, ta) - _supply_edge_flow(p, s_plus, psv - h, pa, ta)) / (2.0 * h)
+        dm_b = (_supply_edge_flow(p, s_minus, psv + h, pb, tb) - _supply_edge_flow(p, s_minus, psv - h, pb, tb)) / (2.0 * h)
+        return m_a, dm_a, m_b, dm_b
     rts = p[D_SQRTRTS]
-    m = 0.0
-    dm = 0.0
-    for s_edge, pc, tc in ((s_plus, pa, ta), (s_minus, pb, tb)):
-        if s_edge > 0.0:
-            rt = rts if psv >= pc else math.sqrt(p[I_R] * tc)
-            mi, dmi = nozzle_mass_flow_slope_fast(
-                p[I_CD] * s_edge, psv, pc, rt, p[I_RLAM], p[D_CRIT], p[D_PSIC], p[D_PSIL], p[D_INVK], p[D_COEF],
-            )
-            m += mi
-            dm += dmi
-    return m, dm
+    m_a = dm_a = m_b = dm_b = 0.0
+    if s_plus > 0.0:
+        m_a, dm_a = nozzle_mass_flow_slope_fast(
+            p[I_CD] * s_plus, psv, pa, rts if psv >= pa else math.sqrt(p[I_R] * ta),
+            p[I_RLAM], p[D_CRIT], p[D_PSIC], p[D_PSIL], p[D_INVK], p[D_COEF],
+        )
+    if s_minus > 0.0:
+        m_b, dm_b = nozzle_mass_flow_slope_fast(
+            p[I_CD] * s_minus, psv, pb, rts if psv >= pb else math.sqrt(p[I_R] * tb),
+            p[I_RLAM], p[D_CRIT], p[D_PSIC], p[D_PSIL], p[D_INVK], p[D_COEF],
+        )
+    return m_a, dm_a, m_b, dm_b
+
+
+# the droop solve ends on a Newton step shorter than this fraction of p_s: Newton's error after
+# such a step is of the order of the step squared (a step of 1e-6 p_s leaves ~1e-12 p_s; up to the
+# step itself where the root sits on a kink of the flow law) -- one flow evaluation fewer than
+# stepping down to 1e-12 p_s, with no change at the sensors' resolution
+NEWTON_STOP = 1e-6
 
 
 @nb.njit(cache=True, error_model="numpy")
@@ -233,61 +243,85 @@ def supply_port_pressure(p, s_plus, s_minus, pa, ta, pb, tb):
     rises with ``p`` (an edge's flow is ``p_up`` times a flow function that grows as the
     pressure ratio falls), so ``p_lo = p_s / (1 + R mdot_P(p_s) / p_s)`` has ``g <= 0`` and
     ``p_s`` has ``g >= 0``. Newton steps from ``p_s`` with the slope of
-    :func:`_port_draw_slope` (``g' = 1 + R mdot_P' >= 1``), safeguarded by the bracket: a
+    :func:`_port_edge_slopes` (``g' = 1 + R mdot_P' >= 1``), safeguarded by the bracket: a
     step that would leave it, or that follows a Newton step that did not halve ``|g|``, bisects
     it instead. The second rule matters where the root lies near a chamber pressure: ``mdot_P``
     is steepest there (the laminar tail of eqs (3)-(4) around equal pressures), and plain
-    Newton hops from side to side, shrinking the bracket by ~1 % per step. Until a step is
-    below 1e-12 of ``p_s`` (3-5 flow evaluations with the nozzle law).
+    Newton hops from side to side, shrinking the bracket by ~1 % per step. Until a Newton
+    step is below ``NEWTON_STOP`` of ``p_s`` (or any step below 1e-12 of it): 2-4 flow
+    evaluations with the nozzle law, within 1e-10 ``p_s`` of the root.
     """
+    return supply_port_flows(p, s_plus, s_minus, pa, ta, pb, tb)[0]
+
+
+@nb.njit(cache=True, error_model="numpy", inline="always")
+def supply_port_flows(p, s_plus, s_minus, pa, ta, pb, tb):
+    """``(p_P, mdot_PA, mdot_PB)``: the port pressure of :func:`supply_port_pressure` and the
+    flows of the two P edges there. The solve's last Newton step ``d`` from ``x`` carries the
+    flows along their slopes, ``mdot(x) + mdot'(x) d``: they satisfy the droop law exactly,
+    ``p_P = p_s - R (mdot_PA + mdot_PB)``, and differ from the flows evaluated at ``p_P`` by
+    the order of ``d^2`` (of ``d`` where ``p_P`` lies at a kink of the flow law, the start of
+    its laminar tail: < 1e-7 of the flow), one evaluation of the two edges fewer per
+    right-hand side."""
+    if p[I_RSUP] <= 0.0:
+        return fixed_supply_flows(p, s_plus, s_minus, pa, ta, pb, tb)
+    return _drooping_supply_flows(p, s_plus, s_minus, pa, ta, pb, tb)
+
+
+@nb.njit(cache=True, error_model="numpy")
+def _drooping_supply_flows(p, s_plus, s_minus, pa, ta, pb, tb):
+    """:func:`supply_port_flows` with ``supply_line_resistance > 0``: the safeguarded Newton
+    solve of :func:`supply_port_pressure`."""
     ps = p[I_PS]
     r = p[I_RSUP]
-    if r <= 0.0:
-        return ps
-    m, dm = _port_draw_slope(p, s_plus, s_minus, pa, ta, pb, tb, ps)
+    ma, dma, mb, dmb = _port_edge_slopes(p, s_plus, s_minus, pa, ta, pb, tb, ps)
+    m = ma + mb
     if m <= 0.0:
-        return ps
+        return fixed_supply_flows(p, s_plus, s_minus, pa, ta, pb, tb)
     hi = ps
     lo = ps / (1.0 + r * m / ps)
     x = ps
     g = r * m
     g_before = math.inf
     for _ in range(100):
-        x_new = x - g / (1.0 + r * dm)
+        x_new = x - g / (1.0 + r * (dma + dmb))
         bisect = x_new < lo or x_new > hi or abs(g) > 0.5 * abs(g_before)
         if bisect:  # outside the bracket, or the last Newton step did not halve |g|
             x_new = 0.5 * (lo + hi)
-        if abs(x_new - x) <= 1e-12 * ps:
-            return x_new
+        step = x_new - x
+        if abs(step) <= 1e-12 * ps or (abs(step) <= NEWTON_STOP * ps and not bisect):
+            return x_new, ma + dma * step, mb + dmb * step
         x = x_new
-        m, dm = _port_draw_slope(p, s_plus, s_minus, pa, ta, pb, tb, x)
+        ma, dma, mb, dmb = _port_edge_slopes(p, s_plus, s_minus, pa, ta, pb, tb, x)
         g_before = math.inf if bisect else g  # after a bisection, Newton again
-        g = x - ps + r * m
+        g = x - ps + r * (ma + mb)
         if g > 0.0:
             hi = x
         else:
             lo = x
-    return x
+    return x, ma, mb
 
 
-@nb.njit(cache=True, error_model="numpy")
-def fixed_supply_pressure(p, s_plus, s_minus, pa, ta, pb, tb):
-    """Pressure [Pa] at the valve's P port of a stiff supply: ``p_s`` (004 takes it constant)."""
-    return p[I_PS]
+@nb.njit(cache=True, error_model="numpy", inline="always")
+def fixed_supply_flows(p, s_plus, s_minus, pa, ta, pb, tb):
+    """``(p_s, mdot_PA, mdot_PB)`` of a stiff supply (004 takes it constant): the port at
+    ``p_s`` and the flows of the two P edges there."""
+    ps = p[I_PS]
+    return ps, _supply_edge_flow(p, s_plus, ps, pa, ta), _supply_edge_flow(p, s_minus, ps, pb, tb)
 
 
 @nb.njit(cache=True, error_model="numpy")
 def rodless_cylinder_rhs(y, u, p, dy):
     """Time derivative ``dy`` of state ``y`` under valve command ``u[0]`` [V] (004 model)."""
-    _rhs(supply_port_pressure, y, u, p, dy)
+    _rhs(supply_port_flows, y, u, p, dy)
 
 
 @nb.njit(cache=True, error_model="numpy")
 def rodless_cylinder_rhs_stiff_supply(y, u, p, dy):
     """:func:`rodless_cylinder_rhs` for parameter sets without supply droop
-    (``supply_line_resistance = 0``, where :func:`supply_port_pressure` returns ``p_s``): the
+    (``supply_line_resistance = 0``, where :func:`supply_port_flows` is :func:`fixed_supply_flows`): the
     same numbers, compiled without the droop solve (the envs' kernels, 0.8 s less to compile)."""
-    _rhs(fixed_supply_pressure, y, u, p, dy)
+    _rhs(fixed_supply_flows, y, u, p, dy)
 
 
 @nb.njit(cache=True, error_model="numpy", inline="always")
@@ -312,9 +346,9 @@ def _rhs(supply, y, u, p, dy):
     xo = min(max(y[XV], -xvm), xvm)
     s_plus = circular_orifice_area(p[I_ULAP] + xo, p[I_RP])  # P->A and B->R   (2)
     s_minus = circular_orifice_area(p[I_ULAP] - xo, p[I_RP])  # P->B and A->R  (2)
-    psv = supply(p, s_plus, s_minus, pa, ta, pb, tb)  # p_s unless the supply droops
-    mdot_a, h_a = _chamber_flows(p, s_plus, s_minus, pa, ta, psv)  # (3)-(4)
-    mdot_b, h_b = _chamber_flows(p, s_minus, s_plus, pb, tb, psv)
+    _, m_pa, m_pb = supply(p, s_plus, s_minus, pa, ta, pb, tb)  # (3) at the port: p_s unless the supply droops
+    mdot_a, h_a = _vented_chamber_flows(p, m_pa, s_minus, pa, ta)  # (3)-(4)
+    mdot_b, h_b = _vented_chamber_flows(p, m_pb, s_plus, pb, tb)
 
     # energy balance of each chamber (10)-(13); dV_a/dt = A v, dV_b/dt = -A v
     hw = p[I_HW]
@@ -453,9 +487,10 @@ def rest_state(params: RodlessCylinderParams, y: float, v: float = 0.0, pa: floa
                pb: float | None = None, ta: float | None = None, tb: float | None = None) -> np.ndarray:
     """State with the slider at ``y`` (velocity ``v``), spool at rest in the centre, chambers
     at ``pa``, ``pb`` (default: the centre pressure p_0) and ``ta``, ``tb`` (default T_s)."""
-    p0 = centre_pressure(params)
-    pa = p0 if pa is None else pa
-    pb = p0 if pb is None else pb
+    if pa is None or pb is None:
+        p0 = centre_pressure(params)
+        pa = p0 if pa is None else pa
+        pb = p0 if pb is None else pb
     ta = params.supply_temperature if ta is None else ta
     tb = params.supply_temperature if tb is None else tb
     a = piston_area(params)

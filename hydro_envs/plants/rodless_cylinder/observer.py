@@ -20,12 +20,14 @@ position, a closed-centre one does not), so it is evaluated for the parameters b
 
 from __future__ import annotations
 
+import functools
+
 import numba as nb
 import numpy as np
 from scipy.linalg import expm
 
 from hydro_envs.laws.orifice import circular_orifice_area
-from hydro_envs.plants.rodless_cylinder.model import _chamber_flows, supply_port_pressure
+from hydro_envs.plants.rodless_cylinder.model import _vented_chamber_flows, supply_port_flows
 from hydro_envs.plants.rodless_cylinder.params import (
     D_AREA, D_KV, I_L, I_MFLOOR, I_R, I_RP, I_TS, I_UC, I_ULAP, I_VDA, I_VDB, I_VMIN, I_WV, I_XVM, I_ZV,
 )
@@ -53,9 +55,9 @@ def _track(p, y, pa, pb, u, dt, ad, bd, ta, tb):
         xo = min(max(xv, -xvm), xvm)
         s_plus = circular_orifice_area(p[I_ULAP] + xo, p[I_RP])  # (2)
         s_minus = circular_orifice_area(p[I_ULAP] - xo, p[I_RP])
-        psv = supply_port_pressure(p, s_plus, s_minus, pa[k], ta[k], pb[k], tb[k])
-        dma, _ = _chamber_flows(p, s_plus, s_minus, pa[k], ta[k], psv)  # (3)-(4)
-        dmb, _ = _chamber_flows(p, s_minus, s_plus, pb[k], tb[k], psv)
+        _, m_pa, m_pb = supply_port_flows(p, s_plus, s_minus, pa[k], ta[k], pb[k], tb[k])  # (3) at the port
+        dma, _ = _vented_chamber_flows(p, m_pa, s_minus, pa[k], ta[k])  # (3)-(4)
+        dmb, _ = _vented_chamber_flows(p, m_pb, s_plus, pb[k], tb[k])
         ma = max(ma + dt * dma, p[I_MFLOOR])  # (8)-(9)
         mb = max(mb + dt * dmb, p[I_MFLOOR])
         du = u[k] - p[I_UC]  # (28): the spool over one sample of held command
@@ -64,12 +66,18 @@ def _track(p, y, pa, pb, u, dt, ad, bd, ta, tb):
 
 def _spool_zoh(p: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
     """Exact discretisation of the spool of eq (28) for a command held over ``dt``."""
-    w, z = p[I_WV], p[I_ZV]
+    return _spool_zoh_of(float(p[I_WV]), float(p[I_ZV]), float(p[D_KV]), dt)
+
+
+@functools.lru_cache(maxsize=64)
+def _spool_zoh_of(w: float, z: float, kv: float, dt: float) -> tuple[np.ndarray, np.ndarray]:
     m = np.zeros((3, 3))
     m[0, 1] = 1.0
-    m[1, 0], m[1, 1], m[1, 2] = -w * w, -2.0 * z * w, p[D_KV] * w * w
+    m[1, 0], m[1, 1], m[1, 2] = -w * w, -2.0 * z * w, kv * w * w
     e = expm(m * dt)
-    return np.ascontiguousarray(e[:2, :2]), np.ascontiguousarray(e[:2, 2])
+    ad, bd = np.ascontiguousarray(e[:2, :2]), np.ascontiguousarray(e[:2, 2])
+    ad.flags.writeable = bd.flags.writeable = False  # shared by every caller
+    return ad, bd
 
 
 def chamber_temperature_track(params_array: np.ndarray, y: np.ndarray, pa: np.ndarray, pb: np.ndarray,
