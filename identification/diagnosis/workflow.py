@@ -35,7 +35,8 @@ One round (:func:`diagnose`)::
        each explains (two effects that only together explain the data: Coulomb friction and a
        constant force on a heavy axis). Beside a winning single only the two best other effects
        are paired (the winner's pairs are the next round); the pair replaces the single only if
-       its held-out error is below the single's by the ambiguity margin.
+       its held-out error is below the single's by the ambiguity margin, and its refit stops
+       once it cannot reach the single's fit cost at its current rate (``cost_target``).
     Repeat with the accepted effect added until nothing more is accepted (``max_effects``), or
     until the held-out residual left is at the noise floor (``AT_NOISE_FLOOR`` floors in every
     channel: what is left is noise, and a further gain would fit it).
@@ -57,8 +58,9 @@ gains less than a chi-square change of 1, or creeps (< 1 % per iteration) above 
 model it extends; the warm refit starts from the better of the effect's catalogue start and a
 point nearer its null value. The second, cold start (and the start grid after it) runs only
 for candidates the score test ranks as plausible or whose warm fit fails or ends on a bound or
-a relation, not when the warm refit already leaves a correct model's residual, and not after a
-candidate of the round has done so (``SETTLED_FRACTION``: the later candidates get their warm
+a relation, not when the warm refit already leaves a correct model's residual or has brought
+the base parameters back to the cold start's values, and not after a candidate of the round has
+done so (``SETTLED_FRACTION``: the later candidates get their warm
 refit only, a sensor delay one pass of its search, and those whose signature explains < 0.1
 times the settling candidate's, or < 0.5 % of the residual, are not refitted). Candidates that
 explain < 0.5 % of the residual (``HOPELESS_SCORE``) get a warm refit of at most
