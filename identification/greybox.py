@@ -430,10 +430,10 @@ def fit_greybox(
     the current model's cost by its stiffness cap).
 
     ``cost_target``: the cost of a rival model this fit has to fall below to matter (None: no
-    rival). An iteration that ends above it with a gain that, repeated at every evaluation left
-    (``max_nfev``), would still leave the cost above the target ends the fit: it cannot reach
-    the rival (two valve effects refitted as a pair beside a supply droop that leaves 1/800 of
-    their cost).
+    rival; two valve effects refitted as a pair beside a supply droop that leaves 1/800 of
+    their cost). An iteration that ends above the lower of ``cost_ceiling`` and ``cost_target``
+    with a gain that, repeated at every evaluation left (``max_nfev``), would still leave the
+    cost above it ends the fit: it cannot get there.
     """
     if jacobian not in ("central", "forward"):
         raise GreyboxError(f"jacobian must be 'central' or 'forward', got {jacobian!r}")
@@ -456,9 +456,10 @@ def fit_greybox(
                 raise StopIteration
             if cost_ceiling is not None and cost > cost_ceiling and 0.0 <= gained < CEILING_GAIN_FRACTION * cost:
                 raise StopIteration
-            if cost_target is not None and cost > cost_target:
+            bar = min(b for b in (cost_ceiling, cost_target, math.inf) if b is not None)
+            if cost > bar and 0.0 <= gained:
                 left = max_nfev - int(intermediate_result.get("nfev", calls[0] + 1))
-                if 0.0 <= gained and cost - left * gained > cost_target:
+                if cost - left * gained > bar:
                     raise StopIteration
 
         sol = optimize.least_squares(ev.fun, theta_start, jac=ev.jac_forward if jacobian == "forward" else ev.jac,

@@ -170,3 +170,20 @@ def _tie_static(params):
     def tie(P):
         P[:, i_s] = P[:, i_c]
     return tie
+
+
+def test_a_fit_that_cannot_reach_its_target_stops():
+    """``cost_target``: a fit whose gain per iteration, repeated over the evaluations left, cannot
+    bring its cost down to the target stops early (a rival explains the data far better); without
+    a target, or with one it can reach, the same fit runs to its optimum."""
+    truth, t, u, y0, ch, clean = _servo_record()
+    exps = [gb.Experiment(DT, u, y0, _noisy(clean, SERVO_NOISE, 3))]
+    base = dataclasses.replace(truth, bulk_modulus=500e6, viscous_friction=350.0, coulomb_friction=30.0)
+    kw = dict(sigma=SERVO_NOISE, reweight=False, jacobian="forward", max_nfev=25)
+    free = gb.fit_greybox(base, SERVO_FIT, exps, ch, **kw)
+    reachable = gb.fit_greybox(base, SERVO_FIT, exps, ch, cost_target=1.5 * free.cost, **kw)
+    hopeless = gb.fit_greybox(base, SERVO_FIT, exps, ch, cost_target=1e-6 * free.cost, **kw)
+    assert free.cost == pytest.approx(0.5 * clean["x"].size * len(SERVO_NOISE), rel=0.1)  # at the noise
+    assert reachable.cost == free.cost and reachable.nfev == free.nfev  # the same path to the same optimum
+    assert "cost_target" in hopeless.message
+    assert hopeless.nfev < free.nfev and hopeless.cost > free.cost
