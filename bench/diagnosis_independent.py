@@ -1,0 +1,132 @@
+"""Diagnosis on records from generators independent of the workflow, at 20 s fit + 10 s held out.
+
+    python bench/diagnosis_independent.py [--cases rodless,servo,...] [--fit 20] [--hold 10]
+
+The generators live in ``tests/`` (each writes its plant's equations out again and integrates
+them with scipy's Radau; none of the workflow's kernels, controllers or noise code):
+
+* ``tests/test_diagnosis_unexplained.py``: a rigid axis under a PD loop (the slider's physics),
+  effect-free with mains hum and a position offset, with Coulomb friction, with a backlash
+  (diagnosed with the whole catalogue and with the catalogue minus backlash, where it is an
+  effect outside it) and with a position-dependent spring (outside the catalogue);
+* ``tests/test_diagnosis_base_from_data.py``: a 60 kg axis with Coulomb friction and a constant
+  force, diagnosed with the base model read off the record (the last third held out);
+* ``tests/test_diagnosis_supply_droop.py``: the servo cylinder (002 eq (8)) and the pneumatic
+  rodless cylinder (004) with a stiff supply and with a supply that droops through a hose (the
+  hose's lag is outside the catalogue's static droop).
+
+Each case runs :func:`identification.diagnosis.diagnose` with its default ``max_effects`` (3)
+and prints the verdict, the effects named, what is expected, whether the outcome is right
+(named right, ``none`` on effect-free data, an off-catalogue effect ``unexplained`` or
+ambiguous, never another name) and the seconds the diagnosis took (the record's generation not
+included) against the 60 s target. Prints only; no pass/fail exit status.
+"""
+
+from __future__ import annotations
+
+import argparse
+import pathlib
+import sys
+import time
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "tests"))
+
+from identification.diagnosis import diagnose, diagnosis_plant  # noqa: E402
+from identification.diagnosis.synthetic import base_for  # noqa: E402
+
+TARGET_SECONDS = 60.0
+
+
+def _axis(effect, seed, fit, hold, **kw):
+    from test_diagnosis_unexplained import axis_record
+
+    return axis_record(effect, seed, fit, **kw), axis_record(effect, seed + 1000, hold, **kw)
+
+
+def _cases(fit: float, hold: float):
+    """name -> (plant, make records, diagnose keywords, expected names, off-catalogue?)."""
+    from test_diagnosis_base_from_data import heavy_axis_record
+    from test_diagnosis_supply_droop import rodless_record, servo_record
+    from test_diagnosis_unexplained import WITHOUT_BACKLASH
+
+    slider = diagnosis_plant("slider")
+    servo = base_for(diagnosis_plant("servo_cylinder"), None)
+    rodless = base_for(diagnosis_plant("rodless_cylinder"), None)
+    heavy = (fit + hold) / fit
+    return {
+        "axis effect-free, hum and offset": (
+            "slider", lambda: _axis(None, 3, fit, hold, hum=1e-6, offset=2e-3),
+            dict(base=base_for(slider, None)), [], False),
+        "axis coulomb 8 N": (
+            "slider", lambda: _axis(None, 4, fit, hold, fc=8.0),
+            dict(base=base_for(slider, "coulomb")), ["coulomb"], False),
+        "axis backlash": (
+            "slider", lambda: _axis("backlash", 1, fit, hold),
+            dict(base=base_for(slider, None)), ["backlash"], False),
+        "axis backlash, catalogue without it": (
+            "slider", lambda: _axis("backlash", 1, fit, hold),
+            dict(base=base_for(slider, None), effects=WITHOUT_BACKLASH), [], True),
+        "axis spring (outside the catalogue)": (
+            "slider", lambda: _axis("spring", 2, fit, hold),
+            dict(base=base_for(slider, None)), [], True),
+        "heavy axis coulomb + force, base from data": (
+            "slider", lambda: ([heavy_axis_record(11, fit + hold, f0=-3.0)], None),
+            dict(holdout_fraction=1 - 1 / heavy), ["coulomb", "force_offset"], False),
+        "servo stiff supply": (
+            "servo_cylinder", lambda: (servo_record(servo, False, 1, fit), servo_record(servo, False, 1001, hold)),
+            dict(base=servo), [], False),
+        "servo drooping supply through a hose": (
+            "servo_cylinder", lambda: (servo_record(servo, True, 1, fit), servo_record(servo, True, 1001, hold)),
+            dict(base=servo), ["supply_droop"], True),
+        "rodless stiff supply": (
+            "rodless_cylinder", lambda: (rodless_record(rodless, False, 1, fit), rodless_record(rodless, False, 1001, hold)),
+            dict(base=rodless), [], False),
+        "rodless drooping supply through a hose": (
+            "rodless_cylinder", lambda: (rodless_record(rodless, True, 1, fit), rodless_record(rodless, True, 1001, hold)),
+            dict(base=rodless), ["supply_droop"], True),
+    }
+
+
+def _right(verdict: str, named: list[str], expected: list[str], off_catalogue: bool) -> bool:
+    """Named right (the expected effects, in any order), ``none`` on effect-free data; with an
+    effect outside the catalogue ``unexplained`` or ambiguous, naming at most the expected ones."""
+    if off_catalogue:
+        return verdict in ("unexplained", "ambiguous") and set(named) <= set(expected)
+    if not expected:
+        return verdict == "none"
+    return verdict in ("named", "unexplained") and sorted(named) == sorted(expected)
+
+
+def main(argv=None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--cases", default="", help="comma-separated substrings of case names (default: all)")
+    ap.add_argument("--fit", type=float, default=20.0, help="seconds of fit data (default 20)")
+    ap.add_argument("--hold", type=float, default=10.0, help="seconds of held-out data (default 10)")
+    args = ap.parse_args(argv)
+    want = [w.strip() for w in args.cases.split(",") if w.strip()]
+    rows = []
+    for name, (plant, make, kw, expected, off) in _cases(args.fit, args.hold).items():
+        if want and not any(w in name for w in want):
+            continue
+        fit, hold = make()
+        fit = fit if isinstance(fit, list) else [fit]
+        hold = None if hold is None else (hold if isinstance(hold, list) else [hold])
+        t0 = time.perf_counter()
+        res = diagnose(plant, fit, hold, maps=False, **kw)
+        secs = time.perf_counter() - t0
+        named = [e["name"] for e in res.effects]
+        ok = _right(res.verdict, named, expected, off)
+        rows.append((name, res.verdict, named, expected, ok, secs))
+        print(f"{name:44s} {res.verdict:12s} {','.join(named) or '-':26s} expected {','.join(expected) or 'none':22s}"
+              f" {'right' if ok else 'WRONG':5s} {secs:6.1f} s {'' if secs <= TARGET_SECONDS else '> 60 s'}",
+              flush=True)
+    if rows:
+        print(f"\n{sum(r[4] for r in rows)} / {len(rows)} right; {sum(r[5] <= TARGET_SECONDS for r in rows)} / "
+              f"{len(rows)} within {TARGET_SECONDS:g} s (slowest {max(r[5] for r in rows):.1f} s); "
+              f"{args.fit:g} s fit + {args.hold:g} s held out")
+
+
+if __name__ == "__main__":
+    main()
