@@ -55,7 +55,7 @@ def _cases(fit: float, hold: float):
     servo = base_for(diagnosis_plant("servo_cylinder"), None)
     rodless = base_for(diagnosis_plant("rodless_cylinder"), None)
     heavy = (fit + hold) / fit
-    return {
+    out = {
         "axis effect-free, hum and offset": (
             "slider", lambda: _axis(None, 3, fit, hold, hum=1e-6, offset=2e-3),
             dict(base=base_for(slider, None)), [], False),
@@ -74,19 +74,18 @@ def _cases(fit: float, hold: float):
         "heavy axis coulomb + force, base from data": (
             "slider", lambda: ([heavy_axis_record(11, fit + hold, f0=-3.0)], None),
             dict(holdout_fraction=1 - 1 / heavy), ["coulomb", "force_offset"], False),
-        "servo stiff supply": (
-            "servo_cylinder", lambda: (servo_record(servo, False, 1, fit), servo_record(servo, False, 1001, hold)),
-            dict(base=servo), [], False),
-        "servo drooping supply through a hose": (
-            "servo_cylinder", lambda: (servo_record(servo, True, 1, fit), servo_record(servo, True, 1001, hold)),
-            dict(base=servo), ["supply_droop"], True),
-        "rodless stiff supply": (
-            "rodless_cylinder", lambda: (rodless_record(rodless, False, 1, fit), rodless_record(rodless, False, 1001, hold)),
-            dict(base=rodless), [], False),
-        "rodless drooping supply through a hose": (
-            "rodless_cylinder", lambda: (rodless_record(rodless, True, 1, fit), rodless_record(rodless, True, 1001, hold)),
-            dict(base=rodless), ["supply_droop"], True),
     }
+    for plant, short, make, base in (("servo_cylinder", "servo", servo_record, servo),
+                                     ("rodless_cylinder", "rodless", rodless_record, rodless)):
+        for droop in (False, True):
+            name = f"{short} {'drooping supply through a hose' if droop else 'stiff supply'}"
+            out[name] = (plant, _supply_records(make, base, droop, fit, hold), dict(base=base),
+                         ["supply_droop"] if droop else [], droop)
+    return out
+
+
+def _supply_records(make, base, droop: bool, fit: float, hold: float):
+    return lambda: (make(base, droop, 1, fit), make(base, droop, 1001, hold))
 
 
 def _right(verdict: str, named: list[str], expected: list[str], off_catalogue: bool) -> bool:

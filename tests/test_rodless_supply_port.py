@@ -49,23 +49,29 @@ def test_supply_port_pressure_solves_the_droop_law(flow_model):
         assert rc.supply_port_pressure(a, s_full, 0.0, 1.2e5, 293.15, 6e5, 293.15) == pytest.approx(expected, rel=1e-9)
 
 
+def _random_ports(p0, rng, n):
+    """``n`` random valve openings and chamber states: ``(s_plus, s_minus, pa, ta, pb, tb)``."""
+    xvm, r = p0.spool_stroke, p0.port_radius
+    for _ in range(n):
+        xo = rng.uniform(-xvm, xvm)
+        pa, pb = rng.uniform(1.05e5, 7.5e5, 2)
+        ta, tb = rng.uniform(250.0, 340.0, 2)
+        yield (circular_orifice_area(p0.valve_underlap + xo, r), circular_orifice_area(p0.valve_underlap - xo, r),
+               pa, ta, pb, tb)
+
+
 @pytest.mark.parametrize("flow_model", [0.0, 1.0])
 def test_supply_port_pressure_is_the_root(flow_model):
     """The droop solve returns the root of p - p_s + R mdot_P(p) (brentq to machine precision)
     within 1e-10 p_s (7e-5 Pa) over random openings, chamber states and resistances (both flow laws),
     also where the root lies near a chamber pressure and plain Newton hops across it."""
     p0 = dataclasses.replace(NOMINAL, flow_model=flow_model)
-    xvm, r, ps = p0.spool_stroke, p0.port_radius, p0.supply_pressure
+    ps = p0.supply_pressure
     rng = np.random.default_rng(7)
     worst = 0.0
     for res in (1e6, 1e8, 4e8, 2e9):
         a = dataclasses.replace(p0, supply_line_resistance=res).to_array()
-        for _ in range(150):
-            xo = rng.uniform(-xvm, xvm)
-            s_p = circular_orifice_area(p0.valve_underlap + xo, r)
-            s_m = circular_orifice_area(p0.valve_underlap - xo, r)
-            pa, pb = rng.uniform(1.05e5, 7.5e5, 2)
-            ta, tb = rng.uniform(250.0, 340.0, 2)
+        for s_p, s_m, pa, ta, pb, tb in _random_ports(p0, rng, 150):
             psv = rc.supply_port_pressure(a, s_p, s_m, pa, ta, pb, tb)
             g = lambda x: x - ps + res * rc._port_draw(a, s_p, s_m, pa, ta, pb, tb, x)  # noqa: E731
             if g(ps) <= 0.0:
@@ -84,18 +90,13 @@ def test_port_flows_obey_the_droop_law_at_the_port_pressure(flow_model):
     the last step squared; of the step itself where ``p_P`` lies near a kink of the flow law, the
     start of its laminar tail: 5e-8 there); with a stiff supply they are those flows exactly."""
     p0 = dataclasses.replace(NOMINAL, flow_model=flow_model)
-    xvm, r, ps = p0.spool_stroke, p0.port_radius, p0.supply_pressure
+    ps = p0.supply_pressure
     rng = np.random.default_rng(11)
     stiff = p0.to_array()
     worst = 0.0
     for res in (1e8, 4e8, 2e9):
         a = dataclasses.replace(p0, supply_line_resistance=res).to_array()
-        for _ in range(100):
-            xo = rng.uniform(-xvm, xvm)
-            s_p = circular_orifice_area(p0.valve_underlap + xo, r)
-            s_m = circular_orifice_area(p0.valve_underlap - xo, r)
-            pa, pb = rng.uniform(1.05e5, 7.5e5, 2)
-            ta, tb = rng.uniform(250.0, 340.0, 2)
+        for s_p, s_m, pa, ta, pb, tb in _random_ports(p0, rng, 100):
             psv, m_a, m_b = rc.supply_port_flows(a, s_p, s_m, pa, ta, pb, tb)
             assert psv == rc.supply_port_pressure(a, s_p, s_m, pa, ta, pb, tb)
             drawn = rc._port_draw(a, s_p, s_m, pa, ta, pb, tb, psv)
