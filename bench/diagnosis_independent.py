@@ -33,7 +33,7 @@ ROOT = pathlib.Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "tests"))
 
-from identification.diagnosis import diagnose, diagnosis_plant  # noqa: E402
+from identification.diagnosis import DiagnosisDataError, DiagnosisFitError, diagnose, diagnosis_plant  # noqa: E402
 from identification.diagnosis.synthetic import base_for  # noqa: E402
 
 TARGET_SECONDS = 60.0
@@ -113,12 +113,18 @@ def main(argv=None) -> None:
         fit = fit if isinstance(fit, list) else [fit]
         hold = None if hold is None else (hold if isinstance(hold, list) else [hold])
         t0 = time.perf_counter()
-        res = diagnose(plant, fit, hold, maps=False, **kw)
+        try:
+            res = diagnose(plant, fit, hold, maps=False, **kw)
+        except (DiagnosisDataError, DiagnosisFitError) as err:  # data too short or poor: said, not fitted
+            print(f"{name:44s} error: {err}", flush=True)
+            rows.append((name, "error", [], expected, False, time.perf_counter() - t0))
+            continue
         secs = time.perf_counter() - t0
+        verdict = res.verdict
         named = [e["name"] for e in res.effects]
-        ok = _right(res.verdict, named, expected, off)
-        rows.append((name, res.verdict, named, expected, ok, secs))
-        print(f"{name:44s} {res.verdict:12s} {','.join(named) or '-':26s} expected {','.join(expected) or 'none':22s}"
+        ok = _right(verdict, named, expected, off)
+        rows.append((name, verdict, named, expected, ok, secs))
+        print(f"{name:44s} {verdict:12s} {','.join(named) or '-':26s} expected {','.join(expected) or 'none':22s}"
               f" {'right' if ok else 'WRONG':5s} {secs:6.1f} s {'' if secs <= TARGET_SECONDS else '> 60 s'}",
               flush=True)
     if rows:
