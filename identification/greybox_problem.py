@@ -190,7 +190,8 @@ class _Problem:
     offsets: tuple[str, ...] = ()
 
     def to_values(self, theta: np.ndarray) -> np.ndarray:
-        return np.where(self.log, np.exp(theta), theta * self.scale)
+        # exp only of the log-scaled entries (a linear one's theta can exceed exp's range)
+        return np.where(self.log, np.exp(np.where(self.log, theta, 0.0)), theta * self.scale)
 
     def to_theta(self, values: np.ndarray) -> np.ndarray:
         return np.where(self.log, np.log(np.maximum(values, 1e-300)), values / self.scale)
