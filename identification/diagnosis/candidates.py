@@ -314,10 +314,14 @@ def _cold_differs(spec: DiagnosisPlant, current: Model, cold_params) -> bool:
     parameters by more than ``COLD_START_MIN_CHANGE`` (relative) in some fitted parameter."""
     names, _, _ = _fit_names(spec, current)
     for n in names:
-        a, b = float(getattr(cold_params, n)), float(getattr(current.params, n))
-        if abs(a - b) > COLD_START_MIN_CHANGE * max(abs(a), abs(b), 1e-300):
+        if not _close(float(getattr(cold_params, n)), float(getattr(current.params, n))):
             return True
     return False
+
+
+def _close(a: float, b: float) -> bool:
+    """Whether two parameter values agree within ``COLD_START_MIN_CHANGE`` (relative)."""
+    return abs(a - b) <= COLD_START_MIN_CHANGE * max(abs(a), abs(b), 1e-300)
 
 
 def _back_at_cold_start(spec: DiagnosisPlant, current: Model, cold_params, refit: FitOutcome) -> bool:
@@ -333,8 +337,7 @@ def _back_at_cold_start(spec: DiagnosisPlant, current: Model, cold_params, refit
         c, cur = float(getattr(cold_params, n)), float(getattr(current.params, n))
         if c == cur:
             continue
-        r = float(getattr(refit.model.params, n))
-        if abs(r - c) > COLD_START_MIN_CHANGE * max(abs(r), abs(c), 1e-300):
+        if not _close(float(getattr(refit.model.params, n)), c):
             return False
     return True
 
