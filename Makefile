@@ -17,6 +17,7 @@ $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet $(TORCH_SPEC)
 	$(PY) -m pip install --quiet -e ".[all]"
+	$(VENV)/bin/hydro compile
 	touch $(STAMP)
 
 install: $(STAMP)

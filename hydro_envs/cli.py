@@ -5,6 +5,7 @@ Subcommands::
     hydro channels [PLANT] [--json]           channels (name, unit, meaning) of a plant
     hydro simulate ENV_ID --steps N --out F   run an env, record its sensor channels
     hydro validate [--json]                   reproduce published figures, pass/fail
+    hydro compile [--only NAME,...]           fill numba's disk cache (envs, diagnosis)
 
 plus the subcommands other installed packages register under the ``hydro_envs.commands``
 entry points (``identify`` and ``diagnose`` from :mod:`identification`, ``benchmark`` and
@@ -116,6 +117,19 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--markdown", metavar="FILE",
                    help="write the documentation page (every row with its kind and source) to FILE")
     p.set_defaults(func=_cmd_validate)
+
+    p = sub.add_parser(
+        "compile",
+        help="compile the numba kernels into the on-disk cache (run after install or an edit)",
+        description="Run every env id once (single and two-copy vector env) and every warm-up the "
+        "installed packages register (diagnosis: one short diagnosis per plant), so that their "
+        "compiled kernels are stored in numba's on-disk cache and later processes load them "
+        "instead of compiling. The cache is dropped when a source file changes: run again after "
+        "an edit. `make install` runs it.",
+    )
+    p.add_argument("--only", metavar="NAME,...",
+                   help="comma-separated warm-ups to run (default: all; `envs` and those registered)")
+    p.set_defaults(func=_cmd_compile)
 
     _add_plugin_commands(sub)
     return parser
@@ -322,6 +336,28 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
     if ended is not None:
         print(f"hydro: note: the plant terminated after {steps_done} of {args.steps} steps; stopped there",
               file=sys.stderr)
+    return EXIT_OK
+
+
+# --- compile ---------------------------------------------------------------------------
+
+
+def _cmd_compile(args: argparse.Namespace) -> int:
+    import time
+
+    from hydro_envs.warmup import warmups
+
+    available = warmups()
+    names = list(available) if not args.only else [n.strip() for n in args.only.split(",") if n.strip()]
+    unknown = [n for n in names if n not in available]
+    if unknown:
+        _err(f"--only: unknown warm-up(s) {unknown}; available: {sorted(available)}")
+        return EXIT_USAGE
+    t0 = time.perf_counter()
+    for name in names:
+        print(f"compiling: {name}", flush=True)
+        available[name](say=lambda msg: print(f"  {msg}", flush=True))
+    print(f"compiled in {time.perf_counter() - t0:.0f} s")
     return EXIT_OK
 
 
