@@ -247,7 +247,11 @@ def _alternate_delay(spec: DiagnosisPlant, model: Model, records: Sequence[Recor
     ``max_nfev`` evaluations) until the delay moves by less than a quarter sample (at most
     ``passes`` times). The first pass searches and refits at the round's weights, later passes
     with the delayed channels weighted by their residual at the last fit
-    (:func:`_delay_search_weights`), so a refit's cost after the first pass is in those units."""
+    (:func:`_delay_search_weights`), so a refit's cost after the first pass is in those units.
+    When the first search, over the whole range, puts the minimum at the range's lower end (the
+    record asks for no delay), the refit at that delay retraces the fit the search started from:
+    it gets at most ``HOPELESS_NFEV`` evaluations and the alternation ends (rodless record with a
+    drooping supply, second round: four refits and searches took 5.9 s and ended at that end)."""
     current = model
     fit = None
     se = math.nan
@@ -255,9 +259,11 @@ def _alternate_delay(spec: DiagnosisPlant, model: Model, records: Sequence[Recor
     search = sigma
     for _ in range(passes):
         d, se = _delay_grid_search(spec, current, records, search, p, near=None if d_prev < 0 else d_prev)
-        fit = fit_model(spec, current.copy(delay=d), records, sigma=search, max_nfev=max_nfev)
+        at_lower_end = d_prev < 0 and d <= p.bounds[0]
+        fit = fit_model(spec, current.copy(delay=d), records, sigma=search,
+                        max_nfev=min(max_nfev, HOPELESS_NFEV) if at_lower_end else max_nfev)
         current = fit.model
-        if abs(d - d_prev) < 0.25 * records[0].dt:
+        if at_lower_end or abs(d - d_prev) < 0.25 * records[0].dt:
             break
         d_prev = d
         search = _delay_search_weights(spec, sigma, fit)
