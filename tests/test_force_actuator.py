@@ -594,3 +594,31 @@ def test_validation_rows_are_finite_and_the_sensor_rows_pass():
         assert r.kind == ("consistency" if "calibrates" in r.name else "independent"), r.name
         if "sensor" in r.name:
             assert r.passed, (r.name, r.published, r.reproduced, r.tolerance)
+
+
+def test_env_applies_each_command_control_delay_later():
+    """The valve current of step k is the action of step k - d (d = control_delay / dt), also
+    for a copy reset in the middle of a run, whose pending commands start at zero."""
+    import gymnasium as gym
+
+    import hydro_envs  # noqa: F401
+    from hydro_envs.envs.force_actuator import DT
+    from hydro_envs.plants.force_actuator.model import I_IMAX
+
+    d = 3
+    venv = gym.make_vec("hydro_envs/ForceActuator-v0", num_envs=2, vectorization_mode="vector_entry_point",
+                        params={"control_delay": d * DT}, randomize=False)
+    venv.reset(seed=0)
+    b = venv.unwrapped._batch if hasattr(venv, "unwrapped") else venv._batch
+    imax = float(b.P[0, I_IMAX])
+    rng = np.random.default_rng(1)
+    sent: list[np.ndarray] = []
+    for k in range(60):  # longer than the buffer (MAX_DELAY_STEPS + 1 = 51 slots)
+        if k == 40:
+            venv.reset(options={"reset_mask": np.array([False, True])})
+            sent = [np.array([s[0], 0.0]) for s in sent]  # copy 1 forgets its pending commands
+        a = rng.uniform(-1, 1, (2, 1)).astype(np.float32)
+        venv.step(a)
+        sent.append(a[:, 0].astype(np.float64))
+        want = sent[-1 - d] * imax if len(sent) > d else np.zeros(2)
+        np.testing.assert_allclose(b.U[:, 0], want, rtol=0, atol=1e-12 * imax)

@@ -144,16 +144,14 @@ def _observe_copy(i, Y, P, REF, FF, K, NOISE, last_a, prev_a, dpm, m_weight, rat
     reward[i] = -(e * e) - m_weight * me * me - rate_pen * (d0 * d0 + d1 * d1)
 
 
+# one serial pass over the copies: the observation is light, and a prange loop over 1024 copies
+# cost more than it saved (servo vector env, bench/step_rate.py --profile: 72-74 us per step
+# parallel, 35-38 us serial)
 @nb.njit(cache=True, error_model="numpy")
-def _observe_serial(Y, P, REF, FF, K, NOISE, last_a, prev_a, dpm, m_weight, rate_pen, preview, obs_low, obs_high, obs, reward, meas):
+def _observe(Y, P, REF, FF, K, NOISE, last_a, prev_a, dpm, m_weight, rate_pen, preview, obs_low, obs_high, obs, reward, meas):
     for i in range(Y.shape[0]):
         _observe_copy(i, Y, P, REF, FF, K, NOISE, last_a, prev_a, dpm, m_weight, rate_pen, preview, obs_low, obs_high, obs, reward, meas)
 
-
-@nb.njit(cache=True, error_model="numpy", parallel=True)
-def _observe_parallel(Y, P, REF, FF, K, NOISE, last_a, prev_a, dpm, m_weight, rate_pen, preview, obs_low, obs_high, obs, reward, meas):
-    for i in nb.prange(Y.shape[0]):
-        _observe_copy(i, Y, P, REF, FF, K, NOISE, last_a, prev_a, dpm, m_weight, rate_pen, preview, obs_low, obs_high, obs, reward, meas)
 
 
 @nb.njit(cache=True, error_model="numpy")
@@ -276,7 +274,7 @@ class LoadSensingBatch(PlantBatch):
         _apply(self.last_a, self.FF, self.K, self.P, self.U)
 
     def observe(self) -> None:
-        (_observe_parallel if self.parallel else _observe_serial)(
+        _observe(
             self.Y, self.P, self.REF, self.FF, self.K, self.NOISE, self.last_a, self.prev_a, self.dpm,
             self.margin_weight, self.rate_pen, self.preview, self.obs_low, self.obs_high,
             self.obs, self.reward, self.meas,
