@@ -151,6 +151,17 @@ def _observe(Y, P, REF, K, NOISE, last_a, prev_a, e_scale, rate_pen, preview, ob
 
 
 
+@nb.njit(cache=True, error_model="numpy")
+def _apply_delayed(last_a, P, pending, head, n_delay, U):
+    """Action in [-1, 1] -> valve current [A] into the ring buffer ``pending`` at column ``head``;
+    the current applied now, ``U[:, 0]``, is the one computed ``n_delay`` steps ago."""
+    slots = pending.shape[1]
+    for i in range(U.shape[0]):
+        pending[i, head] = last_a[i, 0] * P[i, plant.I_IMAX]
+        k = head - n_delay[i]
+        U[i, 0] = pending[i, k + slots if k < 0 else k]
+
+
 def observation_space() -> spaces.Box:
     """Sensed force within twice the thrust (sensor range), reference and action in [-1, 1]."""
     low = np.full(OBS_DIM, -1.0, dtype=np.float32)
@@ -201,7 +212,6 @@ class ForceActuatorBatch(PlantBatch):
         self.n_delay = np.zeros(n, dtype=np.int64)
         self.pending = np.zeros((n, MAX_DELAY_STEPS + 1))
         self.head = 0
-        self.rows = np.arange(n)
 
     def observation_space(self) -> spaces.Box:
         return observation_space()
@@ -251,14 +261,8 @@ class ForceActuatorBatch(PlantBatch):
             self.NOISE[i] = rng.standard_normal(self.NOISE.shape[1]) * self.noise_std
 
     def apply_actions(self) -> None:
-        # action in [-1, 1] -> valve current in A, applied control_delay after it was computed
-        if not self.n_delay.any():
-            np.multiply(self.last_a[:, 0], self.P[:, plant.I_IMAX], out=self.U[:, 0])
-            return
-        slots = self.pending.shape[1]
-        self.head = (self.head + 1) % slots
-        np.multiply(self.last_a[:, 0], self.P[:, plant.I_IMAX], out=self.pending[:, self.head])
-        self.U[:, 0] = self.pending[self.rows, (self.head - self.n_delay) % slots]
+        self.head = (self.head + 1) % self.pending.shape[1]
+        _apply_delayed(self.last_a, self.P, self.pending, self.head, self.n_delay, self.U)
 
     def observe(self) -> None:
         _observe(
