@@ -68,7 +68,7 @@ class PhysicalParams:
     plant: ClassVar[str] = ""
 
     def __post_init__(self) -> None:
-        for f in dataclasses.fields(self):
+        for f in self._fields():
             value = getattr(self, f.name)
             try:
                 if isinstance(value, (bool, np.bool_)):  # float(True) == 1.0: a typo, not a value
@@ -81,7 +81,6 @@ class PhysicalParams:
             object.__setattr__(self, f.name, value)
             meta = f.metadata
             lo, hi = meta["allowed"]
-            allowed = _interval_text(lo, hi, meta["open_low"], meta["open_high"], meta["unit"])
             bad = (
                 not math.isfinite(value)
                 or value < lo
@@ -90,6 +89,7 @@ class PhysicalParams:
                 or (meta["open_high"] and value == hi)
             )
             if bad:
+                allowed = _interval_text(lo, hi, meta["open_low"], meta["open_high"], meta["unit"])
                 raise ParameterError(
                     f"{type(self).__name__}.{f.name} = {value!r} is outside the allowed "
                     f"range {allowed}"
@@ -101,8 +101,21 @@ class PhysicalParams:
 
     # ------------------------------------------------------------------ packing
     @classmethod
+    def _fields(cls) -> tuple[dataclasses.Field, ...]:
+        """``dataclasses.fields(cls)``, computed once per class (a construction reads them)."""
+        cached = cls.__dict__.get("_fields_cache")
+        if cached is None:
+            cached = dataclasses.fields(cls)
+            setattr(cls, "_fields_cache", cached)
+        return cached
+
+    @classmethod
     def names(cls) -> tuple[str, ...]:
-        return tuple(f.name for f in dataclasses.fields(cls))
+        cached = cls.__dict__.get("_names_cache")
+        if cached is None:
+            cached = tuple(f.name for f in cls._fields())
+            setattr(cls, "_names_cache", cached)
+        return cached
 
     @classmethod
     def index(cls, name: str) -> int:
