@@ -89,7 +89,6 @@ def _observe(Y, P, REF, K, NOISE, last_a, prev_a, quant, e_scale, rate_pen, prev
                       obs_low, obs_high, ix, ip1, ip2, i_stroke, i_supply, obs, reward, meas)
 
 
-
 def observation_space(stroke: float, error_scale: float) -> spaces.Box:
     """Finite bounds = the sensors' measuring ranges; observations are clipped to them.
 

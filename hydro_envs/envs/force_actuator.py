@@ -48,7 +48,7 @@ Closed-loop proportional force control of the plant (001 sec. 4.7: bandwidth, li
 from __future__ import annotations
 
 import math
-from typing import Any, Mapping, Sequence
+from typing import Any, Mapping
 
 import numba as nb
 import numpy as np
@@ -148,7 +148,6 @@ def _observe_copy(i, Y, P, REF, K, NOISE, last_a, prev_a, e_scale, rate_pen, pre
 def _observe(Y, P, REF, K, NOISE, last_a, prev_a, e_scale, rate_pen, preview, obs, reward, meas):
     for i in range(Y.shape[0]):
         _observe_copy(i, Y, P, REF, K, NOISE, last_a, prev_a, e_scale, rate_pen, preview, obs, reward, meas)
-
 
 
 @nb.njit(cache=True, error_model="numpy")

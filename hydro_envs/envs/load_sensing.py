@@ -153,7 +153,6 @@ def _observe(Y, P, REF, FF, K, NOISE, last_a, prev_a, dpm, m_weight, rate_pen, p
         _observe_copy(i, Y, P, REF, FF, K, NOISE, last_a, prev_a, dpm, m_weight, rate_pen, preview, obs_low, obs_high, obs, reward, meas)
 
 
-
 @nb.njit(cache=True, error_model="numpy")
 def _apply(last_a, FF, K, P, U):
     n_ref = FF.shape[1]
