@@ -20,7 +20,7 @@ import sys
 from collections.abc import Sequence
 from typing import Any
 
-__all__ = ["main", "build_parser"]
+__all__ = ["main", "build_parser", "warmups"]
 
 EXIT_OK = 0
 EXIT_FAIL = 1
@@ -140,17 +140,38 @@ def build_parser() -> argparse.ArgumentParser:
 COMMAND_GROUP = "hydro_envs.commands"
 
 
-def _add_plugin_commands(sub: Any) -> None:
-    """Subcommands of the installed packages, found through their entry points."""
+def _entry_points(group: str) -> list[tuple[str, Any]]:
+    """(name, loaded object) of the installed packages' entry points in ``group``, by name; the
+    object is the ``ModuleNotFoundError`` where the package's optional dependencies are missing."""
     from importlib.metadata import entry_points
 
-    for ep in sorted(entry_points(group=COMMAND_GROUP), key=lambda e: e.name):
+    out: list[tuple[str, Any]] = []
+    for ep in sorted(entry_points(group=group), key=lambda e: e.name):
         try:
-            add = ep.load()
-        except ModuleNotFoundError as e:  # its package's optional dependencies are missing
-            sub.add_parser(ep.name, help=f"(unavailable: {e})")
-            continue
-        add(sub)
+            out.append((ep.name, ep.load()))
+        except ModuleNotFoundError as e:
+            out.append((ep.name, e))
+    return out
+
+
+def _add_plugin_commands(sub: Any) -> None:
+    """Subcommands of the installed packages, found through their entry points."""
+    for name, add in _entry_points(COMMAND_GROUP):
+        if isinstance(add, ModuleNotFoundError):
+            sub.add_parser(name, help=f"(unavailable: {add})")
+        else:
+            add(sub)
+
+
+def warmups() -> dict[str, Any]:
+    """The warm-ups ``hydro compile`` runs, by name: ``envs``
+    (:func:`hydro_envs.warmup.compile_env_kernels`) first, then those the installed packages
+    register under :data:`hydro_envs.warmup.WARMUP_GROUP` (missing optional dependencies: left out)."""
+    from hydro_envs.warmup import WARMUP_GROUP, compile_env_kernels
+
+    out: dict[str, Any] = {"envs": compile_env_kernels}
+    out.update((n, f) for n, f in _entry_points(WARMUP_GROUP) if not isinstance(f, ModuleNotFoundError))
+    return out
 
 
 def _positive_int(text: str) -> int:
@@ -344,8 +365,6 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
 
 def _cmd_compile(args: argparse.Namespace) -> int:
     import time
-
-    from hydro_envs.warmup import warmups
 
     available = warmups()
     names = list(available) if not args.only else [n.strip() for n in args.only.split(",") if n.strip()]

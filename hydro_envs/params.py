@@ -101,21 +101,23 @@ class PhysicalParams:
 
     # ------------------------------------------------------------------ packing
     @classmethod
-    def _fields(cls) -> tuple[dataclasses.Field, ...]:
-        """``dataclasses.fields(cls)``, computed once per class (a construction reads them)."""
-        cached = cls.__dict__.get("_fields_cache")
+    def _layout(cls) -> tuple[tuple[dataclasses.Field, ...], tuple[str, ...]]:
+        """``dataclasses.fields(cls)`` and their names, computed once per class (every
+        construction and every :meth:`to_array` reads them)."""
+        cached = cls.__dict__.get("_layout_cache")
         if cached is None:
-            cached = dataclasses.fields(cls)
-            setattr(cls, "_fields_cache", cached)
+            fields = dataclasses.fields(cls)
+            cached = (fields, tuple(f.name for f in fields))
+            setattr(cls, "_layout_cache", cached)
         return cached
 
     @classmethod
+    def _fields(cls) -> tuple[dataclasses.Field, ...]:
+        return cls._layout()[0]
+
+    @classmethod
     def names(cls) -> tuple[str, ...]:
-        cached = cls.__dict__.get("_names_cache")
-        if cached is None:
-            cached = tuple(f.name for f in cls._fields())
-            setattr(cls, "_names_cache", cached)
-        return cached
+        return cls._layout()[1]
 
     @classmethod
     def index(cls, name: str) -> int:

@@ -5,7 +5,7 @@ process loads it in milliseconds. :func:`compile_env_kernels` makes, resets and 
 registered env id once as a single env and once as a two-copy vector env (the serial and the
 parallel step kernels, the observation and reward kernels). Other installed packages add their
 own warm-ups under the ``hydro_envs.warmups`` entry points (a function ``compile(say)``);
-``hydro compile`` runs them all. The cache is dropped when a source file changes
+``hydro compile`` runs them all (:func:`hydro_envs.cli.warmups`). The cache is dropped when a source file changes
 (:mod:`hydro_envs._numba_cache`), so the command is run again after an edit.
 """
 
@@ -14,7 +14,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable, Sequence
 
-__all__ = ["WARMUP_GROUP", "compile_env_kernels", "warmups"]
+__all__ = ["WARMUP_GROUP", "compile_env_kernels"]
 
 #: entry-point group of the warm-ups other packages register: ``name = "module:function"``,
 #: the function takes ``say`` (a one-line progress callback) and compiles by running its code paths
@@ -44,16 +44,3 @@ def compile_env_kernels(env_ids: Sequence[str] | None = None,
         took[env_id] = time.perf_counter() - t0
         say(f"{env_id}: {took[env_id]:.1f} s")
     return took
-
-
-def warmups() -> dict[str, Callable[..., object]]:
-    """The warm-ups of the installed packages, by entry-point name (``envs`` first)."""
-    from importlib.metadata import entry_points
-
-    out: dict[str, Callable[..., object]] = {"envs": compile_env_kernels}
-    for ep in sorted(entry_points(group=WARMUP_GROUP), key=lambda e: e.name):
-        try:
-            out[ep.name] = ep.load()
-        except ModuleNotFoundError:  # its package's optional dependencies are missing
-            continue
-    return out

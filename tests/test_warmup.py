@@ -7,8 +7,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-from hydro_envs.cli import main
-from hydro_envs.warmup import warmups
+from hydro_envs.cli import main, warmups
 
 REPO = Path(__file__).resolve().parents[1]
 

@@ -78,9 +78,6 @@ def _observe_copy(i, Y, P, REF, K, NOISE, last_a, prev_a, quant, e_scale, rate_p
     reward[i] = -(e * e) - rate_pen * da * da
 
 
-# one serial pass over the copies: the observation is light, and a prange loop over 1024 copies
-# cost more than it saved (servo vector env, bench/step_rate.py --profile: 72-74 us per step
-# parallel, 35-38 us serial)
 @nb.njit(cache=True, error_model="numpy")
 def _observe(Y, P, REF, K, NOISE, last_a, prev_a, quant, e_scale, rate_pen, preview,
                     obs_low, obs_high, ix, ip1, ip2, i_stroke, i_supply, obs, reward, meas):

@@ -144,9 +144,6 @@ def _observe_copy(i, Y, P, REF, FF, K, NOISE, last_a, prev_a, dpm, m_weight, rat
     reward[i] = -(e * e) - m_weight * me * me - rate_pen * (d0 * d0 + d1 * d1)
 
 
-# one serial pass over the copies: the observation is light, and a prange loop over 1024 copies
-# cost more than it saved (servo vector env, bench/step_rate.py --profile: 72-74 us per step
-# parallel, 35-38 us serial)
 @nb.njit(cache=True, error_model="numpy")
 def _observe(Y, P, REF, FF, K, NOISE, last_a, prev_a, dpm, m_weight, rate_pen, preview, obs_low, obs_high, obs, reward, meas):
     for i in range(Y.shape[0]):
