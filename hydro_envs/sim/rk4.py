@@ -11,7 +11,10 @@ inlined (``inline="always"``) into a few lines of each plant's ``kernels.py`` th
 right-hand side (``step_serial``, ``step_parallel``, ``trajectories``, ``derivatives``): the
 loops exist once, each plant compiles only its own model, and every binding is cached on disk.
 ``rhs_along`` evaluates the right-hand side along a recorded trajectory (derivative outputs
-such as an acceleration). ``rk4_advance_refined`` is ``rk4_advance`` for a plant with a mode
+such as an acceleration). ``in_blocks`` spreads a batch step over threads in contiguous blocks
+of copies, each advanced by the plant's serial step: a thread running the separately compiled
+serial loop is 10-25 % faster than the same RK4 sub-steps as the body of a ``prange`` over
+single copies (measured on the 1024-copy envs of every plant, bit-identical states). ``rk4_advance_refined`` is ``rk4_advance`` for a plant with a mode
 that is stiff only in a small region of the state space (a regularised friction sign near zero
 velocity): sub-steps sized for the other modes, each redone in finer sub-steps where the
 plant's ``shallow`` test fails along it.
@@ -27,7 +30,11 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-__all__ = ["rk4_advance", "rk4_advance_refined", "rk4_trajectory", "rhs_along"]
+__all__ = ["rk4_advance", "rk4_advance_refined", "rk4_trajectory", "rhs_along", "in_blocks"]
+
+#: most blocks of copies :func:`in_blocks` makes of a batch (copies differ in sub-step count;
+#: a fixed number, since the thread count read inside a kernel would keep it out of the cache)
+MAX_BLOCKS = 64
 
 
 @nb.njit(cache=True, error_model="numpy", inline="always")
@@ -133,3 +140,16 @@ def rhs_along(rhs, x, u, p, out):
         rhs(y, u[min(k, u.shape[0] - 1)], p, dy)
         for j in range(ns):
             out[k, j] = dy[j]
+
+
+@nb.njit(cache=True, error_model="numpy", inline="always")
+def in_blocks(step, Y, U, P, dt, NSUB, W, clamps):
+    """``step(Y, U, P, dt, NSUB, W, clamps)`` (a plant's serial batch step) over contiguous
+    blocks of the batch, one ``prange`` iteration per block; inline it into a
+    ``parallel=True`` kernel. Every copy's arithmetic is that of ``step``."""
+    n = Y.shape[0]
+    m = min(n, MAX_BLOCKS)
+    for c in nb.prange(m):
+        lo = c * n // m
+        hi = (c + 1) * n // m
+        step(Y[lo:hi], U[lo:hi], P[lo:hi], dt, NSUB[lo:hi], W[lo:hi], clamps[lo:hi])

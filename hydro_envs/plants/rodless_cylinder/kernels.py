@@ -28,7 +28,7 @@ from hydro_envs.plants.rodless_cylinder.model import rodless_cylinder_rhs as rhs
 from hydro_envs.plants.rodless_cylinder.model import rodless_cylinder_rhs_stiff_supply as rhs_stiff
 from hydro_envs.plants.rodless_cylinder.model import rodless_cylinder_guard as guard
 from hydro_envs.plants.rodless_cylinder.model import static_friction_refinement, static_friction_shallow
-from hydro_envs.sim.rk4 import rhs_along, rk4_advance, rk4_advance_refined
+from hydro_envs.sim.rk4 import in_blocks, rhs_along, rk4_advance, rk4_advance_refined
 
 __all__ = ["step_serial", "step_parallel", "trajectories", "derivatives", "rhs", "guard", "for_params"]
 
@@ -52,10 +52,8 @@ def step_serial(Y, U, P, dt, NSUB, W, clamps):
 
 @nb.njit(cache=True, error_model="numpy", parallel=True)
 def step_parallel(Y, U, P, dt, NSUB, W, clamps):
-    """Advance every copy by one step of ``dt`` seconds in ``NSUB[i]`` sub-steps (threads)."""
-    for i in nb.prange(Y.shape[0]):
-        back = np.empty(Y.shape[1])
-        clamps[i] += _advance(rhs, Y[i], U[i], P[i], dt / NSUB[i], NSUB[i], W[i], back)
+    """``step_serial`` over blocks of copies on threads (bit-identical to it)."""
+    in_blocks(step_serial, Y, U, P, dt, NSUB, W, clamps)
 
 
 @nb.njit(cache=True, error_model="numpy", parallel=True)
@@ -94,9 +92,7 @@ def _step_serial_stiff(Y, U, P, dt, NSUB, W, clamps):
 
 @nb.njit(cache=True, error_model="numpy", parallel=True)
 def _step_parallel_stiff(Y, U, P, dt, NSUB, W, clamps):
-    for i in nb.prange(Y.shape[0]):
-        back = np.empty(Y.shape[1])
-        clamps[i] += _advance(rhs_stiff, Y[i], U[i], P[i], dt / NSUB[i], NSUB[i], W[i], back)
+    in_blocks(_step_serial_stiff, Y, U, P, dt, NSUB, W, clamps)
 
 
 # bristle state (LuGre) in every row: plain RK4 sub-steps, which the refinement reduces to
@@ -108,8 +104,7 @@ def _step_serial_lugre(Y, U, P, dt, NSUB, W, clamps):
 
 @nb.njit(cache=True, error_model="numpy", parallel=True)
 def _step_parallel_lugre(Y, U, P, dt, NSUB, W, clamps):
-    for i in nb.prange(Y.shape[0]):
-        clamps[i] += rk4_advance(rhs, guard, Y[i], U[i], P[i], dt / NSUB[i], NSUB[i], W[i])
+    in_blocks(_step_serial_lugre, Y, U, P, dt, NSUB, W, clamps)
 
 
 @nb.njit(cache=True, error_model="numpy")
@@ -120,8 +115,7 @@ def _step_serial_stiff_lugre(Y, U, P, dt, NSUB, W, clamps):
 
 @nb.njit(cache=True, error_model="numpy", parallel=True)
 def _step_parallel_stiff_lugre(Y, U, P, dt, NSUB, W, clamps):
-    for i in nb.prange(Y.shape[0]):
-        clamps[i] += rk4_advance(rhs_stiff, guard, Y[i], U[i], P[i], dt / NSUB[i], NSUB[i], W[i])
+    in_blocks(_step_serial_stiff_lugre, Y, U, P, dt, NSUB, W, clamps)
 
 
 # (supply droop in some row, static curve in some row) -> step kernels
