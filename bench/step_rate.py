@@ -5,7 +5,7 @@ Prints (no pass/fail; targets from the foundation issue in brackets):
 * for every registered ``hydro_envs/`` env: single-env steps/s through ``gymnasium.make``
   with random actions, as a ratio to CartPole-v1's in the same run  [ratio >= 0.5], and
   1024-copy native vector env env-steps/s beside gymnasium's vectorised CartPole
-  [servo cylinder >= 2 M/s]
+  [>= 2 M/s]
 * servo cylinder: kernel time per RK4 sub-step per copy (serial, and parallel over the batch)
 * servo cylinder: position and pressure NRMSE against Radau (rtol 1e-10) over 2 s of random step commands
   with end-stop contact, at the default sub-step               [<= 1e-4, <= 1e-3]
@@ -261,7 +261,7 @@ def main() -> None:
         sub.reset(seed=0)
         print(f"{env_id}: single (gym.make, random actions) {single:,.0f} steps/s = {single / cart:.2f}x "
               f"CartPole [target >= 0.5]; vector ({n} copies) {vec / 1e6:.2f} M env-steps/s "
-              f"[servo target >= 2 M/s]; {sub.n_substeps} RK4 sub-steps per {sub.dt * 1e3:g} ms step")
+              f"[target >= 2 M/s]; {sub.n_substeps} RK4 sub-steps per {sub.dt * 1e3:g} ms step")
 
     print_profile(env_ids, n, vec_steps, args.repeats)
 
