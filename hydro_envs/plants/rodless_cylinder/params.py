@@ -185,15 +185,18 @@ class RodlessCylinderParams(PhysicalParams):
             )
 
     # kernel array: the fields, then derived columns computed once per parameter set so the
-    # right-hand side needs no pow calls (see hydro_envs.laws.nozzle_fast)
+    # right-hand side needs no pow calls (see hydro_envs.laws.nozzle_fast). The two laws run as
+    # plain Python here (``py_func``: the same libm calls, bit-identical results): compiling
+    # them would add about 0.8 s to an env's cold first step.
     def to_array(self) -> np.ndarray:
-        crit, psi_c, psi_lam, inv_k, coef = nozzle_flow_constants(self.heat_capacity_ratio, self.laminar_pressure_ratio)
+        crit, psi_c, psi_lam, inv_k, coef = nozzle_flow_constants.py_func(self.heat_capacity_ratio,
+                                                                           self.laminar_pressure_ratio)
         extra = [
             0.25 * math.pi * self.bore**2,  # piston area A
             crit, psi_c, psi_lam, inv_k, coef,
             math.sqrt(self.gas_constant * self.supply_temperature),  # sqrt(R T_s)
             self.spool_stroke / (self.command_max - self.command_centre),  # K_v of eq (28)
-            float(circular_orifice_area(self.spool_stroke + self.valve_underlap, self.port_radius)),
+            float(circular_orifice_area.py_func(self.spool_stroke + self.valve_underlap, self.port_radius)),
         ]
         return np.concatenate([super().to_array(), np.array(extra, dtype=np.float64)])
 
