@@ -11,13 +11,13 @@ inlined (``inline="always"``) into a few lines of each plant's ``kernels.py`` th
 right-hand side (``step_serial``, ``step_parallel``, ``trajectories``, ``derivatives``): the
 loops exist once, each plant compiles only its own model, and every binding is cached on disk.
 ``rhs_along`` evaluates the right-hand side along a recorded trajectory (derivative outputs
-such as an acceleration). ``in_blocks`` spreads a batch step over threads in contiguous blocks
-of copies, each advanced by the plant's serial step: a thread running the separately compiled
-serial loop is 10-25 % faster than the same RK4 sub-steps as the body of a ``prange`` over
-single copies (measured on the 1024-copy envs of every plant, bit-identical states). ``rk4_advance_refined`` is ``rk4_advance`` for a plant with a mode
-that is stiff only in a small region of the state space (a regularised friction sign near zero
-velocity): sub-steps sized for the other modes, each redone in finer sub-steps where the
-plant's ``shallow`` test fails along it.
+such as an acceleration). ``in_blocks`` spreads a batch step over threads in contiguous
+blocks of copies, each advanced by the plant's serial step: the separately compiled serial
+loop runs 3-25 % faster than the same RK4 sub-steps as the body of a ``prange`` over single
+copies (1024-copy envs of every plant, bit-identical states). ``rk4_advance_refined`` is
+``rk4_advance`` for a plant with a mode that is stiff only in a small region of the state
+space (a regularised friction sign near zero velocity): sub-steps sized for the other modes,
+each redone in finer sub-steps where the plant's ``shallow`` test fails along it.
 
 Batch layout: states ``Y (n, n_states)``, inputs ``U (n, n_inputs)``, parameters
 ``P (n, n_params)``, sub-steps ``NSUB (n,)``, workspace ``W (n, 5, n_states)`` (k1..k4 and the
