@@ -5,7 +5,9 @@ no warning; ``reset(seed)`` fixes the whole trajectory and a different seed draw
 observations stay inside ``observation_space``; copy ``i`` of the native vector env reset with
 seed ``s`` equals a single env reset with ``s + i``; a pickled or deep-copied env continues
 exactly as the original; NaN/inf actions raise ``ValueError`` naming the action. For one env
-per plant (:data:`hydro_envs.soak.SOAK_ENVS`) a short soak finds no energy created.
+per plant (:data:`hydro_envs.soak.SOAK_ENVS`) a short soak finds no energy created, and per
+plant the vector env's threaded step kernel advances uneven blocks of copies exactly as the
+serial loop does.
 """
 
 from __future__ import annotations
@@ -121,3 +123,28 @@ def test_energy_balance(env_id):
     assert r.steps >= 2_000
     assert r.counts.get("energy", 0) == 0 and r.counts.get("passivity", 0) == 0, (r.counts, r.examples)
     assert r.breaches == 0, (r.counts, r.examples)
+
+
+@pytest.mark.parametrize("n", [3, 131])
+@pytest.mark.parametrize("env_id", [entry.id for _, entry in {s.name: (s, e) for s, e in registry.env_entries()}.values()])
+def test_vector_step_kernel_equals_the_serial_one_on_uneven_blocks(env_id, n):
+    """The threaded step (blocks of copies, :func:`hydro_envs.sim.rk4.in_blocks`) advances every
+    copy exactly as the serial loop does, also when the copies do not divide into equal blocks
+    (131 copies: blocks of 2 and 3) and when there are fewer copies than blocks."""
+    env = gym.make_vec(env_id, num_envs=n)
+    env.reset(seed=3)
+    env.step(_actions(env.single_action_space, 1, 4, (n,))[0])
+    b = env.unwrapped._batch
+    kernels = b.plant_spec.kernels
+    pick = getattr(kernels, "for_params", None)
+    serial = (pick(b.P) if pick else kernels).step_serial
+    assert b.step_kernel is not serial
+    out = []
+    for kernel in (serial, b.step_kernel):
+        Y, W, c = b.Y.copy(), b.W.copy(), b.clamps.copy()
+        for _ in range(50):
+            kernel(Y, b.U, b.P, b.dt, b.NSUB, W, c)
+        out.append((Y, c))
+    assert np.all(np.isfinite(out[0][0]))
+    assert not np.array_equal(out[0][0], b.Y)
+    assert np.array_equal(out[0][0], out[1][0]) and np.array_equal(out[0][1], out[1][1])
