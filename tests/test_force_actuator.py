@@ -596,6 +596,38 @@ def test_validation_rows_are_finite_and_the_sensor_rows_pass():
             assert r.passed, (r.name, r.published, r.reproduced, r.tolerance)
 
 
+def test_seed_arx_loop_has_its_6db_bandwidth_close_to_its_3db_one():
+    """The argument of the -3 dB row: eq (6) under proportional feedback crosses -180 deg near
+    156 Hz, and at 0.3-2/3 of its critical gain its -6 dB bandwidth is 1.1-1.3 times the -3 dB
+    one (so 001's low-amplitude -6 dB of 196 Hz puts that amplitude's -3 dB well above 100 Hz).
+    Checked against a direct evaluation of the polynomials on the unit circle."""
+    a, b = np.array(fa_validation.SEED_ARX_A), np.array(fa_validation.SEED_ARX_B)
+    f = np.linspace(1.0, 1000.0, 200000)
+    zi = np.exp(-2j * np.pi * f * fa.SEED_T)
+    p = -np.polyval(b[::-1], zi) / np.polyval(a[::-1], zi)
+    j = np.flatnonzero((np.sign(p.imag[:-1]) != np.sign(p.imag[1:])) & (p.real[:-1] < 0))[0]
+    assert 150.0 < f[j] < 162.0
+    for frac in fa_validation.ARX_GAIN_FRACTIONS:
+        _, b3, b6 = fa_validation.seed_arx_loop_bandwidths(frac)
+        k = -frac / p.real[j]
+        t = k * p / (1 + k * p)
+        db = 20 * np.log10(np.abs(t) / abs(t[0]))
+        assert b3 == pytest.approx(f[np.flatnonzero(db < -3)[0]], rel=0.01)
+        assert b6 == pytest.approx(f[np.flatnonzero(db < -6)[0]], rel=0.01)
+        assert 1.1 < b6 / b3 < 1.3
+
+
+def test_limit_cycle_frequency_comes_from_zero_crossings():
+    """The limit-cycle frequency estimate resolves better than the 10 Hz of an FFT over the
+    0.1 s window: a 95 Hz sine (any phase) with an offset and a little noise reads 95 +- 0.5 Hz."""
+    rng = np.random.default_rng(0)
+    t = fa.SEED_T * np.arange(500)
+    for phase in (0.0, 1.0, 2.5):
+        x = 40.0 * np.sin(2 * np.pi * 95.0 * t + phase) + 0.3 * rng.standard_normal(t.size)
+        assert closed_loop._crossing_frequency(x - x.mean(), fa.SEED_T) == pytest.approx(95.0, abs=0.5)
+    assert math.isnan(closed_loop._crossing_frequency(np.ones(50), fa.SEED_T))
+
+
 def test_env_applies_each_command_control_delay_later():
     """The valve current of step k is the action of step k - d (d = control_delay / dt), also
     for a copy reset in the middle of a run, whose pending commands start at zero."""

@@ -13,7 +13,7 @@ from hydro_envs.plants.force_actuator import experiments as fe
 
 NOMINAL = fa.ForceActuatorParams()
 FRICTIONLESS = dataclasses.replace(NOMINAL, coulomb_friction=0.0, stiction_retract=0.0, stiction_extend=0.0)
-RAMP = 4.0  # s per full leg (-30 mA -> +30 mA): 15 mA/s
+RAMP = 4.0  # s per full leg (-current_max -> +current_max: -45 mA -> +45 mA, 22.5 mA/s)
 LEVELS = np.array([-600.0, -300.0, 0.0, 300.0, 600.0])
 
 
@@ -89,12 +89,12 @@ def test_offset_nulls_force_at_zero_current(blocked_ideal):
 def test_branch_width_is_hysteresis_width(blocked_ideal):
     r = blocked_ideal
     di = fe.branch_current_offset(r["i"], r["f_true"], r["branch"], LEVELS)
-    width = NOMINAL.hysteresis_width * NOMINAL.rated_current  # 1.25 mA
+    width = NOMINAL.hysteresis_width * NOMINAL.rated_current  # 1.875 mA
     rate = 2 * NOMINAL.current_max / RAMP
     # quasi-static reference: exactly the configured width
     ref = fe.branch_current_offset(r["i"], r["f_static"], r["branch"], LEVELS)
     assert np.allclose(ref, width, atol=1e-6)
-    # experiment: width + the ramp lag on both branches (2 rate tau = 0.28 mA at 15 mA/s)
+    # experiment: width + the ramp lag on both branches (2 rate tau = 0.42 mA at 22.5 mA/s)
     assert np.allclose(di, width + 2 * rate * _ramp_lag(), atol=0.05e-3)
     assert np.all(np.abs(di - width) < 0.25 * width)
 

@@ -11,9 +11,6 @@ from hydro_envs.validation import KINDS, run_validation
 
 #: rows outside their tolerance today, each an open deviation named in its row's source
 FAILING_TODAY = {
-    # 001 sec. 4.7: -3/-6 dB gap of a loop with gain margin 1.5; pre-sliding friction and hysteresis at 10 N
-    "force_actuator: closed-loop -6 dB bandwidth, Kf = 2.44, low amplitude (10 N)",
-    "force_actuator: -3 dB bandwidth at 200 N over 10 N, Kf = 2.44 (falls with amplitude)",
     # 004 eq (32): Table 2's viscous friction on the assumed 0.5 kg slider overdamps the plant
     "rodless_cylinder: small-signal damping ratio with friction vs ARX eq (32)",
 }

@@ -6,7 +6,7 @@ hydraulic damping eq (5)), piston locked to the mount (blocked force) unless
 ``reset(options={"params": {"piston_locked": 0}})``.
 
 **Action** ``Box(-1, 1, (1,), float32)``: valve current as a fraction of the driver range
-``current_max`` (30 mA; the current for full jet deflection is ``rated_current`` = 25 mA).
+``current_max`` (45 mA; the current for full jet deflection is ``rated_current`` = 37.5 mA).
 Out-of-range actions are clipped; NaN or inf raise ``ValueError``.
 
 **Observation** ``Box(float32, (8,))`` (forces normalised by the maximum thrust

@@ -152,8 +152,9 @@ def limit_cycle_sweep(
     window: float = 0.1,
     threshold: float = 20.0,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Peak-to-peak sensed-force oscillation [N] and its frequency [Hz] over the last
-    ``window`` seconds after a reference step 0 -> ``level`` N, one copy per gain.
+    """Peak-to-peak sensed-force oscillation [N] and its frequency [Hz] (from the upward zero
+    crossings) over the last ``window`` seconds after a reference step 0 -> ``level`` N, one
+    copy per gain.
 
     A copy is in a limit cycle when the peak-to-peak amplitude exceeds ``threshold``.
     """
@@ -163,9 +164,18 @@ def limit_cycle_sweep(
     w = int(round(window / SEED_T))
     seg = out[:, -w:]
     pp = seg.max(axis=1) - seg.min(axis=1)
-    freqs = np.fft.rfftfreq(w, SEED_T)
-    fr = np.array([freqs[np.argmax(np.abs(np.fft.rfft((s - s.mean()) * np.hanning(w))))] for s in seg])
+    fr = np.array([_crossing_frequency(s - s.mean(), SEED_T) for s in seg])
     return pp, np.where(pp > threshold, fr, np.nan)
+
+
+def _crossing_frequency(x: np.ndarray, dt: float) -> float:
+    """Mean frequency [Hz] of a zero-mean oscillation from its upward zero crossings (linearly
+    interpolated between samples); nan with fewer than two crossings."""
+    up = np.flatnonzero((x[:-1] < 0.0) & (x[1:] >= 0.0))
+    if up.size < 2:
+        return float("nan")
+    t = up + x[up] / (x[up] - x[up + 1])
+    return float((up.size - 1) / ((t[-1] - t[0]) * dt))
 
 
 def sensor_ring_down(params: ForceActuatorParams, duration: float = 0.03, dt: float = 2e-5) -> tuple[float, float]:
