@@ -230,9 +230,12 @@ def test_decreasing_amplitude_gives_nested_minor_loops_that_shrink():
         assert lo0 - 1e-12 <= lo1 and hi1 <= hi0 + 1e-12
 
 
-def test_plant_hysteresis_has_the_configured_major_loop():
-    """Quasi-static current triangle through the kernel: x~_v(i) loop of the configured width."""
-    p = NOMINAL
+@pytest.mark.parametrize("width", [NOMINAL.hysteresis_width, 0.07])
+def test_plant_hysteresis_has_the_configured_major_loop(width):
+    """Quasi-static current triangle through the kernel: x~_v(i) loop of the configured width,
+    nominal and at the randomisation's widest (the loop closes within the driver range)."""
+    p = dataclasses.replace(NOMINAL, hysteresis_width=width)
+    assert width <= {e.name: e for e in load_randomization("force_actuator").entries}["hysteresis_width"].high
     n = 3000
     tri = p.current_max * np.concatenate([np.linspace(0, 1, n // 4), np.linspace(1, -1, n // 2), np.linspace(-1, 1, n // 2)])
     ys = simulate(p, tri)
