@@ -68,10 +68,9 @@ def rows() -> list[ValidationRow]:
     bw3, bw6 = s["bw3"], s["bw6"]
     trend = ", ".join(f"{a:g} N: {bw3[a]:.0f} Hz" for a in bw3)
     trend6 = ", ".join(f"{a:g} N: {bw6[a]:.0f} Hz" for a in bw6)
-    arx = [(frac, b6 / b3) for frac, b3, b6 in (seed_arx_loop_bandwidths(f) for f in ARX_GAIN_FRACTIONS)]
-    arx_text = "; ".join(
-        f"{frac:.2f}: {b3:.0f} / {b6:.0f} Hz" for frac, b3, b6 in (seed_arx_loop_bandwidths(f) for f in ARX_GAIN_FRACTIONS)
-    )
+    arx_loops = [seed_arx_loop_bandwidths(f) for f in ARX_GAIN_FRACTIONS]
+    arx_ratios = [b6 / b3 for _, b3, b6 in arx_loops]
+    arx_text = "; ".join(f"{frac:.2f}: {b3:.0f} / {b6:.0f} Hz" for frac, b3, b6 in arx_loops)
     cause = {
         "no current limit": _bandwidth_at(dataclasses.replace(p, current_max=1.0), 800.0),
         "no damping": _bandwidth_at(dataclasses.replace(p, damping_gain=0.0), 800.0),
@@ -107,8 +106,8 @@ def rows() -> list[ValidationRow]:
             "plot (tolerance 25 %), amplitudes not printed. Compared at the largest amplitude (800 N, the "
             "fig. 12 square wave): the low-amplitude -3 dB bandwidth cannot be near 100 Hz when the -6 dB "
             "one reaches 196 Hz there, because a loop like 001's has the two close together: eq (6)'s "
-            f"own ARX under proportional feedback at {arx[0][0]:g}-{arx[-1][0]:.2f} of its critical "
-            f"gain has -6 dB / -3 dB = {min(r for _, r in arx):.2f}-{max(r for _, r in arx):.2f} "
+            f"own ARX under proportional feedback at {ARX_GAIN_FRACTIONS[0]:g}-{ARX_GAIN_FRACTIONS[-1]:.2f} of "
+            f"its critical gain has -6 dB / -3 dB = {min(arx_ratios):.2f}-{max(arx_ratios):.2f} "
             f"({arx_text}). Model -3 dB bandwidth vs amplitude: {trend}",
             kind="independent",
         ),
