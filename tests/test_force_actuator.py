@@ -245,6 +245,26 @@ def test_plant_hysteresis_has_the_configured_major_loop(width):
     assert _loop_width(u[seg], xt[seg]) == pytest.approx(p.hysteresis_width, rel=0.02)
 
 
+def test_valve_memory_track_equals_the_kernel_s_coil_and_plays():
+    """The diagnosis' record-long valve memory (coil current, play memories) equals the plant
+    kernel's states at every sample under the same held currents; a track that forgot the
+    history (plays reset halfway) differs by a sizeable part of the largest threshold."""
+    rng = np.random.default_rng(4)
+    p = NOMINAL
+    t = DT * np.arange(3000)
+    amp = np.where(t < t[1500], 0.8, 0.1)  # large swings, then small ones that keep their memory
+    cur = p.rated_current * (amp * np.sin(2 * np.pi * 7.0 * t) + 0.02 * rng.standard_normal(t.size))
+    ys = simulate(p, cur)
+    ic, h = fa.valve_memory_track(cur, DT, p.rated_current, p.hysteresis_width, p.hysteresis_reversal_slope)
+    # the kernel integrates the coil pole by RK4 (h a = 0.14: error ~3e-7 of rated current)
+    np.testing.assert_allclose(ic, ys[:-1, fa.IC], rtol=0, atol=1e-6)
+    np.testing.assert_allclose(h, ys[:-1, fa.H0:fa.H0 + fa.N_PLAY], rtol=0, atol=1e-6)
+    _, h_late = fa.valve_memory_track(cur[1500:], DT, p.rated_current, p.hysteresis_width,
+                                      p.hysteresis_reversal_slope)
+    big_r = fa.pi_threshold_scale(p.hysteresis_width, p.hysteresis_reversal_slope, fa.N_PLAY)
+    assert np.abs(h_late[-1] - h[-1]).max() > 0.1 * big_r
+
+
 # ------------------------------------------------------------------ ZOH of eqs (7)-(8)
 def _zoh(num, den):
     a, b, c, d = signal.tf2ss(num, den)

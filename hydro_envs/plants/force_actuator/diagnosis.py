@@ -23,7 +23,8 @@ is first called.
 
 from __future__ import annotations
 
-__all__ = ["BASES", "blocked_initial_state", "load_initial_state", "open_loop_current", "sensed_force"]
+__all__ = ["BASES", "blocked_initial_state", "load_initial_state", "open_loop_current", "sensed_force",
+           "hidden_states"]
 
 _FORCE = "001 (seed force actuator)"
 
@@ -46,23 +47,49 @@ def open_loop_current(meas, ref, p):
     return 0.5 * p.rated_current * ref[0]
 
 
+def hidden_states(p, channels, inputs, dt):
+    """Coil current ``ic`` and play memories ``h1``.. of the valve at every sample of a record,
+    driven by its measured current from a demagnetised valve at the record's start
+    (:func:`~hydro_envs.plants.force_actuator.model.valve_memory_track`); {} without hysteresis
+    (then the memories do not act)."""
+    if p.hysteresis_width <= 0.0:
+        return {}
+    import numpy as np
+
+    fa = _model()
+    ic, h = fa.valve_memory_track(np.ascontiguousarray(inputs[:, 0], dtype=np.float64), dt, p.rated_current,
+                                  p.hysteresis_width, p.hysteresis_reversal_slope)
+    return {"ic": ic, **{f"h{j + 1}": h[:, j] for j in range(fa.N_PLAY)}}
+
+
+def _valve_memory(fa, y, m):
+    """Put the valve's coil current and play memories of :func:`hidden_states` (where given)
+    into the state ``y``."""
+    y[fa.IC] = m.get("ic", 0.0)
+    for j in range(fa.N_PLAY):
+        y[fa.H0 + j] = m.get(f"h{j + 1}", 0.0)
+
+
 def blocked_initial_state(p, m):
-    """Blocked rig at a window start: the rest state with the sensor deflected by the measured force."""
+    """Blocked rig at a window start: the rest state with the sensor deflected by the measured
+    force and the valve's memory of :func:`hidden_states`."""
     fa = _model()
     y = fa.rest_state(p)
     y[fa.XS] = m.get("f", 0.0) / p.sensor_stiffness
+    _valve_memory(fa, y, m)
     return y
 
 
 def load_initial_state(p, m):
     """Rig with a load at a window start: sensor deflection from the measured force; the piston at
     its quasi-static position on the load spring (sensed force ~ spring force below the 16 Hz
-    load mode), velocity from the force's rate; valve and fluid states at rest (covered by the
-    warm-up)."""
+    load mode), velocity from the force's rate; the valve's memory of :func:`hidden_states`;
+    the other valve and fluid states at rest (covered by the warm-up)."""
     fa = _model()
     y = fa.rest_state(p)
     f = m.get("f", 0.0)
     y[fa.XS] = f / p.sensor_stiffness
+    _valve_memory(fa, y, m)
     if p.load_stiffness > 0:
         y[fa.XP] = 0.5 * p.stroke + f / p.load_stiffness
         y[fa.VP] = m.get("v", 0.0) / p.load_stiffness
@@ -76,7 +103,7 @@ def _reference_centre(p):
 
 def _hysteresis(source):
     return dict(
-        parameters=(dict(field="hysteresis_width", bounds=(1e-3, 0.3), start=0.03, draw=(0.04, 0.10)),),
+        parameters=(dict(field="hysteresis_width", bounds=(1e-3, 0.3), start=0.03, draw=(0.04, 0.07)),),
         null={"hysteresis_width": 0.0}, source=source)
 
 
@@ -90,7 +117,7 @@ BASES = {
     "force_actuator": dict(
         base_fit=("sensor_damping", "valve_offset"),
         noise={"f": 2.0, "i": 0.0},  # 0.15 % of the 1340 N range
-        initial_state=blocked_initial_state, controller=open_loop_current,
+        initial_state=blocked_initial_state, controller=open_loop_current, hidden_states=hidden_states,
         position_channel="f", position_state="xs", output_functions={"f": sensed_force}, reference_centre=_reference_centre,
         # random-phase multisine 2-150 Hz, 16 lines (below eq (8)'s resonances)
         multisine=(2.0, 150.0, 16), sample_time=2e-4,
@@ -116,7 +143,7 @@ BASES = {
         # model has (like the cylinders' viscous friction), so it is calibrated in the base
         base_fit=("valve_offset", "damping_linear", "load_stiffness"),
         noise={"f": 2.0, "i": 0.0},  # 0.15 % of the 1340 N range
-        initial_state=load_initial_state, controller=open_loop_current,
+        initial_state=load_initial_state, controller=open_loop_current, hidden_states=hidden_states,
         position_channel="f", position_state="xs", output_functions={"f": sensed_force}, reference_centre=_reference_centre,
         # random-phase multisine 1-60 Hz, 14 lines: drives the load through its 16 Hz mode at
         # piston speeds up to and past eq (5)'s knee velocities

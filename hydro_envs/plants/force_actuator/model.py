@@ -140,6 +140,7 @@ __all__ = [
     "sensor_natural_frequency",
     "rest_state",
     "measured_force",
+    "valve_memory_track",
 ]
 
 N_PLAY = 6
@@ -517,6 +518,37 @@ def stiffness_modes(params: ForceActuatorParams) -> dict[str, float]:
             + math.sqrt(c_d * params.damping_filter_frequency / mp)
         )
     return modes
+
+
+@nb.njit(cache=True, error_model="numpy")
+def valve_memory_track(current, dt, rated_current, width, reversal_slope):
+    """Coil current (fraction of ``rated_current``) and the hysteresis play memories at every
+    sample of a record, from a demagnetised valve at rest at its start.
+
+    ``current[k]`` [A] is held over ``[t_k, t_k + dt)`` (zero-order hold, as the kernel's input);
+    row ``k`` of the result is the state at ``t_k``, before ``current[k]`` acts. The coil pole
+    of eq (7) is integrated exactly; within a hold the coil current moves monotonically, so
+    updating the plays with its end value is exact (the guard's rule). Returns ``(ic (n,),
+    h (n, N_PLAY))``; these states remember the whole input history (thresholds up to
+    ``pi_threshold_scale(width, reversal_slope)`` of rated current), which a short simulation
+    warm-up cannot rebuild.
+    """
+    n = current.shape[0]
+    ic_out = np.empty(n)
+    h_out = np.empty((n, N_PLAY))
+    big_r = pi_threshold_scale(width, reversal_slope, N_PLAY)
+    decay = math.exp(-VALVE_A * dt)
+    ic = 0.0
+    h = np.zeros(N_PLAY)
+    for k in range(n):
+        ic_out[k] = ic
+        for j in range(N_PLAY):
+            h_out[k, j] = h[j]
+        u = current[k] / rated_current
+        ic = u + (ic - u) * decay
+        for j in range(N_PLAY):
+            h[j] = play_operator(h[j], ic, big_r * (j + 1) / N_PLAY)
+    return ic_out, h_out
 
 
 def rest_state(params: ForceActuatorParams, x_piston: float | None = None) -> np.ndarray:
