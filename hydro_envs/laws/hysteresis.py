@@ -32,8 +32,9 @@ Model (input ``u`` and output in the same normalised unit, ``n`` plays)::
 from __future__ import annotations
 
 import numba as nb
+import numpy as np
 
-__all__ = ["play_operator", "pi_threshold_scale", "pi_output"]
+__all__ = ["play_operator", "pi_threshold_scale", "pi_output", "pi_memories"]
 
 
 @nb.njit(cache=True, error_model="numpy")
@@ -76,3 +77,19 @@ def pi_output(u, memory, width, reversal_slope):
     for k in range(n):
         y += w * play_operator(memory[k], u, big_r * (k + 1) / n)
     return y
+
+
+@nb.njit(cache=True, error_model="numpy")
+def pi_memories(u, width, reversal_slope, n):
+    """Memories of the ``n`` plays of the Prandtl-Ishlinskii model after each sample of the
+    input sequence ``u`` (demagnetised start, all memories 0): row ``k`` after ``u[k]``.
+
+    Exact when the input is monotone between samples (each update is a projection)."""
+    big_r = pi_threshold_scale(width, reversal_slope, n)
+    out = np.empty((u.shape[0], n))
+    h = np.zeros(n)
+    for k in range(u.shape[0]):
+        for j in range(n):
+            h[j] = play_operator(h[j], u[k], big_r * (j + 1) / n)
+            out[k, j] = h[j]
+    return out

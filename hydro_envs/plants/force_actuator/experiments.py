@@ -65,6 +65,7 @@ import numpy as np
 
 from hydro_envs.data.measured import write_measured
 from hydro_envs.excitation import prbs
+from hydro_envs.laws.hysteresis import pi_memories
 from hydro_envs.plants.force_actuator import model as fa
 from hydro_envs.plants.force_actuator.spec import SPEC as _SPEC
 from hydro_envs.sim.simulate import simulate
@@ -115,21 +116,16 @@ def quasi_static_force(params: fa.ForceActuatorParams, currents: np.ndarray) -> 
     (orifice-law solve, sec. 3.1). Friction is not included. Returns ``(force [N], xi)``."""
     p = params
     n = fa.N_PLAY
-    big_r = fa.pi_threshold_scale(p.hysteresis_width, p.hysteresis_reversal_slope, n)
     w = (1.0 - p.hysteresis_reversal_slope) / n
     g0 = valve_dc_gain()
     a2 = p.bore_area - p.rod_area
     out = np.empty(len(currents))
-    xis = np.empty(len(currents))
-    radii = [big_r * (j + 1) / n for j in range(n)]
-    mem = [0.0] * n
     u_all = np.asarray(currents, dtype=float) / p.rated_current
-    for k, u in enumerate(u_all.tolist()):
-        xt = p.hysteresis_reversal_slope * u
-        for j in range(n):  # play operator clamp(h, u - r, u + r) (laws.hysteresis.play_operator)
-            mem[j] = min(max(mem[j], u - radii[j]), u + radii[j])
-            xt += w * mem[j]
-        xis[k] = g0 * xt + p.valve_offset
+    mem = pi_memories(u_all, p.hysteresis_width, p.hysteresis_reversal_slope, n)
+    xt = p.hysteresis_reversal_slope * u_all
+    for j in range(n):
+        xt = xt + w * mem[:, j]
+    xis = g0 * xt + p.valve_offset
     for k in range(len(xis)):
         out[k] = fa.static_force(xis[k], p.supply_pressure, p.bore_area, a2)
     return out, xis

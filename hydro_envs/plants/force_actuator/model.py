@@ -115,10 +115,11 @@ import math
 
 import numba as nb
 import numpy as np
+from scipy import signal
 
 from hydro_envs.laws.contact import end_stop_force
 from hydro_envs.laws.friction import dahl_friction_rate
-from hydro_envs.laws.hysteresis import pi_threshold_scale, play_operator
+from hydro_envs.laws.hysteresis import pi_memories, pi_threshold_scale, play_operator
 from hydro_envs.plants.force_actuator.params import (  # noqa: F401  (re-exported)
     ForceActuatorParams, I_A1, I_AR, I_ASTOP, I_BS, I_DA, I_DG, I_DK, I_DLIN, I_DV, I_FC, I_FLOAD,
     I_FMOD, I_FSE, I_FSR, I_HR, I_HW, I_IMAX, I_IR, I_KL, I_KS, I_KSTOP, I_L, I_LOCK, I_M, I_ML,
@@ -520,35 +521,25 @@ def stiffness_modes(params: ForceActuatorParams) -> dict[str, float]:
     return modes
 
 
-@nb.njit(cache=True, error_model="numpy")
 def valve_memory_track(current, dt, rated_current, width, reversal_slope):
     """Coil current (fraction of ``rated_current``) and the hysteresis play memories at every
     sample of a record, from a demagnetised valve at rest at its start.
 
     ``current[k]`` [A] is held over ``[t_k, t_k + dt)`` (zero-order hold, as the kernel's input);
     row ``k`` of the result is the state at ``t_k``, before ``current[k]`` acts. The coil pole
-    of eq (7) is integrated exactly; within a hold the coil current moves monotonically, so
-    updating the plays with its end value is exact (the guard's rule). Returns ``(ic (n,),
-    h (n, N_PLAY))``; these states remember the whole input history (thresholds up to
-    ``pi_threshold_scale(width, reversal_slope)`` of rated current), which a short simulation
-    warm-up cannot rebuild.
+    of eq (7) is integrated exactly (a first-order recursion); within a hold the coil current
+    moves monotonically, so updating the plays with its end value is exact (the guard's rule).
+    Returns ``(ic (n,), h (n, N_PLAY))``; these states remember the whole input history
+    (thresholds up to ``pi_threshold_scale(width, reversal_slope)`` of rated current), which a
+    short simulation warm-up cannot rebuild.
     """
-    n = current.shape[0]
-    ic_out = np.empty(n)
-    h_out = np.empty((n, N_PLAY))
-    big_r = pi_threshold_scale(width, reversal_slope, N_PLAY)
     decay = math.exp(-VALVE_A * dt)
-    ic = 0.0
-    h = np.zeros(N_PLAY)
-    for k in range(n):
-        ic_out[k] = ic
-        for j in range(N_PLAY):
-            h_out[k, j] = h[j]
-        u = current[k] / rated_current
-        ic = u + (ic - u) * decay
-        for j in range(N_PLAY):
-            h[j] = play_operator(h[j], ic, big_r * (j + 1) / N_PLAY)
-    return ic_out, h_out
+    u = np.asarray(current, dtype=np.float64) / rated_current
+    ic_end = signal.lfilter([1.0 - decay], [1.0, -decay], u)  # coil current at the end of each hold
+    h_end = pi_memories(ic_end, width, reversal_slope, N_PLAY)
+    ic = np.concatenate(([0.0], ic_end[:-1]))
+    h = np.vstack((np.zeros((1, N_PLAY)), h_end[:-1]))
+    return ic, h
 
 
 def rest_state(params: ForceActuatorParams, x_piston: float | None = None) -> np.ndarray:
