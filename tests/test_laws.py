@@ -86,6 +86,21 @@ def test_every_public_function_is_numba_compiled():
 # ---------------------------------------------------------------------------------------
 # friction
 # ---------------------------------------------------------------------------------------
+def test_tanh_one_exp_matches_libm_tanh():
+    x = np.concatenate([np.linspace(-25.0, 25.0, 20001), np.geomspace(1e-300, 30.0, 2000)])
+    x = np.concatenate([x, -x])
+    got = np.array([laws.tanh_one_exp(v) for v in x])
+    want = np.tanh(x)
+    assert np.max(np.abs(got - want)) <= 4.5e-16  # absolute error, every x
+    big = np.abs(x) >= 0.5
+    assert np.max(np.abs(got[big] - want[big]) / np.abs(want[big])) <= 1e-15  # a few ulp away from 0
+    assert np.max(np.abs(got + np.array([laws.tanh_one_exp(-v) for v in x]))) <= 4.5e-16  # odd
+    assert laws.tanh_one_exp(0.0) == 0.0
+    assert laws.tanh_one_exp(1e300) == 1.0 and laws.tanh_one_exp(-1e300) == -1.0  # no overflow
+    assert math.isnan(laws.tanh_one_exp(float("nan")))
+    assert np.all(np.abs(got) <= 1.0)
+
+
 def test_tanh_sign_and_coulomb():
     # tanh(1) = 0.7615941559557649
     assert tanh_sign(1e-3, 1e-3) == pytest.approx(0.7615941559557649, rel=1e-12)

@@ -78,6 +78,9 @@ hysteresis (:mod:`hydro_envs.laws.hysteresis`)
     pi_threshold_scale(width, reversal_slope, n)      major-loop width -> play thresholds
     pi_output(u, memory, width, reversal_slope)       Prandtl-Ishlinskii output
 
+elementary (:mod:`hydro_envs.laws.elementary`)
+    tanh_one_exp(x)                                   tanh from one exp (hot loops; abs. error <= 2e-16)
+
 viscosity (:mod:`hydro_envs.laws.viscosity`)
     iso_vg_kinematic_viscosity(grade, temperature_c)  ISO 3448 + ASTM D341 + D2270 (VI 100)
     vi100_viscosity_at_100c(nu40_cst)                 ASTM D2270 H column (mm^2/s helper)
@@ -142,6 +145,7 @@ from hydro_envs.laws.hysteresis import pi_output, pi_threshold_scale, play_opera
 from hydro_envs.laws.valve import saturate, second_order_valve_acceleration
 from hydro_envs.laws.bulk_modulus_fast import ifas_bulk_modulus_fast
 from hydro_envs.laws.filters import backward_difference, sos_filter_step
+from hydro_envs.laws.elementary import tanh_one_exp
 from hydro_envs.laws.viscosity import (
     dynamic_viscosity,
     iso_vg_kinematic_viscosity,
@@ -184,6 +188,8 @@ __all__ = [
     "modified_ifas_bulk_modulus",
     "fluid_density",
     "ifas_bulk_modulus_fast",
+    # elementary
+    "tanh_one_exp",
     # filters
     "sos_filter_step",
     "backward_difference",

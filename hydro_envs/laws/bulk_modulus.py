@@ -53,6 +53,8 @@ import math
 
 import numba
 
+from hydro_envs.laws.elementary import tanh_one_exp
+
 
 @numba.njit(cache=True)
 def constant_bulk_modulus(p, e0):
@@ -114,7 +116,7 @@ def modified_ifas_shape(p_a, p_b, lambda_1, lambda_2, mu, p_lt):
     Source: ``003_54985feb8193da53.txt`` eq (19).
     """
     d = p_a - p_b
-    return lambda_1 - lambda_2 * (math.tanh(mu * (d + p_lt)) - math.tanh(mu * (d - p_lt)))
+    return lambda_1 - lambda_2 * (tanh_one_exp(mu * (d + p_lt)) - tanh_one_exp(mu * (d - p_lt)))
 
 
 @numba.njit(cache=True)

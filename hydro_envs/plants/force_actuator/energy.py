@@ -7,10 +7,9 @@ re-integrates a batch step with the energy terms.
 
 from __future__ import annotations
 
-import math
-
 import numba as nb
 
+from hydro_envs.laws.friction import tanh_sign
 from hydro_envs.plants.force_actuator import model as fa
 from hydro_envs.plants.force_actuator.model import force_actuator_guard as guard
 from hydro_envs.plants.force_actuator.model import force_actuator_rhs as rhs
@@ -44,7 +43,7 @@ def mech_terms(y, p):
     d_sensor = p[fa.I_BS] * vs * vs
     if p[fa.I_FMOD] > 0.5:  # static friction curve g(v) tanh(v / v_eps): memoryless, passive
         g = fa.stiction_level(vrel, p[fa.I_FC], p[fa.I_FSR], p[fa.I_FSE], p[fa.I_VS])
-        d_f = g * math.tanh(vrel / p[fa.I_VEPS]) * vrel
+        d_f = g * tanh_sign(vrel, p[fa.I_VEPS]) * vrel
         p_in = (y[fa.R0 + 4] - f_damp) * vrel
     else:  # Dahl friction state (pre-sliding storage): a port
         d_f = 0.0

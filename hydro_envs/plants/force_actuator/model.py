@@ -118,7 +118,8 @@ import numpy as np
 from scipy import signal
 
 from hydro_envs.laws.contact import end_stop_force
-from hydro_envs.laws.friction import dahl_friction_rate
+from hydro_envs.laws.elementary import tanh_one_exp
+from hydro_envs.laws.friction import dahl_friction_rate, tanh_sign
 from hydro_envs.laws.hysteresis import pi_memories, pi_threshold_scale, play_operator
 from hydro_envs.plants.force_actuator.params import (  # noqa: F401  (re-exported)
     ForceActuatorParams, I_A1, I_AR, I_ASTOP, I_BS, I_DA, I_DG, I_DK, I_DLIN, I_DV, I_FC, I_FLOAD,
@@ -331,7 +332,7 @@ def hydraulic_damping(xi, v, a_sat, v_max, kappa, c_lin):
     phi = _PHI0 + (1.0 - _PHI0) * a
     vk = v_max * phi
     av = abs(v)
-    f = a_sat * phi * (math.tanh(kappa * (av / vk - 1.0)) + math.tanh(kappa))
+    f = a_sat * phi * (tanh_one_exp(kappa * (av / vk - 1.0)) + tanh_one_exp(kappa))
     if v < 0.0:
         f = -f
     return f + c_lin * v
@@ -400,7 +401,7 @@ def force_actuator_rhs(y, u, p, dy):
     f_stop = end_stop_force(q, vrel, 0.0, p[I_L], p[I_KSTOP], p[I_ASTOP])
     g = stiction_level(vrel, p[I_FC], p[I_FSR], p[I_FSE], p[I_VS])
     static = p[I_FMOD] > 0.5
-    f_fric = g * math.tanh(vrel / p[I_VEPS]) if static else y[FF]
+    f_fric = g * tanh_sign(vrel, p[I_VEPS]) if static else y[FF]
     f_h = f_fluid - f_damp - f_fric + f_stop
     dy[XS] = y[VS]
     dy[VS] = (f_h - p[I_BS] * y[VS] - p[I_KS] * y[XS]) / p[I_M]  # (2)

@@ -7,11 +7,9 @@ re-integrates a batch step with the energy terms.
 
 from __future__ import annotations
 
-import math
-
 import numba as nb
 
-from hydro_envs.laws.friction import stribeck_exponential
+from hydro_envs.laws.friction import stribeck_exponential, tanh_sign
 from hydro_envs.plants.servo_cylinder import model as sc
 from hydro_envs.plants.servo_cylinder.model import servo_cylinder_guard as guard
 from hydro_envs.plants.servo_cylinder.model import servo_cylinder_rhs as rhs
@@ -30,7 +28,7 @@ def mech_terms(y, p):
     x = y[sc.X]
     v = y[sc.V]
     dp = y[sc.P1] - y[sc.P2]
-    level = 1.0 + p[sc.I_FASYM] * math.tanh(v / p[sc.I_VEPS])
+    level = 1.0 + p[sc.I_FASYM] * tanh_sign(v, p[sc.I_VEPS])
     f_add = p[sc.I_FPC] * abs(dp)
     ff = stribeck_exponential(
         v, level * (p[sc.I_FC] + f_add), level * (p[sc.I_FS] + f_add), p[sc.I_VS], p[sc.I_D], p[sc.I_VEPS]

@@ -70,7 +70,7 @@ import numba as nb
 import numpy as np
 
 from hydro_envs.laws.contact import end_stop_force
-from hydro_envs.laws.friction import stribeck_exponential
+from hydro_envs.laws.friction import stribeck_exponential, tanh_sign
 from hydro_envs.laws.orifice import orifice_flow, spool_edge_opening, supply_pressure_at_flow
 from hydro_envs.laws.valve import second_order_valve_acceleration
 from hydro_envs.plants.servo_cylinder.params import (  # noqa: F401  (indices re-exported)
@@ -164,7 +164,7 @@ def servo_cylinder_rhs(y, u, p, dy):
         dp2 = 0.0
 
     # (1), (7); levels scaled by direction (asymmetry) and raised by the seal pressure
-    level = (1.0 + p[I_FASYM] * math.tanh(v / p[I_VEPS]))
+    level = 1.0 + p[I_FASYM] * tanh_sign(v, p[I_VEPS])
     f_add = p[I_FPC] * abs(p1 - p2)
     f_friction = stribeck_exponential(
         v, level * (p[I_FC] + f_add), level * (p[I_FS] + f_add), p[I_VS], p[I_D], p[I_VEPS]
