@@ -115,7 +115,6 @@ import math
 
 import numba as nb
 import numpy as np
-from scipy import signal
 
 from hydro_envs.laws.contact import end_stop_force
 from hydro_envs.laws.elementary import tanh_one_exp
@@ -534,6 +533,8 @@ def valve_memory_track(current, dt, rated_current, width, reversal_slope):
     (thresholds up to ``pi_threshold_scale(width, reversal_slope)`` of rated current), which a
     short simulation warm-up cannot rebuild.
     """
+    from scipy import signal  # here: importing scipy.signal at module level costs every env process ~0.7 s
+
     decay = math.exp(-VALVE_A * dt)
     u = np.asarray(current, dtype=np.float64) / rated_current
     ic_end = signal.lfilter([1.0 - decay], [1.0, -decay], u)  # coil current at the end of each hold
