@@ -118,6 +118,7 @@ import numpy as np
 
 from hydro_envs.laws.contact import end_stop_force
 from hydro_envs.laws.elementary import tanh_one_exp
+from hydro_envs.laws.filters import lfilter_from_rest
 from hydro_envs.laws.friction import dahl_friction_rate, tanh_sign
 from hydro_envs.laws.hysteresis import pi_memories, pi_threshold_scale, play_operator
 from hydro_envs.plants.force_actuator.params import (  # noqa: F401  (re-exported)
@@ -533,11 +534,10 @@ def valve_memory_track(current, dt, rated_current, width, reversal_slope):
     (thresholds up to ``pi_threshold_scale(width, reversal_slope)`` of rated current), which a
     short simulation warm-up cannot rebuild.
     """
-    from scipy import signal  # here: importing scipy.signal at module level costs every env process ~0.7 s
-
     decay = math.exp(-VALVE_A * dt)
     u = np.asarray(current, dtype=np.float64) / rated_current
-    ic_end = signal.lfilter([1.0 - decay], [1.0, -decay], u)  # coil current at the end of each hold
+    # coil current at the end of each hold (scipy.signal.lfilter's recursion, bit for bit)
+    ic_end = lfilter_from_rest(np.array([1.0 - decay, 0.0]), np.array([1.0, -decay]), u)
     h_end = pi_memories(ic_end, width, reversal_slope, N_PLAY)
     ic = np.concatenate(([0.0], ic_end[:-1]))
     h = np.vstack((np.zeros((1, N_PLAY)), h_end[:-1]))
