@@ -272,8 +272,10 @@ def null_pressure(params: ShakingTableParams) -> float:
 
     p = params.to_array()
 
+    flows = valve_flows.py_func  # the same arithmetic; a compiled copy would cost an env's reset 0.3 s
+
     def residual(pr: float) -> float:
-        qa, _ = valve_flows(0.0, pr, pr, p)
+        qa, _ = flows(0.0, pr, pr, p)
         return qa - params.external_leakage * (pr - params.tank_pressure)
 
     lo, hi = params.tank_pressure, params.supply_pressure
