@@ -14,7 +14,8 @@ Prints (no pass/fail; targets from the foundation issue in brackets):
   M env-steps/s, RK4 sub-steps per step (mean over copies), and the share of the step spent in
   the compiled integration call, in ``apply_actions`` + ``observe`` (inputs, observation and
   reward), and in the remaining Python (action checks, info dicts, autoreset), each timed with
-  ``time.perf_counter`` around that phase
+  ``time.perf_counter`` around that phase; the stiffness mode that sets most copies' sub-step
+  count ("set by") and the mean count the copies would need without it ("next")
 
 Usage: ``python bench/step_rate.py [--quick] [--profile] [--env ID ...]``. Timings are the best of ``--repeats`` runs.
 """
@@ -113,17 +114,37 @@ def profile_split(env_id: str, n: int, steps: int) -> dict[str, float]:
         "observe": spent["observe"] / steps,
         "python": (total - spent["kernel"] - spent["observe"]) / steps,
         "n_sub": float(np.mean(b.NSUB)),
+        **_substep_modes(b),
     }
+
+
+def _substep_modes(b) -> dict[str, object]:
+    """The stiffness mode that sets most copies' sub-step count, and the mean sub-step count
+    the copies would need without their setting mode (what treating it otherwise could save)."""
+    from collections import Counter
+
+    from hydro_envs.sim.stiffness import substeps_from_stiffness
+
+    names, without = Counter(), []
+    for p in b.params:
+        modes = dict(b.plant.stiffness_modes(p))
+        _, _, name = substeps_from_stiffness(modes, b.dt, b.safety)
+        names[name] += 1
+        modes.pop(name)
+        without.append(substeps_from_stiffness(modes, b.dt, b.safety)[0] if modes else 1)
+    return {"set_by": names.most_common(1)[0][0], "n_sub_next": float(np.mean(without))}
 
 
 def print_profile(env_ids: list[str], n: int, steps: int, repeats: int) -> None:
     print(f"profile of one {n}-copy vector step (best of {repeats}, {steps} steps after warm-up)")
-    head = f"{'env id':<44} {'M steps/s':>9} {'sub-steps':>9} {'step us':>8} {'kernel':>7} {'obs+rew':>7} {'python':>7}"
+    head = (f"{'env id':<42} {'M steps/s':>9} {'sub-steps':>9} {'step us':>7} {'kernel':>6} {'obs+rew':>7} "
+            f"{'python':>6}  {'set by':<12} {'next':>4}")
     print(head)
     for env_id in env_ids:
         r = min((profile_split(env_id, n, steps) for _ in range(repeats)), key=lambda r: r["step"])
-        print(f"{env_id:<44} {r['rate'] / 1e6:>9.2f} {r['n_sub']:>9.2f} {r['step'] * 1e6:>8.0f} "
-              f"{r['kernel'] / r['step']:>7.0%} {r['observe'] / r['step']:>7.0%} {r['python'] / r['step']:>7.0%}")
+        print(f"{env_id:<42} {r['rate'] / 1e6:>9.2f} {r['n_sub']:>9.2f} {r['step'] * 1e6:>7.0f} "
+              f"{r['kernel'] / r['step']:>6.0%} {r['observe'] / r['step']:>7.0%} {r['python'] / r['step']:>6.0%}  "
+              f"{r['set_by']:<12} {r['n_sub_next']:>4.1f}")
 
 
 def kernel_time_per_substep(n: int, steps: int) -> tuple[float, float]:
