@@ -160,6 +160,17 @@ def _friction_rate(v, f, p=NOMINAL):
     return dy[fa.FF]
 
 
+def test_hydraulic_damping_is_zero_at_rest_and_odd_in_velocity():
+    """001 eq (5) as modelled: no damping force without motion, and F_d(-v) = -F_d(v) exactly."""
+    p = ForceActuatorParams()
+    args = (p.damping_force_scale, p.damping_knee_velocity, p.damping_sharpness, p.damping_linear)
+    for xi in (-1.2, -0.4, 0.0, 0.3, 1.0):
+        assert fa.hydraulic_damping(xi, 0.0, *args) == 0.0
+        for v in (1e-9, 1e-4, 0.01, 0.3, 3.0):
+            f = fa.hydraulic_damping(xi, v, *args)
+            assert f > 0.0 and fa.hydraulic_damping(xi, -v, *args) == -f
+
+
 def test_dahl_steady_state_is_coulomb_when_sliding_and_stiction_near_rest():
     for v, level in ((0.1, 26.0), (-0.1, -26.0), (1e-5, 54.0), (-1e-5, -99.0)):
         t_end = 5000 * level / (NOMINAL.friction_stiffness * abs(v))  # 5000 pre-sliding lengths
