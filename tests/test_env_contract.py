@@ -7,7 +7,8 @@ seed ``s`` equals a single env reset with ``s + i``; a pickled or deep-copied en
 exactly as the original; NaN/inf actions raise ``ValueError`` naming the action. For one env
 per plant (:data:`hydro_envs.soak.SOAK_ENVS`) a short soak finds no energy created, and per
 plant the vector env's threaded step kernel advances uneven blocks of copies exactly as the
-serial loop does.
+serial loop does. A fresh process that makes, resets and steps every env id has imported
+neither ``scipy.signal`` nor ``scipy.stats``.
 """
 
 from __future__ import annotations
