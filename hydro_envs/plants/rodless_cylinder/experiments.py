@@ -24,7 +24,7 @@ from hydro_envs.plants.rodless_cylinder.spec import SPEC
 from hydro_envs.sim.simulate import simulate
 from hydro_envs.sim.stiffness import substeps_from_stiffness
 
-__all__ = ["constant_command_run", "small_signal_response", "closed_loop_m_sequence"]
+__all__ = ["constant_command_run", "small_signal_response", "closed_loop_m_sequence", "friction_compensation_gains"]
 
 
 def constant_command_run(params: RodlessCylinderParams, command: float, *, dt: float = 1e-3,
@@ -117,6 +117,7 @@ def closed_loop_m_sequence(
     periods: int = 2,
     position_noise_std: float = 0.0,
     seed: int | None = 0,
+    friction_compensation: bool = False,
 ) -> dict[str, np.ndarray]:
     """004 sec. 4.2 on the rodless cylinder: a proportional position loop holds the slider at
     mid-stroke, ``u = u_c + kp (r - y_m) + m(t)`` with the M-sequence ``m`` (``+-amplitude`` V,
@@ -124,12 +125,18 @@ def closed_loop_m_sequence(
     controller output ("the input signal is the superposition of the controller output signal
     and M-sequence signal"); ``u`` is clipped to 0..command_max and held over ``dt``.
 
-    Returns ``t, u`` [V] (the valve command, the ARX input), ``y`` [m] (measured position,
-    the ARX output; white noise ``position_noise_std`` from ``default_rng(seed)``), ``y_true``
-    and ``m``. The sample time of eq (32) is not printed; 10 ms (the default) puts our
+    Returns ``t, u`` [V] (the ARX input), ``u_valve`` [V] (the command the valve gets; ``u``
+    itself without compensation), ``y`` [m] (measured position, the ARX output; white noise
+    ``position_noise_std`` from ``default_rng(seed)``), ``y_true`` and ``m``. The sample time of eq (32) is not printed; 10 ms (the default) puts our
     plant's 25 Hz mid-stroke resonance at the angle of eq (32)'s complex pair (1.2 rad,
     i.e. about 20 Hz at 10 ms). ``y[k]`` is sampled before ``u[k]`` is applied, so the loop
     has the one-sample delay direct identification needs (arx module docstring).
+
+    ``friction_compensation``: 004 sec. 4.1 adds friction compensation to the loop (Fig. 11)
+    without printing it. This option adds one: the Table 2 curve at the backward-difference
+    velocity of the measured position, turned into a valve command by eq (27)
+    (:func:`friction_compensation_gains`). ``u`` is then the controller output plus the
+    M-sequence (the compensation is inside the identified system, as in Fig. 11).
     """
     kernels = SPEC.kernels
     p = params if params is not None else RodlessCylinderParams()
@@ -148,11 +155,34 @@ def closed_loop_m_sequence(
     noise = position_noise_std * rng.standard_normal(n) if position_noise_std > 0 else np.zeros(n)
     ref = 0.5 * p.stroke
     u = np.empty(n)
+    u_valve = np.empty(n)
     y_true = np.empty(n)
+    static, dynamic = friction_compensation_gains(p)
+    f_prev = 0.0
     for k in range(n):
         y_true[k] = Y[0, rc.Y]
-        u[k] = min(max(p.command_centre + kp * (ref - (y_true[k] + noise[k])) + m[k], 0.0), p.command_max)
-        U[0, 0] = u[k]
+        y_m = y_true[k] + noise[k]
+        comp = 0.0
+        if friction_compensation and k > 0:
+            f = float(rc.steady_friction(p, (y_m - y_true[k - 1] - noise[k - 1]) / dt))  # Table 2 curve
+            comp = static * f + dynamic * (f - f_prev) / dt
+            f_prev = f
+        u_ctrl = p.command_centre + kp * (ref - y_m) + m[k]
+        u_valve[k] = min(max(u_ctrl + comp, 0.0), p.command_max)
+        u[k] = u_valve[k] if not friction_compensation else u_ctrl
+        U[0, 0] = u_valve[k]
         kernels.step_serial(Y, U, P, dt, nsub, W, clamps)
-    return {"t": np.arange(n) * dt, "u": u, "y": y_true + noise, "y_true": y_true, "m": m,
+    return {"t": np.arange(n) * dt, "u": u, "u_valve": u_valve, "y": y_true + noise, "y_true": y_true, "m": m,
             "clamps": np.array(int(clamps[0]))}
+
+
+def friction_compensation_gains(params: RodlessCylinderParams) -> tuple[float, float]:
+    """Valve command per newton of friction to cancel, ``(static [V/N], dynamic [V s/N])``.
+
+    004 eq (27): a force ``F`` enters the position response as the spool opening
+    ``F (c2 + V0/(R T_s kappa) s) / (2 c1 A)``; over the valve gain ``k_v`` (eq (28)) that is
+    ``static F + dynamic dF/dt``. c1, c2, V0 at mid-stroke (:func:`~.model.linearize_mid_stroke`).
+    """
+    lin = linearize_mid_stroke(params)
+    per_newton = 1.0 / (2.0 * lin.c1 * lin.area * lin.k_v)
+    return lin.c2 * per_newton, lin.v0 / (lin.rt * lin.kappa) * per_newton
