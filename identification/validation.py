@@ -39,6 +39,9 @@ EQ32_DT = 0.01
 EQ32_KP = 50.0
 EQ32_AMPLITUDE = 0.3
 EQ32_NOISE = 5e-6
+#: a small M-sequence amplitude [V]: the piston's travel stays within the bristles' pre-sliding
+#: deflection
+SMALL_AMPLITUDE = 0.05
 #: a moving mass [kg] near the one at which the linear model (eqs (19)-(24)) with Table 2's
 #: viscous friction has eq (32)'s damping (about 21 kg)
 HEAVY_MASS = 20.0
@@ -67,18 +70,19 @@ def _split(poles: np.ndarray) -> tuple[complex, complex, complex]:
 
 
 def rodless_eq32_poles(params: RodlessCylinderParams | None = None, *, dt: float = EQ32_DT,
-                       friction_compensation: bool = False) -> dict:
+                       amplitude: float = EQ32_AMPLITUDE, friction_compensation: bool = False) -> dict:
     """The 004 sec. 4.2 procedure on the rodless model: poles, damping of the non-integrator
     pair and gain per sample [mm/V] of the ARX(3, 3, 1) fit (least squares, position in mm,
-    command about its centre), the integrator pole's standard error, guard clamps and whether
-    the valve command saturated."""
+    command about its centre), the integrator pole's standard error, the peak-to-peak travel
+    [m], guard clamps and whether the valve command saturated."""
     p = params if params is not None else RodlessCylinderParams()
-    d = closed_loop_m_sequence(p, dt=dt, kp=EQ32_KP, amplitude=EQ32_AMPLITUDE,
+    d = closed_loop_m_sequence(p, dt=dt, kp=EQ32_KP, amplitude=amplitude,
                                position_noise_std=EQ32_NOISE, seed=0, friction_compensation=friction_compensation)
     y_mm = (d["y"] - d["y"].mean()) * 1e3
     m = fit_arx(y_mm, d["u"] - p.command_centre, SEED_004_EQ32["na"], SEED_004_EQ32["nb"], SEED_004_EQ32["nk"], dt=dt)
     out = _summary(m.poles, m.b)
     out["integrator_se"] = _real_pole_se(m, out["integrator"])
+    out["travel"] = float(np.ptp(d["y_true"]))
     out["clamps"] = int(d["clamps"])
     out["saturated"] = bool(np.any((d["u_valve"] <= 0.0) | (d["u_valve"] >= p.command_max)))
     return out
@@ -109,6 +113,12 @@ def _fmt(poles: np.ndarray) -> str:
     return ", ".join(out)
 
 
+def _others(poles: np.ndarray) -> np.ndarray:
+    """The poles besides the one nearest z = 1."""
+    _, z1, z2 = _split(np.asarray(poles, dtype=complex))
+    return np.array([z1, z2])
+
+
 def _zeta(summary: dict) -> str:
     z = summary["zeta"]
     return f"{z:.2f}" if math.isfinite(z) else f"none (poles {_fmt(summary['poles'])}: a negative real pole)"
@@ -127,6 +137,9 @@ def rows() -> list[ValidationRow]:
     slower = rodless_eq32_poles(nominal, dt=2.0 * EQ32_DT)
     heavy = rodless_eq32_poles(dataclasses.replace(nominal, mass=HEAVY_MASS))
     compensated = rodless_eq32_poles(nominal, friction_compensation=True)
+    small = rodless_eq32_poles(nominal, amplitude=SMALL_AMPLITUDE)
+    small_fast = rodless_eq32_poles(nominal, amplitude=SMALL_AMPLITUDE, dt=0.2 * EQ32_DT)
+    presliding = (nominal.coulomb_friction / nominal.bristle_stiffness, nominal.static_friction / nominal.bristle_stiffness)
     linear = damping_with_viscous_friction(linearize_mid_stroke(nominal), nominal.viscous_friction)
     procedure = (
         f"004 sec. 4.2 on the nominal model: P loop ({EQ32_KP:g} V/m) at mid-stroke, +-{EQ32_AMPLITUDE:g} V "
@@ -161,12 +174,21 @@ def rows() -> list[ValidationRow]:
                 f"004 eq (32): the pair {_fmt(seed['poles'][np.abs(seed['poles'].imag) > 0])}, "
                 "zeta = -(ln z1 + ln z2)/(2 sqrt(ln z1 ln z2)) (no sample time needed). "
                 f"{procedure}: the two poles besides the integrator are {_kind(model['poles'])}. "
-                f"Not explained by the unprinted details: {_zeta(faster)} / {_zeta(slower)} at "
-                f"{0.5 * EQ32_DT * 1e3:g} / {2 * EQ32_DT * 1e3:g} ms, {_zeta(heavy)} with a "
-                f"{HEAVY_MASS:g} kg moving mass (004 prints none; the model assumes "
+                "The unprinted details do not explain it: the damping is "
+                f"{_zeta(faster)} at {0.5 * EQ32_DT * 1e3:g} ms and {_zeta(slower)} at {2 * EQ32_DT * 1e3:g} ms, "
+                f"{_zeta(heavy)} with a {HEAVY_MASS:g} kg moving mass (004 prints none; the model assumes "
                 f"{nominal.mass:g} kg), and with friction compensation in the loop (sec. 4.1 says the loop "
                 "had one and does not print it; here the Table 2 curve at the measured velocity through "
-                f"eq (27)) the poles are {_fmt(compensated['poles'])}. The linear model (eqs (19)-(24)) with "
+                f"eq (27)) the poles are {_fmt(compensated['poles'])}. At +-{SMALL_AMPLITUDE:g} V the piston "
+                f"travels {small['travel'] * 1e6:.0f} um peak to peak "
+                f"({'within' if 0.5 * small['travel'] <= presliding[1] else 'beyond'} the assumed LuGre bristles' "
+                f"pre-sliding deflection of {presliding[0] * 1e6:.0f}-{presliding[1] * 1e6:.0f} um) and the other "
+                f"poles are {_fmt(_others(small['poles']))}, damping {_zeta(small)}; at "
+                f"{0.2 * EQ32_DT * 1e3:g} ms they are {_fmt(_others(small_fast['poles']))}, nearly the same place in "
+                "z, so not a mode of the plant (a mode moves in z with the sample time) but the fit of an almost "
+                "stuck piston. The identified model depends on "
+                "the M-sequence amplitude, which 004 does not print either (its text has the piston move left "
+                "and right, i.e. slide). The linear model (eqs (19)-(24)) with "
                 f"Table 2's viscous sigma gives {linear:.2f}: the seal friction damps the air spring. Open: "
                 "what damps the rig less. Gain per sample (depends on the sample time): eq (32) "
                 f"{seed['gain']:.3f} mm/V, the model {faster['gain']:.3f} / {model['gain']:.3f} / "
