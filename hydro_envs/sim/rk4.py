@@ -80,33 +80,57 @@ def rk4_advance_refined(rhs, guard, shallow, y, u, p, h, n_sub, m, work, back):
     fails at any of them. ``shallow`` tells whether the plant's locally stiff mode lets an RK4
     step of ``h`` stay stable at ``x`` (for a friction curve: its slope at the velocity of
     ``x`` inside the stability bound of ``h``, and the velocity still of the sign it had at
-    ``y_start``); it must read only state components the guard leaves alone. ``m`` must make
-    ``h / m`` stable everywhere. ``back (n_states,)`` is scratch. Returns guard clamps. An
-    accepted step is one ``rk4_advance`` step; its stage states are rebuilt from ``work``.
+    ``y_start``); it must read only state components the guard leaves alone, and hold
+    everywhere for parameters that need no refinement. ``m >= 1`` must make ``h / m`` stable
+    everywhere. ``back (n_states,)`` is scratch. Returns guard clamps. An accepted step is one
+    ``rk4_advance`` step (the same arithmetic); its stage states are rebuilt from ``work``.
+
+    Compile time: every step, coarse or fine, runs through the one RK4 body written out here, so
+    the right-hand side is compiled into the loop once. Inlining ``rk4_advance`` here (nested
+    inlining), a separate call site per step kind or a branch on ``m`` alone (which lets the
+    compiler duplicate the loop) each made a plant's cold first step about a second longer.
     """
-    if m <= 1:
-        return rk4_advance(rhs, guard, y, u, p, h, n_sub, work)
     ny = y.shape[0]
     clamps = 0
     for _ in range(n_sub):
         for j in range(ny):
             back[j] = y[j]
-        if shallow(back, y, p, h):
-            c = rk4_advance(rhs, guard, y, u, p, h, 1, work)
-            ok = shallow(back, y, p, h)
-            stage = work[4]  # holds the last stage, y + h k3; rebuild the two before it
-            ok = ok and shallow(back, stage, p, h)
-            for s in range(2):
-                if ok:
+        fine = not shallow(back, y, p, h)
+        left = m if fine else 1
+        while left > 0:
+            hh = h / m if fine else h
+            stage = work[4]
+            for s in range(4):
+                if s == 0:
                     for j in range(ny):
-                        stage[j] = back[j] + 0.5 * h * work[s][j]
-                    ok = shallow(back, stage, p, h)
-            if ok:
-                clamps += c
-                continue
+                        stage[j] = y[j]
+                else:
+                    cs = hh if s == 3 else 0.5 * hh
+                    prev = work[s - 1]
+                    for j in range(ny):
+                        stage[j] = y[j] + cs * prev[j]
+                rhs(stage, u, p, work[s])
+            sixth = hh / 6.0
             for j in range(ny):
-                y[j] = back[j]
-        clamps += rk4_advance(rhs, guard, y, u, p, h / m, m, work)
+                y[j] += sixth * (work[0][j] + 2.0 * work[1][j] + 2.0 * work[2][j] + work[3][j])
+            c = guard(y, p)
+            if not fine:
+                ok = shallow(back, y, p, h)
+                stage = work[4]  # holds the last stage, y + h k3; rebuild the two before it
+                ok = ok and shallow(back, stage, p, h)
+                for s in range(2):
+                    if ok:
+                        for j in range(ny):
+                            stage[j] = back[j] + 0.5 * h * work[s][j]
+                        ok = shallow(back, stage, p, h)
+                if not ok:
+                    for j in range(ny):
+                        y[j] = back[j]
+                    fine = True
+                    left = m
+                    continue
+            clamps += c
+            left -= 1
     return clamps
 
 
