@@ -38,8 +38,9 @@ truncated after 5000 steps (1 s) by the registered ``max_episode_steps``; no ter
 module) and ``params`` (this episode's parameter set).
 
 **Numerics**: one compiled kernel call per step; RK4 sub-steps from the drawn parameters'
-stiffness bound (:func:`hydro_envs.plants.force_actuator.stiffness_modes`): 5 for the nominal
-plant (h = 40 us), set by the Dahl friction state.
+stiffness bound (:func:`hydro_envs.plants.force_actuator.stiffness_modes`): 2 for the nominal
+plant (h = 100 us), set by the fluid resonance; a sub-step along which the Dahl friction state
+is stiff (at speed, or across a velocity reversal) is redone in 3 finer ones.
 
 Closed-loop proportional force control of the plant (001 sec. 4.7: bandwidth, limit cycle) is in
 :mod:`hydro_envs.plants.force_actuator.closed_loop`.

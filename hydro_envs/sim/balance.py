@@ -9,7 +9,8 @@ elastic energy in engaged end stops [J]. Along the exact solution ``dE/dt = P_in
 :func:`replay_step` re-integrates one copy over one env step exactly as
 :func:`hydro_envs.sim.rk4.rk4_advance` does (same stages, weights and guards) and integrates
 ``W = int P_in dt`` and ``Q = int D dt`` with the RK4 weights on the same stages (RK4 applied to
-the augmented system). The checks built on it are described in :mod:`hydro_envs.soak`.
+the augmented system); :func:`replay_step_refined` does the same for kernels with local
+refinement (:func:`hydro_envs.sim.rk4.rk4_advance_refined`). The checks built on it are described in :mod:`hydro_envs.soak`.
 """
 
 from __future__ import annotations
@@ -20,7 +21,7 @@ import numba as nb
 
 from hydro_envs.laws.contact import end_stop_force
 
-__all__ = ["stop_split", "stroke_check", "replay_step"]
+__all__ = ["stop_split", "stroke_check", "replay_step", "replay_step_refined"]
 
 
 @nb.njit(cache=True, error_model="numpy", inline="always")
@@ -60,6 +61,44 @@ def stroke_check(x, lo, hi, speed, force, mass, k, run, j):
 
 
 @nb.njit(cache=True, error_model="numpy", inline="always")
+def _substep_with_energy(rhs, guard, mech, y, u, p, h, w):
+    """One RK4 sub-step of ``h`` in place, as :func:`hydro_envs.sim.rk4.rk4_advance` takes it;
+    returns its increments of (W, Q, turnover), whether a stage touched an end stop and
+    whether a stage had D < 0. ``w[4]`` ends holding the last stage state ``y + h k3``."""
+    ny = y.shape[0]
+    k1 = w[0]
+    k2 = w[1]
+    k3 = w[2]
+    k4 = w[3]
+    stage = w[4]
+    half = 0.5 * h
+    sixth = h / 6.0
+    rhs(y, u, p, k1)
+    _, a1, d1, s1, c1 = mech(y, p)
+    for j in range(ny):
+        stage[j] = y[j] + half * k1[j]
+    rhs(stage, u, p, k2)
+    _, a2, d2, s2, c2 = mech(stage, p)
+    for j in range(ny):
+        stage[j] = y[j] + half * k2[j]
+    rhs(stage, u, p, k3)
+    _, a3, d3, s3, c3 = mech(stage, p)
+    for j in range(ny):
+        stage[j] = y[j] + h * k3[j]
+    rhs(stage, u, p, k4)
+    _, a4, d4, s4, c4 = mech(stage, p)
+    for j in range(ny):
+        y[j] += sixth * (k1[j] + 2.0 * k2[j] + 2.0 * k3[j] + k4[j])
+    guard(y, p)
+    dw = sixth * (a1 + 2.0 * a2 + 2.0 * a3 + a4)
+    dq = sixth * (d1 + 2.0 * d2 + 2.0 * d3 + d4)
+    dturn = sixth * (abs(a1) + d1 + 2.0 * (abs(a2) + d2 + abs(a3) + d3) + abs(a4) + d4)
+    contact = c1 > 0.0 or c2 > 0.0 or c3 > 0.0 or c4 > 0.0
+    bad = d1 < -1e-12 * s1 or d2 < -1e-12 * s2 or d3 < -1e-12 * s3 or d4 < -1e-12 * s4
+    return dw, dq, dturn, contact, bad
+
+
+@nb.njit(cache=True, error_model="numpy", inline="always")
 def replay_step(rhs, guard, mech, y0, u, p, dt, n_sub, w, y, o):
     """Re-integrate ``y0`` -> ``y`` over ``dt`` in ``n_sub`` RK4 sub-steps, with the energy terms.
 
@@ -70,13 +109,6 @@ def replay_step(rhs, guard, mech, y0, u, p, dt, n_sub, w, y, o):
     for j in range(ny):
         y[j] = y0[j]
     h = dt / n_sub
-    k1 = w[0]
-    k2 = w[1]
-    k3 = w[2]
-    k4 = w[3]
-    stage = w[4]
-    half = 0.5 * h
-    sixth = h / 6.0
     e0, _, _, _, c0 = mech(y, p)
     contact = c0 > 0.0
     w_in = 0.0
@@ -84,36 +116,71 @@ def replay_step(rhs, guard, mech, y0, u, p, dt, n_sub, w, y, o):
     turnover = 0.0
     bad = 0.0
     for _ in range(n_sub):
-        rhs(y, u, p, k1)
-        _, a1, d1, s1, c1 = mech(y, p)
-        for j in range(ny):
-            stage[j] = y[j] + half * k1[j]
-        rhs(stage, u, p, k2)
-        _, a2, d2, s2, c2 = mech(stage, p)
-        for j in range(ny):
-            stage[j] = y[j] + half * k2[j]
-        rhs(stage, u, p, k3)
-        _, a3, d3, s3, c3 = mech(stage, p)
-        for j in range(ny):
-            stage[j] = y[j] + h * k3[j]
-        rhs(stage, u, p, k4)
-        _, a4, d4, s4, c4 = mech(stage, p)
-        for j in range(ny):
-            y[j] += sixth * (k1[j] + 2.0 * k2[j] + 2.0 * k3[j] + k4[j])
-        guard(y, p)
-        w_in += sixth * (a1 + 2.0 * a2 + 2.0 * a3 + a4)
-        q_d += sixth * (d1 + 2.0 * d2 + 2.0 * d3 + d4)
-        turnover += sixth * (abs(a1) + d1 + 2.0 * (abs(a2) + d2 + abs(a3) + d3) + abs(a4) + d4)
-        if c1 > 0.0 or c2 > 0.0 or c3 > 0.0 or c4 > 0.0:
-            contact = True
-        if d1 < -1e-12 * s1 or d2 < -1e-12 * s2 or d3 < -1e-12 * s3 or d4 < -1e-12 * s4:
+        dw, dq, dturn, c, b = _substep_with_energy(rhs, guard, mech, y, u, p, h, w)
+        w_in += dw
+        q_d += dq
+        turnover += dturn
+        contact = contact or c
+        if b:
             bad += 1.0
+    _finish(mech, y, p, e0, contact, w_in, q_d, turnover, bad, o)
+
+
+@nb.njit(cache=True, error_model="numpy", inline="always")
+def replay_step_refined(rhs, guard, shallow, mech, y0, u, p, dt, n_sub, m, w, back, y, o):
+    """:func:`replay_step` for kernels that step with
+    :func:`hydro_envs.sim.rk4.rk4_advance_refined` (same ``shallow`` test and ``m``): each
+    sub-step is taken coarse or redone in ``m`` fine ones exactly as there, and only the
+    accepted sub-steps count in the energy terms. ``back (n_states,)`` is scratch."""
+    ny = y.shape[0]
+    for j in range(ny):
+        y[j] = y0[j]
+    h = dt / n_sub
+    e0, _, _, _, c0 = mech(y, p)
+    contact = c0 > 0.0
+    w_in = 0.0
+    q_d = 0.0
+    turnover = 0.0
+    bad = 0.0
+    for _ in range(n_sub):
+        for j in range(ny):
+            back[j] = y[j]
+        fine = not shallow(back, y, p, h)
+        left = m if fine else 1
+        while left > 0:
+            dw, dq, dturn, c, b = _substep_with_energy(rhs, guard, mech, y, u, p, h / m if fine else h, w)
+            if not fine:
+                ok = shallow(back, y, p, h)
+                stage = w[4]
+                ok = ok and shallow(back, stage, p, h)
+                for s in range(2):
+                    if ok:
+                        for j in range(ny):
+                            stage[j] = back[j] + 0.5 * h * w[s][j]
+                        ok = shallow(back, stage, p, h)
+                if not ok:
+                    for j in range(ny):
+                        y[j] = back[j]
+                    fine = True
+                    left = m
+                    continue
+            w_in += dw
+            q_d += dq
+            turnover += dturn
+            contact = contact or c
+            if b:
+                bad += 1.0
+            left -= 1
+    _finish(mech, y, p, e0, contact, w_in, q_d, turnover, bad, o)
+
+
+@nb.njit(cache=True, error_model="numpy", inline="always")
+def _finish(mech, y, p, e0, contact, w_in, q_d, turnover, bad, o):
     e1, _, _, _, c1 = mech(y, p)
-    contact = contact or c1 > 0.0
     o[0] = e0
     o[1] = e1
     o[2] = w_in
     o[3] = q_d
     o[4] = turnover
     o[5] = bad
-    o[6] = 1.0 if contact else 0.0
+    o[6] = 1.0 if (contact or c1 > 0.0) else 0.0

@@ -3,16 +3,21 @@
 ``step_serial`` / ``step_parallel`` advance a batch by one env step (the single env uses the
 serial one: a parallel region costs more to enter than a whole step); ``trajectories`` runs
 whole input sequences (:func:`hydro_envs.sim.simulate`); ``derivatives`` evaluates the
-right-hand side along recorded trajectories. Layouts: :mod:`hydro_envs.sim.rk4`.
+right-hand side along recorded trajectories. Layouts: :mod:`hydro_envs.sim.rk4`. All of them
+step with :func:`~hydro_envs.sim.rk4.rk4_advance_refined`: sub-steps sized by
+``stiffness_modes``, each redone in finer ones where the Dahl friction state is stiff along it
+(at speed or across a velocity reversal; :func:`~.model.dahl_friction_shallow`).
 """
 
 from __future__ import annotations
 
 import numba as nb
+import numpy as np
 
+from hydro_envs.plants.force_actuator.model import dahl_friction_refinement, dahl_friction_shallow
 from hydro_envs.plants.force_actuator.model import force_actuator_rhs as rhs
 from hydro_envs.plants.force_actuator.model import force_actuator_guard as guard
-from hydro_envs.sim.rk4 import in_blocks, rhs_along, rk4_advance, rk4_trajectory
+from hydro_envs.sim.rk4 import in_blocks, rhs_along, rk4_advance_refined
 
 __all__ = ["step_serial", "step_parallel", "trajectories", "derivatives", "rhs", "guard"]
 
@@ -20,8 +25,11 @@ __all__ = ["step_serial", "step_parallel", "trajectories", "derivatives", "rhs",
 @nb.njit(cache=True, error_model="numpy")
 def step_serial(Y, U, P, dt, NSUB, W, clamps):
     """Advance every copy by one step of ``dt`` seconds in ``NSUB[i]`` sub-steps (serial)."""
+    back = np.empty(Y.shape[1])
     for i in range(Y.shape[0]):
-        clamps[i] += rk4_advance(rhs, guard, Y[i], U[i], P[i], dt / NSUB[i], NSUB[i], W[i])
+        h = dt / NSUB[i]
+        clamps[i] += rk4_advance_refined(rhs, guard, dahl_friction_shallow, Y[i], U[i], P[i], h, NSUB[i],
+                                         dahl_friction_refinement(P[i], h), W[i], back)
 
 
 @nb.njit(cache=True, error_model="numpy", parallel=True)
@@ -33,8 +41,21 @@ def step_parallel(Y, U, P, dt, NSUB, W, clamps):
 @nb.njit(cache=True, error_model="numpy", parallel=True)
 def trajectories(Y0, U, P, dt, NSUB, W, OUT, clamps):
     """Whole trajectories ``OUT[i] (T + 1, n_states)`` under inputs ``U[i] (T, n_in)``."""
+    ny = Y0.shape[1]
     for i in nb.prange(Y0.shape[0]):
-        clamps[i] += rk4_trajectory(rhs, guard, Y0[i], U[i], P[i], dt, NSUB[i], W[i], OUT[i])
+        back = np.empty(ny)
+        out = OUT[i]
+        for j in range(ny):
+            out[0, j] = Y0[i, j]
+        h = dt / NSUB[i]
+        m = dahl_friction_refinement(P[i], h)
+        n = 0
+        for k in range(U.shape[1]):
+            y = out[k + 1]
+            for j in range(ny):
+                y[j] = out[k, j]
+            n += rk4_advance_refined(rhs, guard, dahl_friction_shallow, y, U[i, k], P[i], h, NSUB[i], m, W[i], back)
+        clamps[i] += n
 
 
 @nb.njit(cache=True, error_model="numpy", parallel=True)

@@ -121,6 +121,7 @@ from hydro_envs.laws.elementary import tanh_one_exp
 from hydro_envs.laws.filters import lfilter_from_rest
 from hydro_envs.laws.friction import dahl_friction_rate, tanh_sign
 from hydro_envs.laws.hysteresis import pi_memories, pi_threshold_scale, play_operator
+from hydro_envs.sim.stiffness import DEFAULT_SAFETY, RK4_REAL_STABILITY_LIMIT
 from hydro_envs.plants.force_actuator.params import (  # noqa: F401  (re-exported)
     ForceActuatorParams, I_A1, I_AR, I_ASTOP, I_BS, I_DA, I_DG, I_DK, I_DLIN, I_DV, I_FC, I_FLOAD,
     I_FMOD, I_FSE, I_FSR, I_HR, I_HW, I_IMAX, I_IR, I_KL, I_KS, I_KSTOP, I_L, I_LOCK, I_M, I_ML,
@@ -133,6 +134,9 @@ __all__ = [
     "force_actuator_rhs",
     "force_actuator_guard",
     "stiffness_modes",
+    "dahl_relaxation_bound",
+    "dahl_friction_shallow",
+    "dahl_friction_refinement",
     "static_force",
     "null_valve_offset",
     "valve_zoh_tf",
@@ -460,30 +464,41 @@ LOCKED_VELOCITY_BOUND = 0.3
 
 
 def velocity_bound(params: ForceActuatorParams) -> float:
-    """Relative-velocity bound used by :func:`stiffness_modes` [m/s]."""
-    if params.piston_locked > 0.5:
+    """Relative-velocity bound [m/s] the friction's fine sub-steps are sized for."""
+    return _velocity_bound_row.py_func(params.to_array())
+
+
+@nb.njit(cache=True, error_model="numpy", inline="always")
+def _velocity_bound_row(p):
+    """:func:`velocity_bound` of a parameter row (locked piston: LOCKED_VELOCITY_BOUND; free
+    piston: the speed at which the hydraulic damping's linear part carries the full thrust,
+    beyond its knee, in ``[LOCKED_VELOCITY_BOUND, 10]`` m/s)."""
+    if p[I_LOCK] > 0.5:
         return LOCKED_VELOCITY_BOUND
-    # free piston: hydraulic damping limits the speed (module doc)
-    c = params.damping_gain * params.damping_linear
-    v_free = params.damping_knee_velocity + (params.max_thrust / c if c > 0 else 10.0)
+    c = p[I_DG] * p[I_DLIN]
+    v_free = p[I_DK] + (p[I_A1] * p[I_PS] / c if c > 0 else 10.0)
     return max(LOCKED_VELOCITY_BOUND, min(v_free, 10.0))
 
 
 def stiffness_modes(params: ForceActuatorParams) -> dict[str, float]:
-    """Upper estimates of the Jacobian eigenvalue magnitudes [1/s] of every fast mode.
+    """Upper estimates of the Jacobian eigenvalue magnitudes [1/s] of the modes that size the
+    sub-steps.
 
     * ``fluid``: the fastest resonance of eq (8) (2.23 kHz), ``delay``: the Pade poles;
     * ``valve``: the fast pole of eq (7) (560 Hz);
     * ``sensor``: the sensor mass on k_s plus the friction pre-sliding spring and the
       band-limited damping's stiffness-like term, with b_s/m;
     * ``piston``: the free piston on the pre-sliding spring and stop (free piston only);
-    * ``friction``: the Dahl state, ``4 sigma0 v_b / F_c`` (``|u| <= 2`` while ``|F_f| <=
-      g(v)``, level >= F_c) up to the velocity bound ``v_b`` (:func:`velocity_bound`). Right
-      after a breakaway ``|u|`` reaches ``1 + F_s/F_c``, but then ``|v|`` is of the order of
-      the Stribeck velocity, far below ``v_b``; the guard's projection is the safety net.
-      Static curve (``friction_model = 1``): its largest slope ``g_max / v_eps`` (at v = 0)
-      acting on the relative velocity through the sensor mass and the free piston,
-      ``g_max / v_eps (1/m + 1/m_p)``; no pre-sliding spring in ``sensor`` / ``piston``.
+    * ``friction``: static curve (``friction_model = 1``): its largest slope ``g_max / v_eps``
+      (at v = 0) acting on the relative velocity through the sensor mass and the free piston,
+      ``g_max / v_eps (1/m + 1/m_p)``; no pre-sliding spring in ``sensor`` / ``piston``. A
+      frictionless set: the slow relaxation of its Dahl state.
+
+    The Dahl state's relaxation (``friction_model = 0``), ``4 sigma0 |v| / F_c`` at the relative
+    velocity v, is not among them: it is stiff only at speed, and the kernels redo a sub-step in
+    :func:`dahl_friction_refinement` finer ones where :func:`dahl_friction_shallow` fails along it
+    (:func:`hydro_envs.sim.rk4.rk4_advance_refined`). :func:`dahl_relaxation_bound` is its value
+    at the velocity bound.
     """
     m = params.sensor_mass
     c_d = params.damping_gain * (
@@ -502,16 +517,14 @@ def stiffness_modes(params: ForceActuatorParams) -> dict[str, float]:
         "valve": VALVE_A,
         "feedback_filter": 2.0 * math.pi * params.feedback_filter_frequency,
         "sensor": math.sqrt(k_eff / m) + params.sensor_damping / m + params.damping_filter_frequency,
-        "friction": (
-            # static curve: its slope g_max / v_eps on the relative velocity, which both the
-            # sensor mass and (free) the piston carry: |lambda| = slope (1/m + 1/m_p)
-            g_max / params.friction_sign_velocity * (1.0 / m + (1.0 / mp if params.piston_locked < 0.5 else 0.0))
-            if static
-            else 4.0 * params.friction_stiffness * velocity_bound(params) / params.coulomb_friction
-            if params.coulomb_friction > 0.0
-            else 1e-3 * params.friction_stiffness * velocity_bound(params)  # frictionless set
-        ),
     }
+    if static:
+        # its slope g_max / v_eps on the relative velocity, which both the sensor mass and (free)
+        # the piston carry: |lambda| = slope (1/m + 1/m_p)
+        modes["friction"] = g_max / params.friction_sign_velocity * (
+            1.0 / m + (1.0 / mp if params.piston_locked < 0.5 else 0.0))
+    elif not params.coulomb_friction > 0.0:  # frictionless set
+        modes["friction"] = 1e-3 * params.friction_stiffness * velocity_bound(params)
     if params.piston_locked < 0.5:
         f_max = params.max_thrust + abs(params.load_force)
         modes["piston"] = (
@@ -520,6 +533,49 @@ def stiffness_modes(params: ForceActuatorParams) -> dict[str, float]:
             + math.sqrt(c_d * params.damping_filter_frequency / mp)
         )
     return modes
+
+
+def dahl_relaxation_bound(params: ForceActuatorParams) -> float:
+    """Largest relaxation rate [1/s] of the Dahl state, ``4 sigma0 v_b / F_c`` at the velocity
+    bound v_b (:func:`velocity_bound`): ``dF/dt = sigma0 v u|u|`` with ``|u| <= 2`` while
+    ``|F_f| <= g(v)`` and level ``g >= F_c``. Right after a breakaway ``|u|`` reaches
+    ``1 + F_s/F_c``, but then ``|v|`` is of the order of the Stribeck velocity, far below v_b;
+    the guard's projection is the safety net. 0 for the static curve or a frictionless set."""
+    if params.friction_model > 0.5 or not params.coulomb_friction > 0.0:
+        return 0.0
+    return 4.0 * params.friction_stiffness * velocity_bound(params) / params.coulomb_friction
+
+
+#: h lambda at which an RK4 sub-step is taken stable (the sub-step safety of hydro_envs.sim.stiffness)
+_STABLE_H_LAMBDA = DEFAULT_SAFETY * RK4_REAL_STABILITY_LIMIT
+
+
+@nb.njit(cache=True, error_model="numpy")
+def dahl_friction_shallow(y0, y, p, h):
+    """True where an RK4 sub-step of ``h`` seconds keeps the Dahl state stable at state ``y``:
+    ``h 4 sigma0 |v| / F_c`` inside RK4's real-axis bound (with the sub-step safety) at the
+    relative velocity v of ``y``, and v of the sign it had at the step's start ``y0`` (a
+    reversal swings the state across its range and switches the stiction level). Always true
+    for the static curve and a frictionless set (``stiffness_modes`` covers them)."""
+    if p[I_FMOD] > 0.5 or not p[I_FC] > 0.0:
+        return True
+    v = y[VP] + y[VS]
+    if (v > 0.0) != (y0[VP] + y0[VS] > 0.0):
+        return False
+    return h * 4.0 * p[I_SIG] * abs(v) / p[I_FC] <= _STABLE_H_LAMBDA
+
+
+@nb.njit(cache=True, error_model="numpy")
+def dahl_friction_refinement(p, h):
+    """Sub-steps per step of ``h`` seconds that keep the Dahl state stable up to the velocity
+    bound (:func:`dahl_relaxation_bound`); 1 for the static curve and a frictionless set."""
+    m = 1
+    if p[I_FMOD] > 0.5 or not p[I_FC] > 0.0:
+        return m
+    need = h * 4.0 * p[I_SIG] * _velocity_bound_row(p) / p[I_FC]  # h lambda at the velocity bound
+    while m * _STABLE_H_LAMBDA < need * (1.0 - 1e-12):  # the smallest m with h lambda / m stable
+        m += 1
+    return m
 
 
 def valve_memory_track(current, dt, rated_current, width, reversal_slope):
