@@ -145,11 +145,11 @@ def replay_step_refined(rhs, guard, shallow, mech, y0, u, p, dt, n_sub, m, w, ba
     for _ in range(n_sub):
         for j in range(ny):
             back[j] = y[j]
-        fine = not shallow(back, y, p, h)
+        fine = m > 1 and not shallow(back, y, p, h)
         left = m if fine else 1
         while left > 0:
             dw, dq, dturn, c, b = _substep_with_energy(rhs, guard, mech, y, u, p, h / m if fine else h, w)
-            if not fine:
+            if not fine and m > 1:
                 ok = shallow(back, y, p, h)
                 stage = w[4]
                 ok = ok and shallow(back, stage, p, h)

@@ -80,22 +80,22 @@ def rk4_advance_refined(rhs, guard, shallow, y, u, p, h, n_sub, m, work, back):
     fails at any of them. ``shallow`` tells whether the plant's locally stiff mode lets an RK4
     step of ``h`` stay stable at ``x`` (for a friction curve: its slope at the velocity of
     ``x`` inside the stability bound of ``h``, and the velocity still of the sign it had at
-    ``y_start``); it must read only state components the guard leaves alone, and hold
-    everywhere for parameters that need no refinement. ``m >= 1`` must make ``h / m`` stable
-    everywhere. ``back (n_states,)`` is scratch. Returns guard clamps. An accepted step is one
+    ``y_start``); it must read only state components the guard leaves alone. ``m`` must make
+    ``h / m`` stable everywhere (``m <= 1``: plain RK4 sub-steps, ``shallow`` is not called).
+    ``back (n_states,)`` is scratch. Returns guard clamps. An accepted step is one
     ``rk4_advance`` step (the same arithmetic); its stage states are rebuilt from ``work``.
 
     Compile time: every step, coarse or fine, runs through the one RK4 body written out here, so
-    the right-hand side is compiled into the loop once. Inlining ``rk4_advance`` here (nested
-    inlining), a separate call site per step kind or a branch on ``m`` alone (which lets the
-    compiler duplicate the loop) each made a plant's cold first step about a second longer.
+    the right-hand side is compiled into the loop once. With ``rk4_advance`` inlined here
+    (nested inlining) and a call site per step kind, a plant's step kernel took about a second
+    longer to compile.
     """
     ny = y.shape[0]
     clamps = 0
     for _ in range(n_sub):
         for j in range(ny):
             back[j] = y[j]
-        fine = not shallow(back, y, p, h)
+        fine = m > 1 and not shallow(back, y, p, h)
         left = m if fine else 1
         while left > 0:
             hh = h / m if fine else h
@@ -114,7 +114,7 @@ def rk4_advance_refined(rhs, guard, shallow, y, u, p, h, n_sub, m, work, back):
             for j in range(ny):
                 y[j] += sixth * (work[0][j] + 2.0 * work[1][j] + 2.0 * work[2][j] + work[3][j])
             c = guard(y, p)
-            if not fine:
+            if not fine and m > 1:
                 ok = shallow(back, y, p, h)
                 stage = work[4]  # holds the last stage, y + h k3; rebuild the two before it
                 ok = ok and shallow(back, stage, p, h)

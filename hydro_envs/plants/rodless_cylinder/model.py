@@ -414,10 +414,7 @@ def static_friction_shallow(y0, y, p, h):
     """True where an RK4 sub-step of ``h`` seconds stays stable on the static friction curve at
     state ``y``: the velocity has the sign it had at the step's start ``y0`` (no pass through
     the steep zero-velocity region in between) and ``h`` times :func:`static_friction_rate`
-    is inside RK4's real-axis bound (with the sub-step safety factor). Always true with a bristle
-    state (LuGre: ``stiffness_modes`` covers it)."""
-    if p[I_SIG0] > 0.0:
-        return True
+    is inside RK4's real-axis bound (with the sub-step safety factor)."""
     if (y[V] > 0.0) != (y0[V] > 0.0):
         return False
     return h * static_friction_rate(y[V], p) <= _STABLE_H_LAMBDA
