@@ -139,7 +139,8 @@ def rows() -> list[ValidationRow]:
     compensated = rodless_eq32_poles(nominal, friction_compensation=True)
     small = rodless_eq32_poles(nominal, amplitude=SMALL_AMPLITUDE)
     small_fast = rodless_eq32_poles(nominal, amplitude=SMALL_AMPLITUDE, dt=0.2 * EQ32_DT)
-    presliding = (nominal.coulomb_friction / nominal.bristle_stiffness, nominal.static_friction / nominal.bristle_stiffness)
+    presliding = (nominal.coulomb_friction / nominal.bristle_stiffness,
+                  nominal.static_friction / nominal.bristle_stiffness)
     linear = damping_with_viscous_friction(linearize_mid_stroke(nominal), nominal.viscous_friction)
     procedure = (
         f"004 sec. 4.2 on the nominal model: P loop ({EQ32_KP:g} V/m) at mid-stroke, +-{EQ32_AMPLITUDE:g} V "

@@ -218,11 +218,12 @@ class ForceActuatorBatch(PlantBatch):
 
     def state_limits(self, p: ForceActuatorParams) -> dict[str, tuple[float, float, str]]:
         lim = super().state_limits(p)
-        # the relative velocity vp + vs within the bound the sub-step count is sized for
+        # the relative velocity vp + vs within the bound the friction's fine sub-steps are sized for
         vmax = plant.velocity_bound(p)
         for name in ("vs", "vp"):
-            self.narrow(lim, name, -0.5 * vmax, 0.5 * vmax, "half the relative-velocity bound of the sub-step count")
-        self.narrow(lim, "vf", -vmax, vmax, "the relative-velocity bound of the sub-step count")
+            self.narrow(lim, name, -0.5 * vmax, 0.5 * vmax,
+                        "half the relative-velocity bound of the friction's fine sub-steps")
+        self.narrow(lim, "vf", -vmax, vmax, "the relative-velocity bound of the friction's fine sub-steps")
         xs = lim["fa"][1] / p.sensor_stiffness
         self.narrow(lim, "xs", -xs, xs, "sensor deflection at most the largest force / sensor_stiffness")
         g = max(p.coulomb_friction, p.stiction_retract, p.stiction_extend)

@@ -10,7 +10,8 @@ elastic energy in engaged end stops [J]. Along the exact solution ``dE/dt = P_in
 :func:`hydro_envs.sim.rk4.rk4_advance` does (same stages, weights and guards) and integrates
 ``W = int P_in dt`` and ``Q = int D dt`` with the RK4 weights on the same stages (RK4 applied to
 the augmented system); :func:`replay_step_refined` does the same for kernels with local
-refinement (:func:`hydro_envs.sim.rk4.rk4_advance_refined`). The checks built on it are described in :mod:`hydro_envs.soak`.
+refinement (:func:`hydro_envs.sim.rk4.rk4_advance_refined`). The checks built on it are
+described in :mod:`hydro_envs.soak`.
 """
 
 from __future__ import annotations

@@ -127,10 +127,11 @@ def closed_loop_m_sequence(
 
     Returns ``t, u`` [V] (the ARX input), ``u_valve`` [V] (the command the valve gets; ``u``
     itself without compensation), ``y`` [m] (measured position, the ARX output; white noise
-    ``position_noise_std`` from ``default_rng(seed)``), ``y_true`` and ``m``. The sample time of eq (32) is not printed; 10 ms (the default) puts our
-    plant's 25 Hz mid-stroke resonance at the angle of eq (32)'s complex pair (1.2 rad,
-    i.e. about 20 Hz at 10 ms). ``y[k]`` is sampled before ``u[k]`` is applied, so the loop
-    has the one-sample delay direct identification needs (arx module docstring).
+    ``position_noise_std`` from ``default_rng(seed)``), ``y_true`` and ``m``. The sample time
+    of eq (32) is not printed; 10 ms (the default) puts our plant's 25 Hz mid-stroke resonance
+    at the angle of eq (32)'s complex pair (1.2 rad, i.e. about 20 Hz at 10 ms). ``y[k]`` is
+    sampled before ``u[k]`` is applied, so the loop has the one-sample delay direct
+    identification needs (arx module docstring).
 
     ``friction_compensation``: 004 sec. 4.1 adds friction compensation to the loop (Fig. 11)
     without printing it. This option adds one: the Table 2 curve at the backward-difference
