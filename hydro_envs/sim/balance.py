@@ -21,6 +21,7 @@ import math
 import numba as nb
 
 from hydro_envs.laws.contact import end_stop_force
+from hydro_envs.sim.rk4 import coarse_step_shallow
 
 __all__ = ["stop_split", "stroke_check", "replay_step", "replay_step_refined"]
 
@@ -99,32 +100,20 @@ def _substep_with_energy(rhs, guard, mech, y, u, p, h, w):
     return dw, dq, dturn, contact, bad
 
 
+@nb.njit(cache=True, error_model="numpy")
+def _no_refinement(y0, y, p, h):
+    return True
+
+
 @nb.njit(cache=True, error_model="numpy", inline="always")
 def replay_step(rhs, guard, mech, y0, u, p, dt, n_sub, w, y, o):
     """Re-integrate ``y0`` -> ``y`` over ``dt`` in ``n_sub`` RK4 sub-steps, with the energy terms.
 
     ``o`` = (E_0, E_1, W = int P_in dt, Q = int D dt, int(|P_in| + D) dt, number of sub-steps
     with a stage at which D < 0, 1 if an end stop was engaged at any stage else 0).
+    :func:`replay_step_refined` without refinement (``m = 1``: no scratch state needed).
     """
-    ny = y.shape[0]
-    for j in range(ny):
-        y[j] = y0[j]
-    h = dt / n_sub
-    e0, _, _, _, c0 = mech(y, p)
-    contact = c0 > 0.0
-    w_in = 0.0
-    q_d = 0.0
-    turnover = 0.0
-    bad = 0.0
-    for _ in range(n_sub):
-        dw, dq, dturn, c, b = _substep_with_energy(rhs, guard, mech, y, u, p, h, w)
-        w_in += dw
-        q_d += dq
-        turnover += dturn
-        contact = contact or c
-        if b:
-            bad += 1.0
-    _finish(mech, y, p, e0, contact, w_in, q_d, turnover, bad, o)
+    replay_step_refined(rhs, guard, _no_refinement, mech, y0, u, p, dt, n_sub, 1, w, y, y, o)
 
 
 @nb.njit(cache=True, error_model="numpy", inline="always")
@@ -151,15 +140,7 @@ def replay_step_refined(rhs, guard, shallow, mech, y0, u, p, dt, n_sub, m, w, ba
         while left > 0:
             dw, dq, dturn, c, b = _substep_with_energy(rhs, guard, mech, y, u, p, h / m if fine else h, w)
             if not fine and m > 1:
-                ok = shallow(back, y, p, h)
-                stage = w[4]
-                ok = ok and shallow(back, stage, p, h)
-                for s in range(2):
-                    if ok:
-                        for j in range(ny):
-                            stage[j] = back[j] + 0.5 * h * w[s][j]
-                        ok = shallow(back, stage, p, h)
-                if not ok:
+                if not coarse_step_shallow(shallow, back, y, p, h, w):
                     for j in range(ny):
                         y[j] = back[j]
                     fine = True

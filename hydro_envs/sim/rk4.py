@@ -30,7 +30,8 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-__all__ = ["rk4_advance", "rk4_advance_refined", "rk4_trajectory", "rhs_along", "in_blocks"]
+__all__ = ["rk4_advance", "rk4_advance_refined", "coarse_step_shallow", "rk4_trajectory",
+           "rk4_trajectory_refined", "rhs_along", "in_blocks"]
 
 #: most blocks of copies :func:`in_blocks` makes of a batch (copies differ in sub-step count;
 #: a fixed number, since the thread count read inside a kernel would keep it out of the cache)
@@ -115,15 +116,7 @@ def rk4_advance_refined(rhs, guard, shallow, y, u, p, h, n_sub, m, work, back):
                 y[j] += sixth * (work[0][j] + 2.0 * work[1][j] + 2.0 * work[2][j] + work[3][j])
             c = guard(y, p)
             if not fine and m > 1:
-                ok = shallow(back, y, p, h)
-                stage = work[4]  # holds the last stage, y + h k3; rebuild the two before it
-                ok = ok and shallow(back, stage, p, h)
-                for s in range(2):
-                    if ok:
-                        for j in range(ny):
-                            stage[j] = back[j] + 0.5 * h * work[s][j]
-                        ok = shallow(back, stage, p, h)
-                if not ok:
+                if not coarse_step_shallow(shallow, back, y, p, h, work):
                     for j in range(ny):
                         y[j] = back[j]
                     fine = True
@@ -132,6 +125,23 @@ def rk4_advance_refined(rhs, guard, shallow, y, u, p, h, n_sub, m, work, back):
             clamps += c
             left -= 1
     return clamps
+
+
+@nb.njit(cache=True, error_model="numpy", inline="always")
+def coarse_step_shallow(shallow, back, y, p, h, work):
+    """Whether an RK4 step of ``h`` from ``back`` to ``y`` stays where ``shallow`` holds at its
+    end state and its three stage states (``work[4]`` holds the last, ``back + h k3``; the two
+    before it are rebuilt there from ``k1``, ``k2``): the acceptance test of
+    :func:`rk4_advance_refined`."""
+    ok = shallow(back, y, p, h)
+    stage = work[4]
+    ok = ok and shallow(back, stage, p, h)
+    for s in range(2):
+        if ok:
+            for j in range(y.shape[0]):
+                stage[j] = back[j] + 0.5 * h * work[s][j]
+            ok = shallow(back, stage, p, h)
+    return ok
 
 
 @nb.njit(cache=True, error_model="numpy", inline="always")
@@ -148,6 +158,23 @@ def rk4_trajectory(rhs, guard, y0, u, p, dt, n_sub, work, out):
         for j in range(ny):
             y[j] = out[k, j]
         clamps += rk4_advance(rhs, guard, y, u[k], p, h, n_sub, work)
+    return clamps
+
+
+@nb.njit(cache=True, error_model="numpy", inline="always")
+def rk4_trajectory_refined(rhs, guard, shallow, y0, u, p, dt, n_sub, m, work, back, out):
+    """:func:`rk4_trajectory` stepping with :func:`rk4_advance_refined` (``shallow``, ``m``,
+    scratch ``back (n_states,)`` as there)."""
+    ny = y0.shape[0]
+    for j in range(ny):
+        out[0, j] = y0[j]
+    h = dt / n_sub
+    clamps = 0
+    for k in range(u.shape[0]):
+        y = out[k + 1]
+        for j in range(ny):
+            y[j] = out[k, j]
+        clamps += rk4_advance_refined(rhs, guard, shallow, y, u[k], p, h, n_sub, m, work, back)
     return clamps
 
 

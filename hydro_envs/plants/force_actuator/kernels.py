@@ -17,7 +17,7 @@ import numpy as np
 from hydro_envs.plants.force_actuator.model import dahl_friction_refinement, dahl_friction_shallow
 from hydro_envs.plants.force_actuator.model import force_actuator_rhs as rhs
 from hydro_envs.plants.force_actuator.model import force_actuator_guard as guard
-from hydro_envs.sim.rk4 import in_blocks, rhs_along, rk4_advance_refined
+from hydro_envs.sim.rk4 import in_blocks, rhs_along, rk4_advance_refined, rk4_trajectory_refined
 
 __all__ = ["step_serial", "step_parallel", "trajectories", "derivatives", "rhs", "guard"]
 
@@ -41,21 +41,10 @@ def step_parallel(Y, U, P, dt, NSUB, W, clamps):
 @nb.njit(cache=True, error_model="numpy", parallel=True)
 def trajectories(Y0, U, P, dt, NSUB, W, OUT, clamps):
     """Whole trajectories ``OUT[i] (T + 1, n_states)`` under inputs ``U[i] (T, n_in)``."""
-    ny = Y0.shape[1]
     for i in nb.prange(Y0.shape[0]):
-        back = np.empty(ny)
-        out = OUT[i]
-        for j in range(ny):
-            out[0, j] = Y0[i, j]
-        h = dt / NSUB[i]
-        m = dahl_friction_refinement(P[i], h)
-        n = 0
-        for k in range(U.shape[1]):
-            y = out[k + 1]
-            for j in range(ny):
-                y[j] = out[k, j]
-            n += rk4_advance_refined(rhs, guard, dahl_friction_shallow, y, U[i, k], P[i], h, NSUB[i], m, W[i], back)
-        clamps[i] += n
+        m = dahl_friction_refinement(P[i], dt / NSUB[i])
+        clamps[i] += rk4_trajectory_refined(rhs, guard, dahl_friction_shallow, Y0[i], U[i], P[i], dt, NSUB[i], m,
+                                            W[i], np.empty(Y0.shape[1]), OUT[i])
 
 
 @nb.njit(cache=True, error_model="numpy", parallel=True)

@@ -28,7 +28,7 @@ from hydro_envs.plants.rodless_cylinder.model import rodless_cylinder_rhs as rhs
 from hydro_envs.plants.rodless_cylinder.model import rodless_cylinder_rhs_stiff_supply as rhs_stiff
 from hydro_envs.plants.rodless_cylinder.model import rodless_cylinder_guard as guard
 from hydro_envs.plants.rodless_cylinder.model import static_friction_refinement, static_friction_shallow
-from hydro_envs.sim.rk4 import in_blocks, rhs_along, rk4_advance, rk4_advance_refined
+from hydro_envs.sim.rk4 import in_blocks, rhs_along, rk4_advance, rk4_advance_refined, rk4_trajectory_refined
 
 __all__ = ["step_serial", "step_parallel", "trajectories", "derivatives", "rhs", "guard", "for_params"]
 
@@ -59,21 +59,10 @@ def step_parallel(Y, U, P, dt, NSUB, W, clamps):
 @nb.njit(cache=True, error_model="numpy", parallel=True)
 def trajectories(Y0, U, P, dt, NSUB, W, OUT, clamps):
     """Whole trajectories ``OUT[i] (T + 1, n_states)`` under inputs ``U[i] (T, n_in)``."""
-    ny = Y0.shape[1]
     for i in nb.prange(Y0.shape[0]):
-        back = np.empty(ny)
-        out = OUT[i]
-        for j in range(ny):
-            out[0, j] = Y0[i, j]
-        h = dt / NSUB[i]
-        m = static_friction_refinement(P[i], h)
-        n = 0
-        for k in range(U.shape[1]):
-            y = out[k + 1]
-            for j in range(ny):
-                y[j] = out[k, j]
-            n += rk4_advance_refined(rhs, guard, static_friction_shallow, y, U[i, k], P[i], h, NSUB[i], m, W[i], back)
-        clamps[i] += n
+        m = static_friction_refinement(P[i], dt / NSUB[i])
+        clamps[i] += rk4_trajectory_refined(rhs, guard, static_friction_shallow, Y0[i], U[i], P[i], dt, NSUB[i], m,
+                                            W[i], np.empty(Y0.shape[1]), OUT[i])
 
 
 @nb.njit(cache=True, error_model="numpy", parallel=True)
