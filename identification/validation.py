@@ -125,8 +125,7 @@ def _zeta(summary: dict) -> str:
 
 
 def _kind(poles: np.ndarray) -> str:
-    _, z1, _ = _split(np.asarray(poles, dtype=complex))
-    return "a complex pair" if abs(z1.imag) > 1e-12 else "real (an overdamped pair)"
+    return "a complex pair" if abs(_others(poles)[0].imag) > 1e-12 else "real (an overdamped pair)"
 
 
 def rows() -> list[ValidationRow]:

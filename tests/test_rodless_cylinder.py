@@ -637,12 +637,12 @@ def test_closed_loop_friction_compensation_is_eq27_opening():
     """Without compensation the ARX input is the valve command (bit for bit as before); with
     it, the valve gets the controller output plus eq (27)'s opening for the Table 2 friction at
     the backward-difference velocity."""
-    from hydro_envs.plants.rodless_cylinder.experiments import closed_loop_m_sequence, friction_compensation_gains
+    from hydro_envs.plants.rodless_cylinder.experiments import closed_loop_m_sequence
 
     p = RodlessCylinderParams()
     plain = closed_loop_m_sequence(p, n_bits=6, position_noise_std=5e-6, seed=1)
     assert np.array_equal(plain["u"], plain["u_valve"])
-    static, dynamic = friction_compensation_gains(p)
+    static, dynamic = rc.friction_compensation_gains(p)
     lin = rc.linearize_mid_stroke(p)
     assert static > 0 and dynamic > 0
     assert dynamic / static == pytest.approx(lin.v0 / (lin.rt * lin.kappa * lin.c2), rel=1e-12)

@@ -64,7 +64,7 @@ import numpy as np
 
 from agents.controllers.tracking import TrackingPID
 from hydro_envs.plants.rodless_cylinder.params import RodlessCylinderParams
-from hydro_envs.plants.rodless_cylinder.model import linearize_mid_stroke
+from hydro_envs.plants.rodless_cylinder.model import friction_compensation_gains, linearize_mid_stroke
 
 __all__ = ["RodlessCalibratedPressureLoopController", "RodlessFrictionFeedforwardController",
            "RodlessObserverPressureLoopController", "RodlessPIDController", "RodlessPressureLoopController",
@@ -112,10 +112,10 @@ class RodlessFrictionFeedforwardController(RodlessPIDController):
             model = identified_friction("rodless_cylinder", "stribeck")
         self._f = model.predict if hasattr(model, "predict") else model
         p = params if params is not None else RodlessCylinderParams()
-        lin = linearize_mid_stroke(p)
-        span = lin.k_v * (p.command_max - p.command_centre)  # spool travel per unit action [m]
-        self._static = lin.c2 / (2.0 * lin.c1 * lin.area) / span
-        self._dynamic = lin.v0 / (lin.rt * lin.kappa) / (2.0 * lin.c1 * lin.area) / span
+        static, dynamic = friction_compensation_gains(p)  # eq (27) opening over k_v [V/N, V s/N]
+        span = p.command_max - p.command_centre  # volts per unit action
+        self._static = static / span
+        self._dynamic = dynamic / span
 
     @classmethod
     def from_params(cls, params: RodlessCylinderParams | None = None, *, error_scale: float = 0.01,

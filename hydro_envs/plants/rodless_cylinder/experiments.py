@@ -18,13 +18,15 @@ import numpy as np
 from hydro_envs.excitation import m_sequence
 
 from hydro_envs.plants.rodless_cylinder import model as rc
-from hydro_envs.plants.rodless_cylinder.model import PA, PB, V, Y, linearize_mid_stroke, piston_area, rest_state
+from hydro_envs.plants.rodless_cylinder.model import (
+    PA, PB, V, Y, friction_compensation_gains, linearize_mid_stroke, piston_area, rest_state,
+)
 from hydro_envs.plants.rodless_cylinder.params import RodlessCylinderParams
 from hydro_envs.plants.rodless_cylinder.spec import SPEC
 from hydro_envs.sim.simulate import simulate
 from hydro_envs.sim.stiffness import substeps_from_stiffness
 
-__all__ = ["constant_command_run", "small_signal_response", "closed_loop_m_sequence", "friction_compensation_gains"]
+__all__ = ["constant_command_run", "small_signal_response", "closed_loop_m_sequence"]
 
 
 def constant_command_run(params: RodlessCylinderParams, command: float, *, dt: float = 1e-3,
@@ -136,7 +138,7 @@ def closed_loop_m_sequence(
     ``friction_compensation``: 004 sec. 4.1 adds friction compensation to the loop (Fig. 11)
     without printing it. This option adds one: the Table 2 curve at the backward-difference
     velocity of the measured position, turned into a valve command by eq (27)
-    (:func:`friction_compensation_gains`). ``u`` is then the controller output plus the
+    (:func:`~.model.friction_compensation_gains`). ``u`` is then the controller output plus the
     M-sequence (the compensation is inside the identified system, as in Fig. 11).
     """
     kernels = SPEC.kernels
@@ -158,7 +160,7 @@ def closed_loop_m_sequence(
     u = np.empty(n)
     u_valve = np.empty(n)
     y_true = np.empty(n)
-    static, dynamic = friction_compensation_gains(p)
+    static, dynamic = friction_compensation_gains(p) if friction_compensation else (0.0, 0.0)
     f_prev = 0.0
     for k in range(n):
         y_true[k] = Y[0, rc.Y]
@@ -175,15 +177,3 @@ def closed_loop_m_sequence(
         kernels.step_serial(Y, U, P, dt, nsub, W, clamps)
     return {"t": np.arange(n) * dt, "u": u, "u_valve": u_valve, "y": y_true + noise, "y_true": y_true, "m": m,
             "clamps": np.array(int(clamps[0]))}
-
-
-def friction_compensation_gains(params: RodlessCylinderParams) -> tuple[float, float]:
-    """Valve command per newton of friction to cancel, ``(static [V/N], dynamic [V s/N])``.
-
-    004 eq (27): a force ``F`` enters the position response as the spool opening
-    ``F (c2 + V0/(R T_s kappa) s) / (2 c1 A)``; over the valve gain ``k_v`` (eq (28)) that is
-    ``static F + dynamic dF/dt``. c1, c2, V0 at mid-stroke (:func:`~.model.linearize_mid_stroke`).
-    """
-    lin = linearize_mid_stroke(params)
-    per_newton = 1.0 / (2.0 * lin.c1 * lin.area * lin.k_v)
-    return lin.c2 * per_newton, lin.v0 / (lin.rt * lin.kappa) * per_newton

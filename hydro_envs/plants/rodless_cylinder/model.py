@@ -128,6 +128,7 @@ __all__ = [
     "speed_bound",
     "MidStrokeLinearization",
     "linearize_mid_stroke",
+    "friction_compensation_gains",
 ]
 
 STATE_NAMES = ("y", "v", "pa", "pb", "ma", "mb", "xv", "vv", "z")
@@ -742,6 +743,18 @@ def linearize_mid_stroke(params: RodlessCylinderParams) -> MidStrokeLinearizatio
     c2_energy = c2 + (kappa - 1.0) / (2.0 * kappa) * m_out / p0
     zeta_energy = c2_energy * rt / (2.0 * a) * math.sqrt(kappa * m / (2.0 * v0 * p0))
     return MidStrokeLinearization(p0, c1, c2, v0, a, m, rt, kappa, k_t, zeta, omega_n, k_v, zeta_energy)
+
+
+def friction_compensation_gains(params: RodlessCylinderParams) -> tuple[float, float]:
+    """Valve command per newton of friction to cancel, ``(static [V/N], dynamic [V s/N])``.
+
+    004 eq (27): a force ``F`` enters the position response as the spool opening
+    ``F (c2 + V0/(R T_s kappa) s) / (2 c1 A)``; over the valve gain ``k_v`` (eq (28)) that is
+    ``static F + dynamic dF/dt``. c1, c2, V0 at mid-stroke (:func:`linearize_mid_stroke`).
+    """
+    lin = linearize_mid_stroke(params)
+    per_newton = 1.0 / (2.0 * lin.c1 * lin.area * lin.k_v)
+    return lin.c2 * per_newton, lin.v0 / (lin.rt * lin.kappa) * per_newton
 
 
 def rest_state_from_measurement(params: RodlessCylinderParams, first: dict) -> np.ndarray:
