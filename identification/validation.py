@@ -45,6 +45,9 @@ SMALL_AMPLITUDE = 0.05
 #: a moving mass [kg] near the one at which the linear model (eqs (19)-(24)) with Table 2's
 #: viscous friction has eq (32)'s damping (about 21 kg)
 HEAVY_MASS = 20.0
+#: parameter overrides that remove the seal friction (Table 2 curve, LuGre bristles)
+FRICTIONLESS = {"static_friction": 0.0, "coulomb_friction": 0.0, "viscous_friction": 0.0,
+                "bristle_stiffness": 0.0, "bristle_damping": 0.0}
 
 
 def pole_pair_damping(z1: complex, z2: complex) -> float:
@@ -138,6 +141,8 @@ def rows() -> list[ValidationRow]:
     compensated = rodless_eq32_poles(nominal, friction_compensation=True)
     small = rodless_eq32_poles(nominal, amplitude=SMALL_AMPLITUDE)
     small_fast = rodless_eq32_poles(nominal, amplitude=SMALL_AMPLITUDE, dt=0.2 * EQ32_DT)
+    no_viscous = rodless_eq32_poles(dataclasses.replace(nominal, viscous_friction=0.0))
+    frictionless = rodless_eq32_poles(dataclasses.replace(nominal, **FRICTIONLESS))
     presliding = (nominal.coulomb_friction / nominal.bristle_stiffness,
                   nominal.static_friction / nominal.bristle_stiffness)
     linear = damping_with_viscous_friction(linearize_mid_stroke(nominal), nominal.viscous_friction)
@@ -189,8 +194,12 @@ def rows() -> list[ValidationRow]:
                 "stuck piston. The identified model depends on "
                 "the M-sequence amplitude, which 004 does not print either (its text has the piston move left "
                 "and right, i.e. slide). The linear model (eqs (19)-(24)) with "
-                f"Table 2's viscous sigma gives {linear:.2f}: the seal friction damps the air spring. Open: "
-                "what damps the rig less. Gain per sample (depends on the sample time): eq (32) "
+                f"Table 2's viscous sigma gives {linear:.2f}: the seal friction damps the air spring. The "
+                f"procedure on the model without that sigma gives {_zeta(no_viscous)} (poles "
+                f"{_fmt(_others(no_viscous['poles']))}), so the Coulomb and bristle parts of the friction alone "
+                f"overdamp it; without any friction it is {_zeta(frictionless)} ({_kind(frictionless['poles'])}). "
+                "Eq (32) lies between: the rig's friction damps its air spring less than Table 2's curve "
+                "damps the model's. Open: why. Gain per sample (depends on the sample time): eq (32) "
                 f"{seed['gain']:.3f} mm/V, the model {faster['gain']:.3f} / {model['gain']:.3f} / "
                 f"{slower['gain']:.3f} at {0.5 * EQ32_DT * 1e3:g} / {EQ32_DT * 1e3:g} / "
                 f"{2 * EQ32_DT * 1e3:g} ms. Tolerance 30 %: an ARX fit identified in closed loop"

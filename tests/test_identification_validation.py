@@ -39,3 +39,19 @@ def test_seed_procedure_record_is_a_clean_closed_loop():
     r = iv.rodless_eq32_poles()
     assert r["clamps"] == 0 and not r["saturated"]
     assert abs(r["integrator"] - 1.0) < 0.01
+
+
+def test_eq32_damping_lies_between_the_model_with_and_without_friction():
+    """The damping row's source says eq (32)'s pair lies between the model without friction
+    (a lightly damped air spring) and the model without Table 2's viscous sigma (still
+    overdamped by the Coulomb and bristle parts)."""
+    import dataclasses
+
+    from hydro_envs.plants.rodless_cylinder.params import RodlessCylinderParams
+
+    nominal = RodlessCylinderParams()
+    free = iv.rodless_eq32_poles(dataclasses.replace(nominal, **iv.FRICTIONLESS))
+    no_sigma = iv.rodless_eq32_poles(dataclasses.replace(nominal, viscous_friction=0.0))
+    _, z1, z2 = iv._split(np.roots(iv.SEED_004_EQ32["a"]))
+    seed = iv.pole_pair_damping(z1, z2)
+    assert free["zeta"] < 0.1 < seed < 1.0 < no_sigma["zeta"]
