@@ -13,7 +13,7 @@ ones on the rows it is chosen for: without supply droop in any copy (``supply_li
 0``, the seed's stiff supply and every default set) bound to
 :func:`~.model.rodless_cylinder_rhs_stiff_supply`, whose compilation skips the droop solve (a
 cold first step 0.8 s shorter); with a bristle state in every copy (the default) plain
-``rk4_advance`` (the refinement's code adds about 2 s to a cold first step).
+``rk4_advance`` (the refinement's code adds about 1 s to a cold first step).
 """
 
 from __future__ import annotations
