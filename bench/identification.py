@@ -1,6 +1,6 @@
 """Fit times of the identification tools (and the virtual experiment that feeds them).
 
-Prints (no pass/fail; targets of the identification issue in brackets):
+Prints (no pass/fail; the targets in brackets):
 
 * the 150 s constant-velocity test of 002 sec. 4 on the servo cylinder: simulation, sensor
   model, and extraction of the 136 constant-velocity points

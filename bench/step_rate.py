@@ -1,6 +1,6 @@
 """Step rate, kernel cost, accuracy against Radau and memory of the servo-cylinder env.
 
-Prints (no pass/fail; targets from the foundation issue in brackets):
+Prints (no pass/fail; the targets in brackets):
 
 * for every registered ``hydro_envs/`` env: single-env steps/s through ``gymnasium.make``
   with random actions, as a ratio to CartPole-v1's in the same run  [ratio >= 0.5], and
