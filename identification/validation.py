@@ -73,13 +73,14 @@ def _split(poles: np.ndarray) -> tuple[complex, complex, complex]:
 
 
 def rodless_eq32_poles(params: RodlessCylinderParams | None = None, *, dt: float = EQ32_DT,
-                       amplitude: float = EQ32_AMPLITUDE, friction_compensation: bool = False) -> dict:
+                       amplitude: float = EQ32_AMPLITUDE, kp: float = EQ32_KP,
+                       friction_compensation: bool = False) -> dict:
     """The 004 sec. 4.2 procedure on the rodless model: poles, damping of the non-integrator
     pair and gain per sample [mm/V] of the ARX(3, 3, 1) fit (least squares, position in mm,
     command about its centre), the integrator pole's standard error, the peak-to-peak travel
     [m], guard clamps and whether the valve command saturated."""
     p = params if params is not None else RodlessCylinderParams()
-    d = closed_loop_m_sequence(p, dt=dt, kp=EQ32_KP, amplitude=amplitude,
+    d = closed_loop_m_sequence(p, dt=dt, kp=kp, amplitude=amplitude,
                                position_noise_std=EQ32_NOISE, seed=0, friction_compensation=friction_compensation)
     y_mm = (d["y"] - d["y"].mean()) * 1e3
     m = fit_arx(y_mm, d["u"] - p.command_centre, SEED_004_EQ32["na"], SEED_004_EQ32["nb"], SEED_004_EQ32["nk"], dt=dt)
@@ -137,6 +138,8 @@ def rows() -> list[ValidationRow]:
     model = rodless_eq32_poles(nominal)
     faster = rodless_eq32_poles(nominal, dt=0.5 * EQ32_DT)
     slower = rodless_eq32_poles(nominal, dt=2.0 * EQ32_DT)
+    low_gain = rodless_eq32_poles(nominal, kp=EQ32_KP / 5.0)
+    high_gain = rodless_eq32_poles(nominal, kp=EQ32_KP * 4.0)
     heavy = rodless_eq32_poles(dataclasses.replace(nominal, mass=HEAVY_MASS))
     compensated = rodless_eq32_poles(nominal, friction_compensation=True)
     small = rodless_eq32_poles(nominal, amplitude=SMALL_AMPLITUDE)
@@ -181,6 +184,8 @@ def rows() -> list[ValidationRow]:
                 f"{procedure}: the two poles besides the integrator are {_kind(model['poles'])}. "
                 "The unprinted details do not explain it: the damping is "
                 f"{_zeta(faster)} at {0.5 * EQ32_DT * 1e3:g} ms and {_zeta(slower)} at {2 * EQ32_DT * 1e3:g} ms, "
+                f"{_zeta(low_gain)} and {_zeta(high_gain)} with P gains of {EQ32_KP / 5.0:g} and {EQ32_KP * 4.0:g} "
+                "V/m (004 prints none), "
                 f"{_zeta(heavy)} with a {HEAVY_MASS:g} kg moving mass (004 prints none; the model assumes "
                 f"{nominal.mass:g} kg), and with friction compensation in the loop (sec. 4.1 says the loop "
                 "had one and does not print it; here the Table 2 curve at the measured velocity through "
