@@ -75,7 +75,8 @@ def _split(poles: np.ndarray) -> tuple[complex, complex, complex]:
 def rodless_eq32_poles(params: RodlessCylinderParams | None = None, *, dt: float = EQ32_DT,
                        amplitude: float = EQ32_AMPLITUDE, kp: float = EQ32_KP,
                        friction_compensation: bool = False) -> dict:
-    """The 004 sec. 4.2 procedure on the rodless model: poles, damping of the non-integrator
+    """The 004 sec. 4.2 procedure on the rodless model (sample time ``dt`` [s], M-sequence
+    ``amplitude`` [V], P gain ``kp`` [V/m]): poles, damping of the non-integrator
     pair and gain per sample [mm/V] of the ARX(3, 3, 1) fit (least squares, position in mm,
     command about its centre), the integrator pole's standard error, the peak-to-peak travel
     [m], guard clamps and whether the valve command saturated."""
