@@ -9,8 +9,9 @@ elastic energy in engaged end stops [J]. Along the exact solution ``dE/dt = P_in
 :func:`replay_step` re-integrates one copy over one env step exactly as
 :func:`hydro_envs.sim.rk4.rk4_advance` does (same stages, weights and guards) and integrates
 ``W = int P_in dt`` and ``Q = int D dt`` with the RK4 weights on the same stages (RK4 applied to
-the augmented system); :func:`replay_step_refined` does the same for kernels with local
-refinement (:func:`hydro_envs.sim.rk4.rk4_advance_refined`). The checks built on it are
+the augmented system); :func:`replay_step_refined` and :func:`replay_step_lookahead` do the
+same for kernels with local refinement (:func:`hydro_envs.sim.rk4.rk4_advance_refined`,
+:func:`hydro_envs.sim.rk4.rk4_advance_lookahead`). The checks built on it are
 described in :mod:`hydro_envs.soak`.
 """
 
@@ -23,7 +24,7 @@ import numba as nb
 from hydro_envs.laws.contact import end_stop_force
 from hydro_envs.sim.rk4 import coarse_step_shallow
 
-__all__ = ["stop_split", "stroke_check", "replay_step", "replay_step_refined"]
+__all__ = ["stop_split", "stroke_check", "replay_step", "replay_step_refined", "replay_step_lookahead"]
 
 
 @nb.njit(cache=True, error_model="numpy", inline="always")
@@ -153,6 +154,41 @@ def replay_step_refined(rhs, guard, shallow, mech, y0, u, p, dt, n_sub, m, w, ba
             if b:
                 bad += 1.0
             left -= 1
+    _finish(mech, y, p, e0, contact, w_in, q_d, turnover, bad, o)
+
+
+@nb.njit(cache=True, error_model="numpy", inline="always")
+def replay_step_lookahead(rhs, guard, shallow, mech, y0, u, p, dt, n_sub, m, w, y, o):
+    """:func:`replay_step` for kernels that step with
+    :func:`hydro_envs.sim.rk4.rk4_advance_lookahead` (same ``shallow`` test and ``m``): each
+    sub-step is taken coarse or as ``m`` fine ones, decided as there."""
+    ny = y.shape[0]
+    for j in range(ny):
+        y[j] = y0[j]
+    h = dt / n_sub
+    e0, _, _, _, c0 = mech(y, p)
+    contact = c0 > 0.0
+    w_in = 0.0
+    q_d = 0.0
+    turnover = 0.0
+    bad = 0.0
+    stage = w[4]
+    for _ in range(n_sub):
+        n = 1
+        if m > 1:
+            rhs(y, u, p, w[0])
+            for j in range(ny):
+                stage[j] = y[j] + h * w[0][j]
+            if not (shallow(y, y, p, h) and shallow(y, stage, p, h)):
+                n = m
+        for _k in range(n):
+            dw, dq, dturn, c, b = _substep_with_energy(rhs, guard, mech, y, u, p, h / n, w)
+            w_in += dw
+            q_d += dq
+            turnover += dturn
+            contact = contact or c
+            if b:
+                bad += 1.0
     _finish(mech, y, p, e0, contact, w_in, q_d, turnover, bad, o)
 
 
