@@ -16,7 +16,7 @@ from hydro_envs.laws.stribeck_lugre import lugre_exponential_rate
 from hydro_envs.plants.rodless_cylinder import model as rc
 from hydro_envs.plants.rodless_cylinder.model import rodless_cylinder_guard as guard
 from hydro_envs.plants.rodless_cylinder.model import rodless_cylinder_rhs as rhs
-from hydro_envs.sim.balance import replay_step, stop_split, stroke_check
+from hydro_envs.sim.balance import replay_step_lookahead, stop_split, stroke_check
 
 __all__ = ["mech_terms", "state_breaches", "energy_replay", "N_BODIES"]
 
@@ -72,6 +72,9 @@ def state_breaches(Y, P, RUN, flags):
 
 @nb.njit(cache=True, error_model="numpy", parallel=True)
 def energy_replay(Y0, U, P, dt, NSUB, W, Yend, out):
-    """:func:`hydro_envs.sim.balance.replay_step` of every copy (see there for ``out``)."""
+    """:func:`hydro_envs.sim.balance.replay_step_lookahead` of every copy with the kernels' local
+    refinement (see there for ``out``)."""
     for i in nb.prange(Y0.shape[0]):
-        replay_step(rhs, guard, mech_terms, Y0[i], U[i], P[i], dt, NSUB[i], W[i], Yend[i], out[i])
+        m = rc.local_mode_refinement(P[i], dt / NSUB[i])
+        replay_step_lookahead(rhs, guard, rc.local_mode_shallow, mech_terms, Y0[i], U[i], P[i], dt, NSUB[i], m,
+                              W[i], Yend[i], out[i])

@@ -93,11 +93,14 @@ from hydro_envs.laws.friction import stribeck_exponential, stribeck_exponential_
 from hydro_envs.laws.nozzle_fast import nozzle_mass_flow_fast, nozzle_mass_flow_slope_fast
 from hydro_envs.laws.orifice import circular_orifice_area, iso6358_mass_flow_laminar
 from hydro_envs.laws.pneumatic_chamber import chamber_pressure_rate, gas_internal_energy
-from hydro_envs.laws.stribeck_lugre import lugre_exponential_rate
+from hydro_envs.laws.stribeck_lugre import lugre_exponential_rate, lugre_exponential_rate_bound
 from hydro_envs.laws.valve import second_order_valve_acceleration
 from hydro_envs.sim.stiffness import DEFAULT_SAFETY, RK4_REAL_STABILITY_LIMIT
+from hydro_envs.plants.rodless_cylinder.bounds import (
+    local_mode_rates as _local_mode_rates, piston_area, smallest_chamber_volume, speed_bound,
+)
 from hydro_envs.plants.rodless_cylinder.params import (  # noqa: F401  (re-exported)
-    D_AREA, D_COEF, D_CRIT, D_INVK, D_KV, D_PSIC, D_PSIL, D_SFULL, D_SQRTRTS,
+    D_AREA, D_COEF, D_CRIT, D_INVK, D_KV, D_LOCAL, D_ORIFICE, D_PSIC, D_PSIL, D_SFULL, D_SQRTRTS,
     ATM, I_ASTOP, I_BISO, I_CD, I_CISO, I_D, I_FC, I_FL, I_FLOW, I_FS, I_HW, I_K, I_KSTOP, I_L,
     I_M, I_MFLOOR, I_PE, I_PFLOOR, I_PS, I_R, I_RLAM, I_RP, I_SIG0, I_SIG1, I_SIG2, I_TS, I_UC,
     I_RSUP, I_ULAP, I_UMAX, I_VDA, I_VDB, I_VEPS, I_VMIN, I_VS, I_WV, I_XVM, I_ZV, N_FIELDS, N_PARAMS,
@@ -114,8 +117,12 @@ __all__ = [
     "fixed_supply_flows",
     "rodless_cylinder_guard",
     "static_friction_rate",
-    "static_friction_shallow",
-    "static_friction_refinement",
+    "orifice_rate",
+    "local_mode_rate",
+    "local_mode_shallow",
+    "lugre_local_shallow",
+    "local_mode_refinement",
+    "local_mode_rates",
     "stiffness_modes",
     "piston_area",
     "centre_pressure",
@@ -410,27 +417,101 @@ def static_friction_rate(v, p):
     return (slope + _stop_damping_at_full_thrust(p)) / p[I_M]
 
 
+@nb.njit(cache=True, error_model="numpy", inline="always")
+def _pressure_ratio(p1, p2):
+    """The lower of two pressures over the higher (1 when equal)."""
+    return p1 / p2 if p1 < p2 else p2 / p1
+
+
+@nb.njit(cache=True, error_model="numpy", inline="always")
+def orifice_rate(y, p):
+    """Upper estimate [1/s] of a chamber pressure's rate through the valve's flow law at state
+    ``y``: ``D_ORIFICE`` (``kappa R T_max`` times the laminar-tail slope of the fully open
+    edge, :mod:`.bounds`) over the smaller chamber volume at ``y``, times
+    ``sqrt((1 - r_l) / (1 - r))`` below the laminar ratio ``r_l``, with ``r`` the largest
+    pressure ratio across the four metering edges (P-A, P-B at p_s, A-R, B-R at p_e). The flow
+    laws' slope grows like ``(1 - r)^(-1/2)`` towards their linear tail (eqs (3)-(4), ISO 6358).
+    With supply droop the P-port pressure is not known here: the P edges count as at r = 1."""
+    pe = p[I_PE]
+    pa = y[PA]
+    pb = y[PB]
+    r = max(_pressure_ratio(pa, pe), _pressure_ratio(pb, pe))
+    if p[I_RSUP] > 0.0:
+        r = 1.0
+    else:
+        r = max(r, max(_pressure_ratio(pa, p[I_PS]), _pressure_ratio(pb, p[I_PS])))
+    area = p[D_AREA]
+    vol = min(max(area * y[Y] + p[I_VDA], p[I_VMIN]), max(area * (p[I_L] - y[Y]) + p[I_VDB], p[I_VMIN]))
+    rl = p[I_RLAM]
+    scale = 1.0 if r >= rl else math.sqrt((1.0 - rl) / (1.0 - r))
+    return p[D_ORIFICE] / vol * scale
+
+
+@nb.njit(cache=True, error_model="numpy", inline="always")
+def _on_bumper(y, p):
+    """Whether the slider at state ``y`` is in contact with an end-stop bumper."""
+    return y[Y] <= 0.0 or y[Y] >= p[I_L]
+
+
+@nb.njit(cache=True, error_model="numpy", inline="always")
+def _lugre_rate(y, p):
+    """:func:`~hydro_envs.laws.stribeck_lugre.lugre_exponential_rate_bound` of the slider at
+    state ``y`` (velocity, bristle deflection; viscous sigma as the other damping)."""
+    return lugre_exponential_rate_bound(y[V], y[Z], p[I_FC], p[I_FS], p[I_SIG0], p[I_SIG1], p[I_SIG2], p[I_M])
+
+
+@nb.njit(cache=True, error_model="numpy", inline="always")
+def _crossed(y0, y, p):
+    """Whether a chamber pressure passed the supply or the exhaust pressure between ``y0`` and
+    ``y`` (through a metering edge's zero pressure drop, where the flow law is steepest)."""
+    ps = p[I_PS]
+    pe = p[I_PE]
+    return ((y0[PA] - ps) * (y[PA] - ps) < 0.0 or (y0[PB] - ps) * (y[PB] - ps) < 0.0
+            or (y0[PA] - pe) * (y[PA] - pe) < 0.0 or (y0[PB] - pe) * (y[PB] - pe) < 0.0)
+
+
+@nb.njit(cache=True, error_model="numpy", inline="always")
+def local_mode_rate(y, p):
+    """Upper estimate [1/s] of the locally refined modes at state ``y`` (:mod:`.bounds`): the
+    flow law (:func:`orifice_rate`); the friction, i.e. the LuGre block of velocity and bristle
+    deflection (:func:`~hydro_envs.laws.stribeck_lugre.lugre_exponential_rate_bound`) or the
+    static curve's slope (:func:`static_friction_rate`); and, with the slider on a bumper, the
+    worst case of all (``D_LOCAL``)."""
+    if _on_bumper(y, p):
+        return p[D_LOCAL]
+    friction = _lugre_rate(y, p) if p[I_SIG0] > 0.0 else static_friction_rate(y[V], p)
+    return max(orifice_rate(y, p), friction)
+
+
 @nb.njit(cache=True, error_model="numpy")
-def static_friction_shallow(y0, y, p, h):
-    """True where an RK4 sub-step of ``h`` seconds stays stable on the static friction curve at
-    state ``y``: the velocity has the sign it had at the step's start ``y0`` (no pass through
-    the steep zero-velocity region in between) and ``h`` times :func:`static_friction_rate`
-    is inside RK4's real-axis bound (with the sub-step safety factor)."""
-    if (y[V] > 0.0) != (y0[V] > 0.0):
+def lugre_local_shallow(y0, y, p, h):
+    """:func:`local_mode_shallow` for parameter sets with a bristle state, compiled without the
+    static curve's branch (the envs' kernels when every copy has one)."""
+    if _on_bumper(y, p) or _crossed(y0, y, p):
         return False
-    return h * static_friction_rate(y[V], p) <= _STABLE_H_LAMBDA
+    return h * max(orifice_rate(y, p), _lugre_rate(y, p)) <= _STABLE_H_LAMBDA
 
 
 @nb.njit(cache=True, error_model="numpy")
-def static_friction_refinement(p, h):
-    """Sub-steps per step of ``h`` seconds that keep the static curve's steepest slope (at any
-    velocity; :func:`~hydro_envs.laws.friction.stribeck_exponential_slope_bound`) stable: 1
-    with a bristle state (LuGre, ``stiffness_modes`` bounds it)."""
+def local_mode_shallow(y0, y, p, h):
+    """True where an RK4 sub-step of ``h`` seconds stays stable in the locally refined modes at
+    state ``y`` (the step's start ``y0``, its Euler prediction ``y``;
+    :func:`hydro_envs.sim.rk4.rk4_advance_lookahead`): ``h`` times :func:`local_mode_rate`
+    inside RK4's real-axis bound (with the sub-step safety factor), no chamber pressure past the
+    supply or exhaust pressure between ``y0`` and ``y``, and on the static curve no velocity
+    sign change (the steep zero-velocity region) between them."""
     if p[I_SIG0] > 0.0:
-        return 1
-    lam = (p[I_SIG2] + p[I_FS] / p[I_VEPS] + abs(p[I_FS] - p[I_FC]) / p[I_VS]
-           + _stop_damping_at_full_thrust(p)) / p[I_M]
-    return max(1, int(math.ceil(h * lam / _STABLE_H_LAMBDA - 1e-12)))
+        return lugre_local_shallow(y0, y, p, h)
+    if (y[V] > 0.0) != (y0[V] > 0.0) or _crossed(y0, y, p):
+        return False
+    return h * local_mode_rate(y, p) <= _STABLE_H_LAMBDA
+
+
+@nb.njit(cache=True, error_model="numpy", inline="always")
+def local_mode_refinement(p, h):
+    """Fine sub-steps per sub-step of ``h`` seconds that keep the locally refined modes stable
+    at their worst case (``D_LOCAL``, :func:`local_mode_rates`)."""
+    return max(1, int(math.ceil(h * p[D_LOCAL] / _STABLE_H_LAMBDA - 1e-12)))
 
 
 @nb.njit(cache=True, error_model="numpy")
@@ -453,11 +534,6 @@ def rodless_cylinder_guard(y, p):
 
 
 # ---------------------------------------------------------------------------- analysis
-def piston_area(params: RodlessCylinderParams) -> float:
-    """Piston area ``A = pi D^2 / 4`` [m^2] (4.909 cm^2 for the 25 mm bore)."""
-    return 0.25 * math.pi * params.bore**2
-
-
 def _edge_flow_py(params: RodlessCylinderParams, area: float, p_up: float, p_down: float, t_up: float) -> float:
     return float(_edge_flow(params.to_array(), area, p_up, p_down, t_up, math.sqrt(params.gas_constant * t_up)))
 
@@ -564,23 +640,9 @@ def nominal_flow(params: RodlessCylinderParams, p1_gauge: float = 6e5, dp: float
     return m / RHO_REF_ISO * 60e3
 
 
-def speed_bound(params: RodlessCylinderParams) -> float:
-    """Upper estimate of the slider speed [m/s] used by :func:`stiffness_modes`.
-
-    In sliding the viscous term limits the speed to where ``sigma v + F_c`` balances the
-    largest steady pressure force ``A (p_s - p_e) + |F_L|``. Without viscous friction the
-    bound is the speed reached by that force acting over the whole stroke.
-    """
-    a = piston_area(params)
-    f_drive = a * (params.supply_pressure - params.exhaust_pressure) + abs(params.load_force)
-    v_energy = math.sqrt(2.0 * f_drive * params.stroke / params.mass)
-    if params.viscous_friction > 0.0:
-        return min(max(f_drive - params.coulomb_friction, 0.0) / params.viscous_friction, v_energy)
-    return v_energy
-
-
 def stiffness_modes(params: RodlessCylinderParams) -> dict[str, float]:
-    """Upper estimates of the Jacobian eigenvalue magnitudes [1/s] of every fast mode.
+    """Upper estimates of the Jacobian eigenvalue magnitudes [1/s] of the modes that are stiff
+    everywhere; they set the sub-step count.
 
     The fixed RK4 sub-step keeps ``h |lambda| <= 0.8 * 2.785`` for all of them
     (:func:`hydro_envs.sim.stiffness.rk4_substeps`); worst cases over the state space:
@@ -588,59 +650,44 @@ def stiffness_modes(params: RodlessCylinderParams) -> dict[str, float]:
     * ``valve``: spool poles, ``omega_v``.
     * ``gas_spring``: ``sqrt(kappa p_max A^2 (1/V_min + 1/V_max) / M)`` at the stroke end,
       p_max = 1.5 p_s (compression above supply).
-    * ``orifice``: laminar tail of the flow law at full opening into the smallest chamber,
-      ``kappa R T_max / V_min * dmdot/dp`` with T_max = 1.5 T_s (adiabatic compression).
-    * ``friction``: every damping that acts on the slider at once is summed (they share the
-      velocity row of the Jacobian): viscous sigma, the Hunt-Crossley stop damping at full
-      thrust ``alpha F_max``, and the friction law's own slope. LuGre: bristle relaxation while
-      sliding ``sigma0 v_max / F_c`` (v_max from :func:`speed_bound`) plus ``(2 sigma1 + sigma +
-      alpha F_max)/M``; stuck: ``sqrt(sigma0/M)`` plus the same dampings. Static curve: only
-      the dampings ``(sigma + alpha F_max)/M``. Its steep part, the slope ``F_s / (M v_eps)`` of
-      the regularised sign within a few ``v_eps`` of v = 0 (and the Stribeck dip), is stiff
-      only there: the kernels (:mod:`.kernels`) take sub-steps sized by the other modes and
-      redo a sub-step in :func:`static_friction_refinement` finer ones where
-      :func:`static_friction_shallow` fails along it (:func:`hydro_envs.sim.rk4.rk4_advance_refined`).
-    * ``end_stop``: ``sqrt(k/M)`` plus the Hunt-Crossley damping at full thrust, ``alpha F_max / M``.
+    * ``friction_stick`` (LuGre): the stuck bristles ``sqrt(sigma0/M)`` plus the dampings that
+      act on the slider with them, ``(2 sigma1 + sigma)/M``; ``friction`` (static curve): the
+      viscous ``sigma/M``.
     * ``heat``: wall exchange ``(kappa - 1) h T_max / (p_e/2 V_min)``.
+
+    Stiff only in part of the state space, and left out here (:mod:`.bounds`,
+    :func:`local_mode_rates`): the flow law's laminar tail, LuGre's bristle relaxation at speed
+    or the static curve's steep part near v = 0, and the bumpers in contact. The kernels
+    (:mod:`.kernels`) take a sub-step as :func:`local_mode_refinement` finer ones where
+    :func:`local_mode_shallow` fails at its start or at the Euler prediction of its end
+    (:func:`hydro_envs.sim.rk4.rk4_advance_lookahead`).
     """
     a = piston_area(params)
     m = params.mass
     kappa = params.heat_capacity_ratio
-    r_gas = params.gas_constant
-    ps = params.supply_pressure
-    p_max = 1.5 * ps
+    p_max = 1.5 * params.supply_pressure
     t_max = 1.5 * params.supply_temperature
-    f_max = a * (p_max - params.pressure_floor)
-    # stop penetration: static thrust plus an impact at the speed bound
-    pen = f_max / params.stop_stiffness + speed_bound(params) * math.sqrt(m / params.stop_stiffness)
-    v_min = max(min(params.dead_volume_a, params.dead_volume_b) - a * pen, params.min_chamber_volume)
+    v_min = smallest_chamber_volume(params)
     v_big = a * params.stroke + max(params.dead_volume_a, params.dead_volume_b)
-    # laminar slope of the flow law at the largest opening (both models, same code path); the
-    # area law runs as plain Python (``py_func``, bit-identical): compiling it for these 41
-    # calls would add about 0.4 s to an env's cold first step
-    xs = np.linspace(-params.spool_stroke, params.spool_stroke, 41)
-    s_open = max(
-        float(circular_orifice_area.py_func(params.valve_underlap + float(x), params.port_radius)) for x in xs
-    )
-    rl = params.laminar_pressure_ratio
-    slope = _edge_flow_py(params, s_open, ps, rl * ps, t_max) / (ps * (1.0 - rl))
     modes = {
         "valve": params.valve_natural_frequency,
         "gas_spring": math.sqrt(kappa * p_max * a * a * (1.0 / v_min + 1.0 / v_big) / m),
-        "orifice": kappa * r_gas * t_max * slope / v_min,
-        "end_stop": math.sqrt(params.stop_stiffness / m) + params.stop_damping * f_max / m,
     }
-    damping = (params.viscous_friction + params.stop_damping * f_max) / m
     if params.bristle_stiffness > 0.0:
-        s0 = params.bristle_stiffness
-        lugre = 2.0 * params.bristle_damping / m + damping
-        modes["friction_slip"] = s0 * speed_bound(params) / params.coulomb_friction + lugre
-        modes["friction_stick"] = math.sqrt(s0 / m) + lugre
-    else:  # the steep zero-velocity part: refined locally by the kernels
-        modes["friction"] = damping
+        modes["friction_stick"] = (math.sqrt(params.bristle_stiffness / m)
+                                   + (2.0 * params.bristle_damping + params.viscous_friction) / m)
+    else:
+        modes["friction"] = params.viscous_friction / m
     if params.wall_heat_conductance > 0.0:
         modes["heat"] = (kappa - 1.0) * params.wall_heat_conductance * t_max / (0.5 * params.exhaust_pressure * v_min)
     return modes
+
+
+def local_mode_rates(params: RodlessCylinderParams) -> dict[str, float]:
+    """Worst cases [1/s] of the modes the kernels refine locally (:func:`.bounds.local_mode_rates`:
+    ``orifice``, ``friction_slip`` or ``friction_static``, ``end_stop``); the largest is
+    ``D_LOCAL`` of the kernel parameter array."""
+    return _local_mode_rates(params, float(params.to_array()[D_ORIFICE]))
 
 
 # ---------------------------------------------------------------------- linearisation

@@ -13,8 +13,9 @@ import math
 
 import numpy as np
 
-from hydro_envs.laws.nozzle_fast import nozzle_flow_constants
-from hydro_envs.laws.orifice import circular_orifice_area
+from hydro_envs.laws.nozzle_fast import nozzle_flow_constants, nozzle_mass_flow_fast
+from hydro_envs.laws.orifice import circular_orifice_area, iso6358_mass_flow_laminar
+from hydro_envs.plants.rodless_cylinder.bounds import local_mode_rates
 from hydro_envs.params import ParameterError, PhysicalParams, physical
 
 __all__ = ["PLANT", "RodlessCylinderParams", "N_PARAMS", "N_FIELDS", "ATM", "T_REF_ISO", "RHO_REF_ISO"]
@@ -189,16 +190,34 @@ class RodlessCylinderParams(PhysicalParams):
     # plain Python here (``py_func``: the same libm calls, bit-identical results): compiling
     # them would add about 0.8 s to an env's cold first step.
     def to_array(self) -> np.ndarray:
-        crit, psi_c, psi_lam, inv_k, coef = nozzle_flow_constants.py_func(self.heat_capacity_ratio,
-                                                                           self.laminar_pressure_ratio)
+        constants = nozzle_flow_constants.py_func(self.heat_capacity_ratio, self.laminar_pressure_ratio)
+        s_full = float(circular_orifice_area.py_func(self.spool_stroke + self.valve_underlap, self.port_radius))
+        orifice = self._orifice_rate_volume(s_full, constants)
         extra = [
             0.25 * math.pi * self.bore**2,  # piston area A
-            crit, psi_c, psi_lam, inv_k, coef,
+            *constants,  # crit, psi_c, psi_lam, inv_k, coef
             math.sqrt(self.gas_constant * self.supply_temperature),  # sqrt(R T_s)
             self.spool_stroke / (self.command_max - self.command_centre),  # K_v of eq (28)
-            float(circular_orifice_area.py_func(self.spool_stroke + self.valve_underlap, self.port_radius)),
+            s_full,
+            orifice,
+            max(local_mode_rates(self, orifice).values()),
         ]
         return np.concatenate([super().to_array(), np.array(extra, dtype=np.float64)])
+
+    def _orifice_rate_volume(self, s_full: float, constants: tuple) -> float:
+        """``kappa R T_max`` [J/kg] times the laminar-tail slope [kg/(s Pa)] of the fully open
+        edge at supply pressure, T_max = 1.5 T_s: over a chamber volume, the largest rate [1/s]
+        of a chamber pressure through the valve's flow law (the ``orifice`` mode)."""
+        ps = self.supply_pressure
+        rl = self.laminar_pressure_ratio
+        t_max = 1.5 * self.supply_temperature
+        if self.flow_model < 0.5:
+            flow = nozzle_mass_flow_fast.py_func(self.discharge_coefficient * s_full, ps, rl * ps,
+                                                 math.sqrt(self.gas_constant * t_max), rl, *constants)
+        else:
+            flow = iso6358_mass_flow_laminar.py_func(self.sonic_conductance, self.critical_pressure_ratio, ps,
+                                                     rl * ps, t_max, T_REF_ISO, RHO_REF_ISO, rl)
+        return self.heat_capacity_ratio * self.gas_constant * t_max * flow / (ps * (1.0 - rl))
 
     @classmethod
     def from_array(cls, values: np.ndarray) -> "RodlessCylinderParams":
@@ -219,8 +238,9 @@ class RodlessCylinderParams(PhysicalParams):
 ) = range(37)
 N_FIELDS = 37
 # derived columns appended by RodlessCylinderParams.to_array()
-(D_AREA, D_CRIT, D_PSIC, D_PSIL, D_INVK, D_COEF, D_SQRTRTS, D_KV, D_SFULL) = range(N_FIELDS, N_FIELDS + 9)
-N_PARAMS = N_FIELDS + 9
+(D_AREA, D_CRIT, D_PSIC, D_PSIL, D_INVK, D_COEF, D_SQRTRTS, D_KV, D_SFULL, D_ORIFICE, D_LOCAL) = range(
+    N_FIELDS, N_FIELDS + 11)
+N_PARAMS = N_FIELDS + 11
 assert RodlessCylinderParams.names()[I_VMIN] == "min_chamber_volume"
 assert RodlessCylinderParams.names()[I_SIG1] == "bristle_damping"
 assert RodlessCylinderParams.names()[I_RSUP] == "supply_line_resistance"
