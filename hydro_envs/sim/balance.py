@@ -118,21 +118,24 @@ def replay_step(rhs, guard, mech, y0, u, p, dt, n_sub, w, y, o):
 
 
 @nb.njit(cache=True, error_model="numpy", inline="always")
+def _replay_start(mech, y0, p, dt, n_sub, y):
+    """Copy ``y0`` into ``y``; return the sub-step, the start energy and whether an end stop is
+    engaged at the start."""
+    for j in range(y.shape[0]):
+        y[j] = y0[j]
+    e0, _, _, _, c0 = mech(y, p)
+    return dt / n_sub, e0, c0 > 0.0
+
+
+@nb.njit(cache=True, error_model="numpy", inline="always")
 def replay_step_refined(rhs, guard, shallow, mech, y0, u, p, dt, n_sub, m, w, back, y, o):
     """:func:`replay_step` for kernels that step with
     :func:`hydro_envs.sim.rk4.rk4_advance_refined` (same ``shallow`` test and ``m``): each
     sub-step is taken coarse or redone in ``m`` fine ones exactly as there, and only the
     accepted sub-steps count in the energy terms. ``back (n_states,)`` is scratch."""
     ny = y.shape[0]
-    for j in range(ny):
-        y[j] = y0[j]
-    h = dt / n_sub
-    e0, _, _, _, c0 = mech(y, p)
-    contact = c0 > 0.0
-    w_in = 0.0
-    q_d = 0.0
-    turnover = 0.0
-    bad = 0.0
+    h, e0, contact = _replay_start(mech, y0, p, dt, n_sub, y)
+    w_in = q_d = turnover = bad = 0.0
     for _ in range(n_sub):
         for j in range(ny):
             back[j] = y[j]
@@ -163,15 +166,8 @@ def replay_step_lookahead(rhs, guard, shallow, mech, y0, u, p, dt, n_sub, m, w, 
     :func:`hydro_envs.sim.rk4.rk4_advance_lookahead` (same ``shallow`` test and ``m``): each
     sub-step is taken coarse or as ``m`` fine ones, decided as there."""
     ny = y.shape[0]
-    for j in range(ny):
-        y[j] = y0[j]
-    h = dt / n_sub
-    e0, _, _, _, c0 = mech(y, p)
-    contact = c0 > 0.0
-    w_in = 0.0
-    q_d = 0.0
-    turnover = 0.0
-    bad = 0.0
+    h, e0, contact = _replay_start(mech, y0, p, dt, n_sub, y)
+    w_in = q_d = turnover = bad = 0.0
     stage = w[4]
     for _ in range(n_sub):
         n = 1
