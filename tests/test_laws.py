@@ -669,3 +669,37 @@ def test_tabulated_butterworth_design_equals_scipy_bit_for_bit():
     for (order, fc, fs) in _TABULATED:
         want = signal.butter(order, fc, btype="low", fs=fs, output="sos")
         assert np.array_equal(butterworth_lowpass_sos(order, fc, fs), want)
+
+
+def test_lugre_rate_bound_covers_the_velocity_bristle_block():
+    """The eigenvalues of the (velocity, bristle) block of a mass with LuGre friction, by central
+    differences of the law, stay within lugre_exponential_rate_bound at random velocities,
+    deflections up to F_s/sigma0 and parameter sets (004 Table 2 order and beyond)."""
+    from hydro_envs.laws.stribeck_lugre import lugre_exponential_rate, lugre_exponential_rate_bound
+
+    rng = np.random.default_rng(7)
+    tight = 0.0
+    for _ in range(2000):
+        f_c = rng.uniform(2.0, 40.0)
+        f_s = f_c * rng.uniform(1.0, 3.0)
+        v_s = 10 ** rng.uniform(-4, -1)
+        s0, s1 = 10 ** rng.uniform(3, 7), 10 ** rng.uniform(0, 3.5)
+        c, m = 10 ** rng.uniform(0, 3), 10 ** rng.uniform(-1, 1.5)
+        v = rng.choice([-1.0, 1.0]) * 10 ** rng.uniform(-5, 0)
+        z = rng.uniform(-1.0, 1.0) * f_s / s0
+
+        def f(x):
+            dz = lugre_exponential_rate(x[0], x[1], f_c, f_s, v_s, s0)
+            return np.array([-(s0 * x[1] + s1 * dz + c * x[0]) / m, dz])
+
+        x0 = np.array([v, z])
+        jac = np.empty((2, 2))
+        for j, step in enumerate((1e-7 * max(abs(v), 1e-6), 1e-7 * max(abs(z), 1e-12))):
+            e = np.zeros(2)
+            e[j] = step
+            jac[:, j] = (f(x0 + e) - f(x0 - e)) / (2 * step)
+        lam = np.abs(np.linalg.eigvals(jac)).max()
+        bound = lugre_exponential_rate_bound(v, z, f_c, f_s, s0, s1, c, m)
+        assert lam <= bound * (1 + 1e-6), (lam, bound)
+        tight = max(tight, lam / bound)
+    assert tight > 0.5  # not uselessly loose

@@ -71,13 +71,13 @@ def lugre_exponential_rate_bound(v, z, f_c, f_s, sigma0, sigma1, damping, mass):
     ``a = sigma0 |v| / g`` and ``e = d(dz/dt)/dv``; ``c`` [N s/m] is ``damping``, every other
     damping on the mass (viscous sigma, a stop). Its trace is ``T = a + (sigma1 e + c)/M`` and
     its determinant ``D = (a c + e sigma0)/M`` (the sigma1 a e terms cancel), so every eigenvalue
-    has ``|lambda| <= T/2 + sqrt(T^2/4 + |D|)``. With ``g >= F_c``: ``a <= sigma0 |v| / F_c``
+    has ``|lambda| <= |T|/2 + sqrt(T^2/4 + |D|)``. With ``g >= F_c``: ``a <= sigma0 |v| / F_c``
     and ``|e| <= 1 + sigma0 |z| / F_c (1 + (F_s - F_c) / (e F_c))`` (the last term bounds
     ``|v| |g'| / g`` by its maximum over v, ``(F_s - F_c) / (e F_c)``, e = Euler's number).
     Units: v [m/s], z [m], forces [N], sigma0 [N/m], sigma1 and damping [N s/m], mass [kg].
     """
     a = sigma0 * abs(v) / f_c
     e = 1.0 + sigma0 * abs(z) / f_c * (1.0 + (f_s - f_c) / (math.e * f_c))
-    t = a + (sigma1 * e + damping) / mass
-    d = (a * damping + e * sigma0) / mass
+    t = abs(a + (sigma1 * e + damping) / mass)
+    d = abs(a * damping + e * sigma0) / mass
     return 0.5 * t + math.sqrt(0.25 * t * t + d)
