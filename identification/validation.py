@@ -146,6 +146,7 @@ def rows() -> list[ValidationRow]:
     small = rodless_eq32_poles(nominal, amplitude=SMALL_AMPLITUDE)
     small_fast = rodless_eq32_poles(nominal, amplitude=SMALL_AMPLITUDE, dt=0.2 * EQ32_DT)
     no_viscous = rodless_eq32_poles(dataclasses.replace(nominal, viscous_friction=0.0))
+    no_sigma1 = rodless_eq32_poles(dataclasses.replace(nominal, bristle_damping=0.0))
     frictionless = rodless_eq32_poles(dataclasses.replace(nominal, **FRICTIONLESS))
     presliding = (nominal.coulomb_friction / nominal.bristle_stiffness,
                   nominal.static_friction / nominal.bristle_stiffness)
@@ -203,7 +204,9 @@ def rows() -> list[ValidationRow]:
                 f"Table 2's viscous sigma gives {linear:.2f}: the seal friction damps the air spring. The "
                 f"procedure on the model without that sigma gives {_zeta(no_viscous)} (poles "
                 f"{_fmt(_others(no_viscous['poles']))}), so the Coulomb and bristle parts of the friction alone "
-                f"overdamp it; without any friction it is {_zeta(frictionless)} ({_kind(frictionless['poles'])}). "
+                f"overdamp it; without the assumed bristle damping sigma1 ({nominal.bristle_damping:g} N s/m) it is "
+                f"{_zeta(no_sigma1)}; without any friction it is "
+                f"{_zeta(frictionless)} ({_kind(frictionless['poles'])}). "
                 "Eq (32) lies between: the rig's friction damps its air spring less than Table 2's curve "
                 "damps the model's. Open: why. Gain per sample (depends on the sample time): eq (32) "
                 f"{seed['gain']:.3f} mm/V, the model {faster['gain']:.3f} / {model['gain']:.3f} / "
