@@ -12,8 +12,10 @@ the nominal model (:func:`hydro_envs.plants.rodless_cylinder.experiments.closed_
   which is ``-ln|z| / |ln z|`` for a complex pair, ``(a + b) / (2 sqrt(ab))`` for real poles
   ``exp(-a T), exp(-b T)``, and needs no sample time (004 does not print it).
 
-The gain per sample depends on the sample time, so it is reported in the damping row's source
-at three sample times, not compared.
+The gain per sample depends on the sample time, so it is not compared. The damping row's source
+gives it at three sample times, and the sample time at which the model has eq (32)'s gain
+(:func:`gain_matched_sample_time`). At that sample time, eq (32)'s pair is read as a
+continuous mode: its frequency, and the viscous damping that would give its damping ratio.
 """
 
 from __future__ import annotations
@@ -31,7 +33,7 @@ from hydro_envs.plants.rodless_cylinder.validation import damping_with_viscous_f
 from hydro_envs.validation import ValidationRow
 from identification.arx import SEED_004_EQ32, fit_arx
 
-__all__ = ["rows", "pole_pair_damping", "rodless_eq32_poles"]
+__all__ = ["rows", "pole_pair_damping", "rodless_eq32_poles", "gain_matched_sample_time"]
 
 #: 004 sec. 4.2 on the model: sample time [s] (eq (32)'s is not printed), P gain [V/m],
 #: M-sequence amplitude [V], position noise [m] (the grating ruler's resolution order)
@@ -45,6 +47,8 @@ SMALL_AMPLITUDE = 0.05
 #: a moving mass [kg] near the one at which the linear model (eqs (19)-(24)) with Table 2's
 #: viscous friction has eq (32)'s damping (about 21 kg)
 HEAVY_MASS = 20.0
+#: sample times [s] at which the procedure's gain per sample is compared with eq (32)'s
+GAIN_SAMPLE_TIMES = (0.004, 0.005, 0.0065, 0.008, 0.01)
 #: parameter overrides that remove the seal friction (Table 2 curve, LuGre bristles)
 FRICTIONLESS = {"static_friction": 0.0, "coulomb_friction": 0.0, "viscous_friction": 0.0,
                 "bristle_stiffness": 0.0, "bristle_damping": 0.0}
@@ -91,6 +95,18 @@ def rodless_eq32_poles(params: RodlessCylinderParams | None = None, *, dt: float
     out["clamps"] = int(d["clamps"])
     out["saturated"] = bool(np.any((d["u_valve"] <= 0.0) | (d["u_valve"] >= p.command_max)))
     return out
+
+
+def gain_matched_sample_time(params: RodlessCylinderParams, gain: float,
+                             times: tuple[float, ...] = GAIN_SAMPLE_TIMES) -> float:
+    """Sample time [s] at which the 004 sec. 4.2 procedure on the model identifies the gain per
+    sample ``gain`` [mm/V] (linear interpolation between the procedure's gains at ``times``;
+    NaN where they do not rise with the sample time or do not bracket ``gain``)."""
+    t = np.asarray(times, dtype=float)
+    g = np.array([rodless_eq32_poles(params, dt=float(x))["gain"] for x in t])
+    if not (np.all(np.diff(g) > 0.0) and g[0] <= gain <= g[-1]):
+        return math.nan
+    return float(np.interp(gain, g, t))
 
 
 def _real_pole_se(model, z: float) -> float:
@@ -150,7 +166,12 @@ def rows() -> list[ValidationRow]:
     frictionless = rodless_eq32_poles(dataclasses.replace(nominal, **FRICTIONLESS))
     presliding = (nominal.coulomb_friction / nominal.bristle_stiffness,
                   nominal.static_friction / nominal.bristle_stiffness)
-    linear = damping_with_viscous_friction(linearize_mid_stroke(nominal), nominal.viscous_friction)
+    lin = linearize_mid_stroke(nominal)
+    linear = damping_with_viscous_friction(lin, nominal.viscous_friction)
+    t_gain = gain_matched_sample_time(nominal, seed["gain"])
+    pair = seed["poles"][np.abs(seed["poles"].imag) > 0]
+    omega_pair = abs(cmath.log(complex(pair[0]))) / t_gain
+    c_pair = 2.0 * seed["zeta"] * omega_pair * nominal.mass
     procedure = (
         f"004 sec. 4.2 on the nominal model: P loop ({EQ32_KP:g} V/m) at mid-stroke, +-{EQ32_AMPLITUDE:g} V "
         f"M-sequence (1023 bits, twice) added to the controller output, {EQ32_DT * 1e3:g} ms samples "
@@ -208,10 +229,16 @@ def rows() -> list[ValidationRow]:
                 f"{_zeta(no_sigma1)}; without any friction it is "
                 f"{_zeta(frictionless)} ({_kind(frictionless['poles'])}). "
                 "Eq (32) lies between: the rig's friction damps its air spring less than Table 2's curve "
-                "damps the model's. Open: why. Gain per sample (depends on the sample time): eq (32) "
+                "damps the model's. Gain per sample (depends on the sample time): eq (32) "
                 f"{seed['gain']:.3f} mm/V, the model {faster['gain']:.3f} / {model['gain']:.3f} / "
                 f"{slower['gain']:.3f} at {0.5 * EQ32_DT * 1e3:g} / {EQ32_DT * 1e3:g} / "
-                f"{2 * EQ32_DT * 1e3:g} ms. Tolerance 30 %: an ARX fit identified in closed loop"
+                f"{2 * EQ32_DT * 1e3:g} ms; the model has eq (32)'s gain at about {t_gain * 1e3:.1f} ms. At "
+                f"that sample time eq (32)'s pair is a mode at {omega_pair:.0f} rad/s, near the model's air "
+                f"spring (eq (24): omega_n = {lin.omega_n:.1f} rad/s), damped as by {c_pair:.0f} N s/m of "
+                f"viscous friction on the {nominal.mass:g} kg slide, where Table 2 gives sigma = "
+                f"{nominal.viscous_friction:g} N s/m on top of its Coulomb level. So the two printed sources "
+                "disagree about the friction's damping, and the seed says nothing that explains it. "
+                "Tolerance 30 %: an ARX fit identified in closed loop"
             ),
             kind="independent",
         ),

@@ -55,3 +55,24 @@ def test_eq32_damping_lies_between_the_model_with_and_without_friction():
     _, z1, z2 = iv._split(np.roots(iv.SEED_004_EQ32["a"]))
     seed = iv.pole_pair_damping(z1, z2)
     assert free["zeta"] < 0.1 < seed < 1.0 < no_sigma["zeta"]
+
+
+def test_eq32_pair_at_the_gain_matched_sample_time_is_the_model_air_spring():
+    """The damping row's source: at the sample time where the model's gain per sample is eq
+    (32)'s, eq (32)'s pair sits within 25 % of the model's air-spring frequency (eq (24)) and is
+    damped as by far less viscous friction than Table 2's sigma."""
+    import cmath
+
+    from hydro_envs.plants.rodless_cylinder.model import linearize_mid_stroke
+    from hydro_envs.plants.rodless_cylinder.params import RodlessCylinderParams
+
+    nominal = RodlessCylinderParams()
+    seed = iv._summary(np.roots(iv.SEED_004_EQ32["a"]), iv.SEED_004_EQ32["b"])
+    t = iv.gain_matched_sample_time(nominal, seed["gain"])
+    assert iv.GAIN_SAMPLE_TIMES[0] < t < iv.GAIN_SAMPLE_TIMES[-1]
+    _, z1, _ = iv._split(seed["poles"])
+    omega = abs(cmath.log(z1)) / t
+    assert omega == pytest.approx(linearize_mid_stroke(nominal).omega_n, rel=0.25)
+    assert 2.0 * seed["zeta"] * omega * nominal.mass < 0.3 * nominal.viscous_friction
+    # no bracket: NaN
+    assert np.isnan(iv.gain_matched_sample_time(nominal, 100.0))
