@@ -14,8 +14,13 @@ Prints (no pass/fail; the targets in brackets):
   M env-steps/s, RK4 sub-steps per step (mean over copies), and the share of the step spent in
   the compiled integration call, in ``apply_actions`` + ``observe`` (inputs, observation and
   reward), and in the remaining Python (action checks, info dicts, autoreset), each timed with
-  ``time.perf_counter`` around that phase; the stiffness mode that sets most copies' sub-step
-  count ("set by") and the mean count the copies would need without it ("next")
+  ``time.perf_counter`` around that phase; the core time of one right-hand-side evaluation
+  per copy ("rhs ns", the plant's compiled ``derivatives`` at the batch's last states), the
+  kernel's time in such evaluations ("rhs/step": four per RK4 sub-step, plus refinement and
+  the kernel's own arithmetic), how many of them fit a 2 M steps/s step beside its
+  observation and Python time ("at 2M"); the stiffness mode that sets most copies' sub-step
+  count ("set by") and the mean count the copies would need without it ("next"); above the
+  table, what entering the kernel's parallel region costs under the OpenMP wait settings
 
 Usage: ``python bench/step_rate.py [--quick] [--profile] [--env ID ...]``. Timings are the best of ``--repeats`` runs.
 """
@@ -114,8 +119,26 @@ def profile_split(env_id: str, n: int, steps: int) -> dict[str, float]:
         "observe": spent["observe"] / steps,
         "python": (total - spent["kernel"] - spent["observe"]) / steps,
         "n_sub": float(np.mean(b.NSUB)),
+        "rhs": rhs_time(b),
         **_substep_modes(b),
     }
+
+
+def rhs_time(b, evaluations: int = 200, repeats: int = 3) -> float:
+    """Wall time [s] of one right-hand-side evaluation of every copy of batch ``b`` at its
+    current states and inputs, in parallel as the step kernel runs (the plant's compiled
+    ``derivatives`` over ``evaluations`` copies of each state; best of ``repeats``)."""
+    X = np.ascontiguousarray(np.repeat(b.Y[:, None, :], evaluations, axis=1))
+    U = np.ascontiguousarray(b.U[:, None, :])
+    out = np.empty_like(X)
+    derivatives = b.plant_spec.kernels.derivatives
+    derivatives(X[:, :2], U, b.P, out[:, :2])  # compiled before timing
+    best = np.inf
+    for _ in range(repeats):
+        t = time.perf_counter()
+        derivatives(X, U, b.P, out)
+        best = min(best, time.perf_counter() - t)
+    return best / evaluations
 
 
 def _substep_modes(b) -> dict[str, object]:
@@ -135,15 +158,52 @@ def _substep_modes(b) -> dict[str, object]:
     return {"set_by": names.most_common(1)[0][0], "n_sub_next": float(np.mean(without))}
 
 
+def parallel_call_time(gap: float, calls: int = 300) -> float:
+    """Wall time [s] of a call of an empty parallel kernel (a ``prange`` over 64 blocks, as
+    :func:`hydro_envs.sim.rk4.in_blocks` makes) when ``gap`` seconds of other work separate the
+    calls, as observation, reward and Python separate two vector-env steps: what entering a
+    parallel region costs under the OpenMP wait settings in force (median of ``calls``)."""
+    import numba
+
+    @numba.njit(parallel=True)
+    def empty(x):
+        for c in numba.prange(64):
+            x[c] += 0.0
+
+    x = np.zeros(64)
+    empty(x)
+    spent = []
+    for _ in range(calls):
+        t = time.perf_counter()
+        while time.perf_counter() - t < gap:
+            pass
+        t = time.perf_counter()
+        empty(x)
+        spent.append(time.perf_counter() - t)
+    return float(np.median(spent))
+
+
 def print_profile(env_ids: list[str], n: int, steps: int, repeats: int) -> None:
     print(f"profile of one {n}-copy vector step (best of {repeats}, {steps} steps after warm-up)")
+    print("an empty parallel kernel call 50 / 200 us after the last: "
+          f"{parallel_call_time(50e-6) * 1e6:.1f} / {parallel_call_time(200e-6) * 1e6:.1f} us")
     head = (f"{'env id':<42} {'M steps/s':>9} {'sub-steps':>9} {'step us':>7} {'kernel':>6} {'obs+rew':>7} "
-            f"{'python':>6}  {'set by':<12} {'next':>4}")
+            f"{'python':>6} {'rhs ns':>6} {'rhs/step':>8} {'at 2M':>5}  {'set by':<12} {'next':>4}")
     print(head)
+    import numba
+
+    cores = numba.get_num_threads()
+
+    def budget(r: dict[str, float]) -> float:
+        """Right-hand-side evaluations per step that fit a 2 M steps/s step beside the step's
+        observation, reward and Python time."""
+        return (n / 2e6 - r["observe"] - r["python"]) / r["rhs"]
+
     for env_id in env_ids:
         r = min((profile_split(env_id, n, steps) for _ in range(repeats)), key=lambda r: r["step"])
         print(f"{env_id:<42} {r['rate'] / 1e6:>9.2f} {r['n_sub']:>9.2f} {r['step'] * 1e6:>7.0f} "
-              f"{r['kernel'] / r['step']:>6.0%} {r['observe'] / r['step']:>7.0%} {r['python'] / r['step']:>6.0%}  "
+              f"{r['kernel'] / r['step']:>6.0%} {r['observe'] / r['step']:>7.0%} {r['python'] / r['step']:>6.0%} "
+              f"{r['rhs'] * cores / n * 1e9:>6.0f} {r['kernel'] / r['rhs']:>8.1f} {budget(r):>5.1f}  "
               f"{r['set_by']:<12} {r['n_sub_next']:>4.1f}")
 
 
@@ -265,7 +325,8 @@ def main() -> None:
     vec_steps = 100 if args.quick else 1_000
     n = 1024
     print(f"machine: {os.cpu_count()} CPUs, numba {numba.__version__} ({numba.get_num_threads()} threads), "
-          f"gymnasium {gym.__version__}, numpy {np.__version__}")
+          f"gymnasium {gym.__version__}, numpy {np.__version__}, OMP_WAIT_POLICY={os.environ.get('OMP_WAIT_POLICY')}, "
+          f"GOMP_SPINCOUNT={os.environ.get('GOMP_SPINCOUNT')}")
 
     best = lambda f: max(f() for _ in range(args.repeats))  # noqa: E731
     env_ids = args.env or sorted(k for k in gym.registry if k.startswith("hydro_envs/"))
