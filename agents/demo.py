@@ -37,11 +37,7 @@ Usage::
 
 from __future__ import annotations
 
-import os
-
-# numba's OpenMP workers spin after each parallel env step and starve torch on 2 cores
-# (agents/train.py); must be set before numba or torch load libgomp.
-os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
+import hydro_envs  # noqa: F401  (before torch: the OpenMP wait default, hydro_envs/_openmp.py)
 
 import argparse  # noqa: E402
 import time  # noqa: E402

@@ -32,9 +32,7 @@ the same weights (``agents.train`` is bit-reproducible with one torch thread).
 
 from __future__ import annotations
 
-import os
-
-os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")  # see agents/train.py
+import hydro_envs  # noqa: F401  (before torch: the OpenMP wait default, hydro_envs/_openmp.py)
 
 import argparse  # noqa: E402
 import shutil  # noqa: E402

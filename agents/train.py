@@ -70,13 +70,9 @@ evaluation). Same seed, same config, same machine and
 
 from __future__ import annotations
 
-import os
-
-# numba's OpenMP worker threads spin after every parallel env step (libgomp's default wait
-# policy); on 2 shared cores they starve torch: a SAC gradient step measured 13 ms with a
-# passive wait policy and 260 ms without. libgomp reads this when it is first loaded, so it
-# only takes effect when this module is imported before torch and numba start their threads.
-os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
+# before torch: importing the package sets its OpenMP wait default, which libgomp reads when
+# it is first loaded (hydro_envs/_openmp.py)
+import hydro_envs  # noqa: F401
 
 import argparse  # noqa: E402
 import copy  # noqa: E402

@@ -39,10 +39,9 @@ from __future__ import annotations
 
 import os
 
-# Before torch and numba load libgomp: spinning OpenMP workers of numba's parallel env step
-# starve torch on a shared 2-core machine (see agents/train.py). Set OMP_WAIT_POLICY=ACTIVE
-# in the environment to measure the default behaviour.
-os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
+# before torch and numba load libgomp: the package's OpenMP wait default (hydro_envs/_openmp.py);
+# set OMP_WAIT_POLICY or GOMP_SPINCOUNT in the environment to measure another
+import hydro_envs  # noqa: E402,F401
 
 import argparse  # noqa: E402
 import sys  # noqa: E402
@@ -141,7 +140,8 @@ def throughput(repeats: int, quick: bool) -> None:
     kinds = [("batched", 1), ("batched", n_threads), ("dummy", n_threads)] if n_threads > 1 else [
         ("batched", 1), ("dummy", 1)]
     print(f"SB3 training throughput on {ENV_ID} (best of {repeats}; env steps/s; torch threads "
-          f"{torch.get_num_threads()}; OMP_WAIT_POLICY={os.environ.get('OMP_WAIT_POLICY')}; "
+          f"{torch.get_num_threads()}; OMP_WAIT_POLICY={os.environ.get('OMP_WAIT_POLICY')}, "
+          f"GOMP_SPINCOUNT={os.environ.get('GOMP_SPINCOUNT')}; "
           f"load average at start {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs)")
     print("'batched/k': make_sb3_vec_env with k numba threads; 'Dummy': DummyVecEnv of gymnasium.make envs")
     print(f"{'algo':<5} {'n_envs':>6} {'env':<10} {'rollout':>9} {'train':>9}")

@@ -12,16 +12,9 @@ Importing the package registers the environments with Gymnasium::
 
 from __future__ import annotations
 
-import os
+from hydro_envs._openmp import set_wait_default
 
-# Package-wide threading decision: the vector envs step all copies in numba parallel kernels
-# (OpenMP layer). libgomp's default wait policy lets its idle workers spin after every env
-# step; on a small machine they take the cores from whatever runs between steps (a policy
-# network: a SAC gradient step measured 260 ms instead of 13 ms on 2 cores). PASSIVE workers
-# sleep instead, at a cost of a few microseconds per parallel step. libgomp reads the variable
-# once, when it is loaded (by the first parallel kernel or by torch), so it is set here, before
-# either; ``setdefault`` keeps a user's own OMP_WAIT_POLICY.
-os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
+set_wait_default()  # before numba or torch load libgomp (hydro_envs/_openmp.py)
 
 from gymnasium.envs.registration import register  # noqa: E402
 from gymnasium.envs.registration import registry as gym_registry  # noqa: E402

@@ -124,19 +124,25 @@ def test_hydro_demo_rollouts_still_work(capsys):
     assert "mean tracking RMSE" in capsys.readouterr().out
 
 
-def test_importing_the_package_sets_a_passive_omp_wait_policy_unless_the_user_chose():
+def test_importing_the_package_bounds_the_openmp_spin_unless_the_user_chose():
     import subprocess
     import sys
 
-    code = "import os, hydro_envs; print(os.environ['OMP_WAIT_POLICY'])"
-    env = {k: v for k, v in os.environ.items() if k != "OMP_WAIT_POLICY"}
+    from hydro_envs._openmp import SPIN_COUNT
+
+    code = "import os, hydro_envs; print(os.environ.get('GOMP_SPINCOUNT'), os.environ.get('OMP_WAIT_POLICY'))"
+    env = {k: v for k, v in os.environ.items() if k not in ("OMP_WAIT_POLICY", "GOMP_SPINCOUNT")}
     root = str(Path(__file__).resolve().parents[1])
     env["PYTHONPATH"] = root + os.pathsep + env.get("PYTHONPATH", "")
-    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True)
-    assert out.stdout.strip() == "PASSIVE"
-    env["OMP_WAIT_POLICY"] = "ACTIVE"
-    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True)
-    assert out.stdout.strip() == "ACTIVE"
+
+    def run(**extra: str) -> str:
+        out = subprocess.run([sys.executable, "-c", code], env={**env, **extra}, capture_output=True, text=True,
+                             check=True)
+        return out.stdout.strip()
+
+    assert run() == f"{SPIN_COUNT} None"
+    assert run(OMP_WAIT_POLICY="PASSIVE") == "None PASSIVE"
+    assert run(GOMP_SPINCOUNT="0") == "0 None"
 
 
 def test_benchmark_configs_list_existing_baselines_of_their_env():

@@ -13,11 +13,8 @@ from __future__ import annotations
 import csv
 import json
 import math
-import os
 
-# as agents/train.py: passive OpenMP waiting, effective if torch is not loaded yet
-os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
-
+import hydro_envs  # noqa: F401  (as agents/train.py: the OpenMP wait default before torch loads)
 import numpy as np
 import pytest
 import yaml
@@ -27,7 +24,6 @@ torch = pytest.importorskip("torch")
 
 from stable_baselines3.common.callbacks import BaseCallback  # noqa: E402
 
-import hydro_envs  # noqa: E402,F401
 from agents import train as T  # noqa: E402
 from agents.policies import load_trained  # noqa: E402
 from hydro_envs.envs.sb3 import make_sb3_vec_env  # noqa: E402
