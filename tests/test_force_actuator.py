@@ -433,6 +433,31 @@ def test_dahl_refinement_tests_speed_and_reversals():
     assert fa.dahl_friction_shallow(y0, y, static, h) and fa.dahl_friction_refinement(static, h) == 1
 
 
+def test_dahl_substeps_follow_the_local_speed():
+    """The kernels' fine-step count: 1 where the test holds; above the stable speed the count
+    that takes the faster of start and Euler prediction stably with the 1.5x margin; the
+    velocity bound's count across a reversal and wherever the local count would exceed it."""
+    pa = NOMINAL.to_array()
+    h = DT / 2
+    m = fa.dahl_friction_refinement(pa, h)
+    v_stable = 0.8 * 2.7853 * NOMINAL.coulomb_friction / (4.0 * NOMINAL.friction_stiffness * h)
+    y0 = fa.rest_state(NOMINAL)
+    x = y0.copy()
+    assert fa.dahl_friction_substeps(y0, x, pa, h, m) == 1
+    y0[fa.VS], x[fa.VS] = 0.9 * v_stable, 0.95 * v_stable
+    assert fa.dahl_friction_substeps(y0, x, pa, h, m) == 1
+    y0[fa.VS], x[fa.VS] = 1.1 * v_stable, 1.2 * v_stable
+    n = fa.dahl_friction_substeps(y0, x, pa, h, m)
+    assert n == 2 < m  # ceil(1.5 x 1.2)
+    assert 1.5 * 1.2 * v_stable / n <= v_stable
+    y0[fa.VS], x[fa.VS] = 1e-4, -1e-4
+    assert fa.dahl_friction_substeps(y0, x, pa, h, m) == m
+    y0[fa.VS], x[fa.VS] = 5.0 * v_stable, 5.0 * v_stable
+    assert fa.dahl_friction_substeps(y0, x, pa, h, m) == m
+    static = dataclasses.replace(NOMINAL, friction_model=1.0).to_array()
+    assert fa.dahl_friction_substeps(y0, x, static, h, 1) == 1
+
+
 def test_refined_substeps_match_uniform_fine_substeps():
     """Coarse sub-steps with local refinement against uniform sub-steps 8x finer, under a
     closed-loop-like current with reversals of the sensor mass: the sensor force agrees within

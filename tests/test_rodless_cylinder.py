@@ -34,7 +34,7 @@ from hydro_envs.plants.rodless_cylinder.params import RodlessCylinderParams
 from hydro_envs.randomization import load_randomization
 from hydro_envs import registry
 from hydro_envs.sim.reference import reference_rollout
-from hydro_envs.sim.rk4 import rk4_advance, rk4_advance_lookahead
+from hydro_envs.sim.rk4 import local_substeps, rk4_advance, rk4_advance_lookahead
 from hydro_envs.sim.stiffness import DEFAULT_SAFETY, RK4_REAL_STABILITY_LIMIT, substeps_from_stiffness
 
 
@@ -974,18 +974,18 @@ def test_env_step_kernels_follow_the_supply_droop_and_agree_bit_for_bit():
 
 # ================================================= local refinement of the stiff-in-places modes
 @nb.njit(cache=True)
-def _always(y0, y, p, h):
-    return True
+def _coarse(y0, y, p, h, m):
+    return 1
 
 
 @nb.njit(cache=True)
-def _never(y0, y, p, h):
-    return False
+def _finest(y0, y, p, h, m):
+    return m
 
 
 @nb.njit(cache=True)
-def _lookahead(shallow, y, u, p, h, n_sub, m, work):
-    return rk4_advance_lookahead(rc.rodless_cylinder_rhs, rc.rodless_cylinder_guard, shallow, y, u, p, h, n_sub,
+def _lookahead(refinement, y, u, p, h, n_sub, m, work):
+    return rk4_advance_lookahead(rc.rodless_cylinder_rhs, rc.rodless_cylinder_guard, refinement, y, u, p, h, n_sub,
                                  m, work)
 
 
@@ -995,16 +995,16 @@ def _plain(y, u, p, h, n_sub, work):
 
 
 def test_lookahead_step_is_plain_rk4_coarse_or_fine():
-    """A look-ahead step whose test always holds is rk4_advance's step bit for bit; one whose
-    test never holds is m sub-steps of h / m, bit for bit."""
+    """A look-ahead step whose refinement is always 1 is rk4_advance's step bit for bit; one
+    whose refinement is always m is m sub-steps of h / m, bit for bit."""
     p = NOMINAL.to_array()
     y0 = rc.rest_state(NOMINAL, 0.3 * L)
     u = np.array([6.5])
     h, n_sub, m = 5e-4, 2, 3
-    for shallow, (hh, nn) in ((_always, (h, n_sub)), (_never, (h / m, n_sub * m))):
+    for refinement, (hh, nn) in ((_coarse, (h, n_sub)), (_finest, (h / m, n_sub * m))):
         a, b = y0.copy(), y0.copy()
         for _ in range(50):
-            _lookahead(shallow, a, u, p, h, n_sub, m, np.zeros((5, rc.N_STATES)))
+            _lookahead(refinement, a, u, p, h, n_sub, m, np.zeros((5, rc.N_STATES)))
             _plain(b, u, p, hh, nn, np.zeros((5, rc.N_STATES)))
         assert np.array_equal(a, b)
 
@@ -1041,6 +1041,45 @@ def test_local_modes_left_out_of_the_substep_are_refined_where_stiff():
         b = a.copy()
         b[rc.PA] *= rng.uniform(0.98, 1.02)
         assert rc.lugre_local_shallow(a, b, p, h) == rc.local_mode_shallow(a, b, p, h)
+
+
+def test_local_substeps_follow_the_local_rates():
+    """The look-ahead's fine-step count: 1 where the modes are not stiff; with a bristle state,
+    the count that takes the larger local rate at start and Euler prediction stably with the
+    1.5x margin, capped by the worst case; the worst case on a bumper, across the supply
+    pressure and, for the static curve, wherever the test fails."""
+    assert [local_substeps(z, 1.0, 5) for z in (0.5, 1.0, 1.01, 2.0, 3.0)] == [1, 1, 2, 3, 5]
+    assert local_substeps(3.0, 1.0, 4) == 4
+    p = NOMINAL.to_array()
+    n = substeps_from_stiffness(rc.stiffness_modes(NOMINAL), DT)[0]
+    h = DT / n
+    m = rc.local_mode_refinement(p, h)
+    stable = DEFAULT_SAFETY * RK4_REAL_STABILITY_LIMIT
+    rest = rc.rest_state(NOMINAL, HALF)
+    assert rc.local_mode_substeps(rest, rest, p, h, m) == 1
+    on_stop = rc.rest_state(NOMINAL, -1e-5)
+    assert rc.local_mode_substeps(rest, on_stop, p, h, m) == m
+    full = rc.rest_state(NOMINAL, 1e-3, pa=NOMINAL.supply_pressure * 0.95)
+    past = full.copy()
+    past[rc.PA] = NOMINAL.supply_pressure * 1.05
+    assert rc.local_mode_substeps(full, past, p, h, m) == m
+    counts = []
+    for v in (0.1, 0.3, -0.5, 0.8, -1.2):
+        a = rc.rest_state(NOMINAL, HALF, v=v)
+        b = rc.rest_state(NOMINAL, HALF, v=1.05 * v)
+        k = rc.local_mode_substeps(a, b, p, h, m)
+        rate = max(rc.local_mode_rate(a, p), rc.local_mode_rate(b, p))
+        if h * rate <= stable:
+            assert k == 1
+        else:
+            assert 2 <= k <= m and (k == m or h * rate / k <= stable / 1.5 * 1.0000001)
+        counts.append(k)
+    assert min(counts) == 1 and 1 < max(counts)
+    static = dataclasses.replace(NOMINAL, bristle_stiffness=0.0)
+    ps = static.to_array()
+    slow = rc.rest_state(static, HALF, v=1e-4)  # on the curve's steep part near v = 0
+    assert not rc.local_mode_shallow(slow, slow, ps, h)
+    assert rc.local_mode_substeps(slow, slow, ps, h, 7) == 7
 
 
 def test_lugre_refined_substeps_match_uniform_fine_substeps():

@@ -9,9 +9,8 @@ elastic energy in engaged end stops [J]. Along the exact solution ``dE/dt = P_in
 :func:`replay_step` re-integrates one copy over one env step exactly as
 :func:`hydro_envs.sim.rk4.rk4_advance` does (same stages, weights and guards) and integrates
 ``W = int P_in dt`` and ``Q = int D dt`` with the RK4 weights on the same stages (RK4 applied to
-the augmented system); :func:`replay_step_refined` and :func:`replay_step_lookahead` do the
-same for kernels with local refinement (:func:`hydro_envs.sim.rk4.rk4_advance_refined`,
-:func:`hydro_envs.sim.rk4.rk4_advance_lookahead`). The checks built on it are
+the augmented system); :func:`replay_step_lookahead` does the same for kernels with local
+refinement (:func:`hydro_envs.sim.rk4.rk4_advance_lookahead`). The checks built on it are
 described in :mod:`hydro_envs.soak`.
 """
 
@@ -22,9 +21,8 @@ import math
 import numba as nb
 
 from hydro_envs.laws.contact import end_stop_force
-from hydro_envs.sim.rk4 import coarse_step_shallow
 
-__all__ = ["stop_split", "stroke_check", "replay_step", "replay_step_refined", "replay_step_lookahead"]
+__all__ = ["stop_split", "stroke_check", "replay_step", "replay_step_lookahead"]
 
 
 @nb.njit(cache=True, error_model="numpy", inline="always")
@@ -99,8 +97,8 @@ def _substep_with_energy(rhs, guard, mech, y, u, p, h, w):
 
 
 @nb.njit(cache=True, error_model="numpy")
-def _no_refinement(y0, y, p, h):
-    return True
+def _no_refinement(y0, y, p, h, m):
+    return 1
 
 
 @nb.njit(cache=True, error_model="numpy", inline="always")
@@ -109,9 +107,9 @@ def replay_step(rhs, guard, mech, y0, u, p, dt, n_sub, w, y, o):
 
     ``o`` = (E_0, E_1, W = int P_in dt, Q = int D dt, int(|P_in| + D) dt, number of sub-steps
     with a stage at which D < 0, 1 if an end stop was engaged at any stage else 0).
-    :func:`replay_step_refined` without refinement (``m = 1``: no scratch state needed).
+    :func:`replay_step_lookahead` without refinement (``m = 1``).
     """
-    replay_step_refined(rhs, guard, _no_refinement, mech, y0, u, p, dt, n_sub, 1, w, y, y, o)
+    replay_step_lookahead(rhs, guard, _no_refinement, mech, y0, u, p, dt, n_sub, 1, w, y, o)
 
 
 @nb.njit(cache=True, error_model="numpy", inline="always")
@@ -125,43 +123,10 @@ def _replay_start(mech, y0, p, dt, n_sub, y):
 
 
 @nb.njit(cache=True, error_model="numpy", inline="always")
-def replay_step_refined(rhs, guard, shallow, mech, y0, u, p, dt, n_sub, m, w, back, y, o):
+def replay_step_lookahead(rhs, guard, refinement, mech, y0, u, p, dt, n_sub, m, w, y, o):
     """:func:`replay_step` for kernels that step with
-    :func:`hydro_envs.sim.rk4.rk4_advance_refined` (same ``shallow`` test and ``m``): each
-    sub-step is taken coarse or redone in ``m`` fine ones exactly as there, and only the
-    accepted sub-steps count in the energy terms. ``back (n_states,)`` is scratch."""
-    ny = y.shape[0]
-    h, e0, contact = _replay_start(mech, y0, p, dt, n_sub, y)
-    w_in = q_d = turnover = bad = 0.0
-    for _ in range(n_sub):
-        for j in range(ny):
-            back[j] = y[j]
-        fine = m > 1 and not shallow(back, y, p, h)
-        left = m if fine else 1
-        while left > 0:
-            dw, dq, dturn, c, b = _substep_with_energy(rhs, guard, mech, y, u, p, h / m if fine else h, w)
-            if not fine and m > 1:
-                if not coarse_step_shallow(shallow, back, y, p, h, w):
-                    for j in range(ny):
-                        y[j] = back[j]
-                    fine = True
-                    left = m
-                    continue
-            w_in += dw
-            q_d += dq
-            turnover += dturn
-            contact = contact or c
-            if b:
-                bad += 1.0
-            left -= 1
-    _finish(mech, y, p, e0, contact, w_in, q_d, turnover, bad, o)
-
-
-@nb.njit(cache=True, error_model="numpy", inline="always")
-def replay_step_lookahead(rhs, guard, shallow, mech, y0, u, p, dt, n_sub, m, w, y, o):
-    """:func:`replay_step` for kernels that step with
-    :func:`hydro_envs.sim.rk4.rk4_advance_lookahead` (same ``shallow`` test and ``m``): each
-    sub-step is taken coarse or as ``m`` fine ones, decided as there."""
+    :func:`hydro_envs.sim.rk4.rk4_advance_lookahead` (same ``refinement`` and ``m``): each
+    sub-step is taken as the fine ones ``refinement`` gives, as there."""
     ny = y.shape[0]
     h, e0, contact = _replay_start(mech, y0, p, dt, n_sub, y)
     w_in = q_d = turnover = bad = 0.0
@@ -172,8 +137,7 @@ def replay_step_lookahead(rhs, guard, shallow, mech, y0, u, p, dt, n_sub, m, w, 
             rhs(y, u, p, w[0])
             for j in range(ny):
                 stage[j] = y[j] + h * w[0][j]
-            if not (shallow(y, y, p, h) and shallow(y, stage, p, h)):
-                n = m
+            n = refinement(y, stage, p, h, m)
         for _k in range(n):
             dw, dq, dturn, c, b = _substep_with_energy(rhs, guard, mech, y, u, p, h / n, w)
             w_in += dw

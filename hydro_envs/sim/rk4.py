@@ -14,10 +14,12 @@ loops exist once, each plant compiles only its own model, and every binding is c
 such as an acceleration). ``in_blocks`` spreads a batch step over threads in contiguous
 blocks of copies, each advanced by the plant's serial step: the separately compiled serial
 loop runs 3-25 % faster than the same RK4 sub-steps as the body of a ``prange`` over single
-copies (1024-copy envs of every plant, bit-identical states). ``rk4_advance_refined`` is
+copies (1024-copy envs of every plant, bit-identical states). ``rk4_advance_lookahead`` is
 ``rk4_advance`` for a plant with a mode that is stiff only in a small region of the state
-space (a regularised friction sign near zero velocity): sub-steps sized for the other modes,
-each redone in finer sub-steps where the plant's ``shallow`` test fails along it.
+space (a friction state at speed, a regularised friction sign near zero velocity, a flow
+law's laminar tail, a stop in contact): sub-steps sized for the other modes, each taken as
+finer ones where the plant's ``refinement`` finds those modes stiff at its start or at the
+Euler prediction of its end, as many as it gives.
 
 Batch layout: states ``Y (n, n_states)``, inputs ``U (n, n_inputs)``, parameters
 ``P (n, n_params)``, sub-steps ``NSUB (n,)``, workspace ``W (n, 5, n_states)`` (k1..k4 and the
@@ -27,11 +29,13 @@ stage state), guard counters ``clamps (n,)``. Trajectories: ``U (n, T, n_inputs)
 
 from __future__ import annotations
 
+import math
+
 import numba as nb
 import numpy as np
 
-__all__ = ["rk4_advance", "rk4_advance_refined", "rk4_advance_lookahead", "coarse_step_shallow",
-           "rk4_trajectory", "rk4_trajectory_refined", "rk4_trajectory_lookahead", "rhs_along", "in_blocks"]
+__all__ = ["rk4_advance", "rk4_advance_lookahead", "local_substeps", "LOCAL_RATE_MARGIN", "rk4_trajectory",
+           "rk4_trajectory_lookahead", "rhs_along", "in_blocks"]
 
 #: most blocks of copies :func:`in_blocks` makes of a batch (copies differ in sub-step count;
 #: a fixed number, since the thread count read inside a kernel would keep it out of the cache)
@@ -73,34 +77,53 @@ def rk4_advance(rhs, guard, y, u, p, h, n_sub, work):
     return clamps
 
 
-@nb.njit(cache=True, error_model="numpy", inline="always")
-def rk4_advance_refined(rhs, guard, shallow, y, u, p, h, n_sub, m, work, back):
-    """``rk4_advance`` with local refinement: each of the ``n_sub`` steps of ``h`` seconds is
-    one classical RK4 step where ``shallow(y_start, x, p, h)`` holds at its start state, its
-    three stage states and its end state, and is redone as ``m`` steps of ``h / m`` where it
-    fails at any of them. ``shallow`` tells whether the plant's locally stiff mode lets an RK4
-    step of ``h`` stay stable at ``x`` (for a friction curve: its slope at the velocity of
-    ``x`` inside the stability bound of ``h``, and the velocity still of the sign it had at
-    ``y_start``); it must read only state components the guard leaves alone. ``m`` must make
-    ``h / m`` stable everywhere (``m <= 1``: plain RK4 sub-steps, ``shallow`` is not called).
-    ``back (n_states,)`` is scratch. Returns guard clamps. An accepted step is one
-    ``rk4_advance`` step (the same arithmetic); its stage states are rebuilt from ``work``.
+#: margin on a locally stiff mode's rate at a sub-step's start and Euler prediction when
+#: :func:`local_substeps` sizes its refinement: the rate may grow along the sub-step (a friction
+#: state's rate with the speed, a flow law's with the pressure ratio); assumed
+LOCAL_RATE_MARGIN = 1.5
 
-    Compile time: every step, coarse or fine, runs through the one RK4 body written out here, so
-    the right-hand side is compiled into the loop once. With ``rk4_advance`` inlined here
-    (nested inlining) and a call site per step kind, a plant's step kernel took about a second
-    longer to compile.
+
+@nb.njit(cache=True, error_model="numpy", inline="always")
+def local_substeps(h_lambda, stable, m):
+    """Fine sub-steps that take a sub-step whose locally stiff modes have ``h |lambda| =
+    h_lambda`` (their largest rate at its start and Euler prediction, times ``h``) inside the
+    stable ``stable``: 1 if ``h_lambda <= stable``, else ``ceil(LOCAL_RATE_MARGIN h_lambda /
+    stable)``, at least 2 and at most ``m`` (the count that is stable at the worst case)."""
+    if h_lambda <= stable:
+        return 1
+    return min(m, max(2, int(math.ceil(LOCAL_RATE_MARGIN * h_lambda / stable))))
+
+
+@nb.njit(cache=True, error_model="numpy", inline="always")
+def rk4_advance_lookahead(rhs, guard, refinement, y, u, p, h, n_sub, m, work):
+    """``rk4_advance`` with local refinement decided ahead: each of the ``n_sub`` steps of
+    ``h`` seconds is taken as ``n = refinement(y, x, p, h, m)`` classical RK4 steps of
+    ``h / n``, with ``y`` its start state and ``x = y + h k1`` the Euler prediction of its end.
+    ``refinement`` returns 1 where the plant's locally stiff modes let an RK4 step of ``h`` stay
+    stable at both (and no stiff point lies between them, such as a sign change), else the
+    count that makes them stable (:func:`local_substeps`), at most ``m``; ``m`` must make
+    ``h / m`` stable everywhere (``m <= 1``: plain RK4 sub-steps, ``refinement`` is not
+    called). ``k1`` is computed once for both uses. Returns guard clamps. Every step is
+    ``rk4_advance``'s arithmetic: ``m <= 1`` or a ``refinement`` that always returns 1 give its
+    numbers bit for bit, one that always returns ``m`` those of ``n_sub m`` sub-steps.
+
+    No step is taken back: a stiff region entered within one step further than the Euler
+    prediction reaches is refined from the next step on (checking the three stage states and
+    the end state and redoing a failed step instead took the force actuator's kernel 7 % longer
+    and compiled about 0.6 s slower). Every stage of
+    every step, coarse or fine, runs through one call of ``rhs``: with separate calls for the
+    decision's ``k1`` and the later steps' (three call sites), the force actuator's step kernel
+    ran 1.4x slower (1024 copies, interleaved in one process), and a plant's kernel compiles
+    faster with the right-hand side in the loop once.
     """
     ny = y.shape[0]
+    stage = work[4]
     clamps = 0
     for _ in range(n_sub):
-        for j in range(ny):
-            back[j] = y[j]
-        fine = m > 1 and not shallow(back, y, p, h)
-        left = m if fine else 1
-        while left > 0:
-            hh = h / m if fine else h
-            stage = work[4]
+        n = 1
+        hh = h
+        k = 0
+        while k < n:
             for s in range(4):
                 if s == 0:
                     for j in range(ny):
@@ -111,85 +134,17 @@ def rk4_advance_refined(rhs, guard, shallow, y, u, p, h, n_sub, m, work, back):
                     for j in range(ny):
                         stage[j] = y[j] + cs * prev[j]
                 rhs(stage, u, p, work[s])
-            sixth = hh / 6.0
-            for j in range(ny):
-                y[j] += sixth * (work[0][j] + 2.0 * work[1][j] + 2.0 * work[2][j] + work[3][j])
-            c = guard(y, p)
-            if not fine and m > 1:
-                if not coarse_step_shallow(shallow, back, y, p, h, work):
+                if s == 0 and k == 0 and m > 1:  # k1 at the start: decide the step's refinement
                     for j in range(ny):
-                        y[j] = back[j]
-                    fine = True
-                    left = m
-                    continue
-            clamps += c
-            left -= 1
-    return clamps
-
-
-@nb.njit(cache=True, error_model="numpy", inline="always")
-def rk4_advance_lookahead(rhs, guard, shallow, y, u, p, h, n_sub, m, work):
-    """``rk4_advance`` with local refinement decided ahead: each of the ``n_sub`` steps of
-    ``h`` seconds is one classical RK4 step where ``shallow(y, x, p, h)`` holds at its start
-    state ``y`` and at the Euler prediction ``x = y + h k1`` of its end, and ``m`` steps of
-    ``h / m`` where it fails at either. ``shallow`` tells whether the plant's locally stiff
-    modes let an RK4 step of ``h`` stay stable at ``x``, and whether a stiff point lies between
-    ``y`` and ``x`` (a sign change). ``k1`` is computed once for both uses. ``m`` must make
-    ``h / m`` stable everywhere (``m <= 1``: plain RK4 sub-steps, ``shallow`` is not called).
-    Returns guard clamps. Every step is ``rk4_advance``'s arithmetic: ``m <= 1`` or a
-    ``shallow`` that always holds give its numbers bit for bit, one that never holds those of
-    ``n_sub m`` sub-steps.
-
-    Against :func:`rk4_advance_refined` (which checks the three stage states and the end state
-    and takes a failed step back): no step is taken back, so a plant's step kernel compiles
-    about 0.6 s faster; a stiff region entered within one step further than the Euler
-    prediction reaches is refined from the next step on.
-    """
-    ny = y.shape[0]
-    stage = work[4]
-    clamps = 0
-    for _ in range(n_sub):
-        rhs(y, u, p, work[0])
-        n = 1
-        if m > 1:
-            for j in range(ny):
-                stage[j] = y[j] + h * work[0][j]
-            if not (shallow(y, y, p, h) and shallow(y, stage, p, h)):
-                n = m
-        hh = h / n
-        for k in range(n):
-            for s in range(4):
-                if s == 0:
-                    if k > 0:
-                        rhs(y, u, p, work[0])
-                else:
-                    cs = hh if s == 3 else 0.5 * hh
-                    prev = work[s - 1]
-                    for j in range(ny):
-                        stage[j] = y[j] + cs * prev[j]
-                    rhs(stage, u, p, work[s])
+                        stage[j] = y[j] + h * work[0][j]
+                    n = refinement(y, stage, p, h, m)
+                    hh = h / n
             sixth = hh / 6.0
             for j in range(ny):
                 y[j] += sixth * (work[0][j] + 2.0 * work[1][j] + 2.0 * work[2][j] + work[3][j])
             clamps += guard(y, p)
+            k += 1
     return clamps
-
-
-@nb.njit(cache=True, error_model="numpy", inline="always")
-def coarse_step_shallow(shallow, back, y, p, h, work):
-    """Whether an RK4 step of ``h`` from ``back`` to ``y`` stays where ``shallow`` holds at its
-    end state and its three stage states (``work[4]`` holds the last, ``back + h k3``; the two
-    before it are rebuilt there from ``k1``, ``k2``): the acceptance test of
-    :func:`rk4_advance_refined`."""
-    ok = shallow(back, y, p, h)
-    stage = work[4]
-    ok = ok and shallow(back, stage, p, h)
-    for s in range(2):
-        if ok:
-            for j in range(y.shape[0]):
-                stage[j] = back[j] + 0.5 * h * work[s][j]
-            ok = shallow(back, stage, p, h)
-    return ok
 
 
 @nb.njit(cache=True, error_model="numpy", inline="always")
@@ -210,9 +165,9 @@ def rk4_trajectory(rhs, guard, y0, u, p, dt, n_sub, work, out):
 
 
 @nb.njit(cache=True, error_model="numpy", inline="always")
-def rk4_trajectory_refined(rhs, guard, shallow, y0, u, p, dt, n_sub, m, work, back, out):
-    """:func:`rk4_trajectory` stepping with :func:`rk4_advance_refined` (``shallow``, ``m``,
-    scratch ``back (n_states,)`` as there)."""
+def rk4_trajectory_lookahead(rhs, guard, refinement, y0, u, p, dt, n_sub, m, work, out):
+    """:func:`rk4_trajectory` stepping with :func:`rk4_advance_lookahead` (``refinement``,
+    ``m`` as there)."""
     ny = y0.shape[0]
     for j in range(ny):
         out[0, j] = y0[j]
@@ -222,24 +177,7 @@ def rk4_trajectory_refined(rhs, guard, shallow, y0, u, p, dt, n_sub, m, work, ba
         y = out[k + 1]
         for j in range(ny):
             y[j] = out[k, j]
-        clamps += rk4_advance_refined(rhs, guard, shallow, y, u[k], p, h, n_sub, m, work, back)
-    return clamps
-
-
-@nb.njit(cache=True, error_model="numpy", inline="always")
-def rk4_trajectory_lookahead(rhs, guard, shallow, y0, u, p, dt, n_sub, m, work, out):
-    """:func:`rk4_trajectory` stepping with :func:`rk4_advance_lookahead` (``shallow``, ``m``
-    as there)."""
-    ny = y0.shape[0]
-    for j in range(ny):
-        out[0, j] = y0[j]
-    h = dt / n_sub
-    clamps = 0
-    for k in range(u.shape[0]):
-        y = out[k + 1]
-        for j in range(ny):
-            y[j] = out[k, j]
-        clamps += rk4_advance_lookahead(rhs, guard, shallow, y, u[k], p, h, n_sub, m, work)
+        clamps += rk4_advance_lookahead(rhs, guard, refinement, y, u[k], p, h, n_sub, m, work)
     return clamps
 
 

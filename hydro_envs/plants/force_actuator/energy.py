@@ -8,13 +8,12 @@ re-integrates a batch step with the energy terms.
 from __future__ import annotations
 
 import numba as nb
-import numpy as np
 
 from hydro_envs.laws.friction import tanh_sign
 from hydro_envs.plants.force_actuator import model as fa
 from hydro_envs.plants.force_actuator.model import force_actuator_guard as guard
 from hydro_envs.plants.force_actuator.model import force_actuator_rhs as rhs
-from hydro_envs.sim.balance import replay_step_refined, stop_split, stroke_check
+from hydro_envs.sim.balance import replay_step_lookahead, stop_split, stroke_check
 
 __all__ = ["mech_terms", "state_breaches", "energy_replay", "N_BODIES"]
 
@@ -76,10 +75,9 @@ def state_breaches(Y, P, RUN, flags):
 
 @nb.njit(cache=True, error_model="numpy", parallel=True)
 def energy_replay(Y0, U, P, dt, NSUB, W, Yend, out):
-    """:func:`hydro_envs.sim.balance.replay_step_refined` of every copy with the kernels' Dahl
+    """:func:`hydro_envs.sim.balance.replay_step_lookahead` of every copy with the kernels' Dahl
     refinement (see there for ``out``)."""
     for i in nb.prange(Y0.shape[0]):
-        back = np.empty(Y0.shape[1])
         m = fa.dahl_friction_refinement(P[i], dt / NSUB[i])
-        replay_step_refined(rhs, guard, fa.dahl_friction_shallow, mech_terms, Y0[i], U[i], P[i], dt, NSUB[i], m,
-                            W[i], back, Yend[i], out[i])
+        replay_step_lookahead(rhs, guard, fa.dahl_friction_substeps, mech_terms, Y0[i], U[i], P[i], dt, NSUB[i], m,
+                              W[i], Yend[i], out[i])

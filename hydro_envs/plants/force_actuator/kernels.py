@@ -4,20 +4,20 @@
 serial one: a parallel region costs more to enter than a whole step); ``trajectories`` runs
 whole input sequences (:func:`hydro_envs.sim.simulate`); ``derivatives`` evaluates the
 right-hand side along recorded trajectories. Layouts: :mod:`hydro_envs.sim.rk4`. All of them
-step with :func:`~hydro_envs.sim.rk4.rk4_advance_refined`: sub-steps sized by
-``stiffness_modes``, each redone in finer ones where the Dahl friction state is stiff along it
-(at speed or across a velocity reversal; :func:`~.model.dahl_friction_shallow`).
+step with :func:`~hydro_envs.sim.rk4.rk4_advance_lookahead`: sub-steps sized by
+``stiffness_modes``, each taken as finer ones where the Dahl friction state is stiff at its
+start or at the Euler prediction of its end (at speed or across a velocity reversal), as many as
+:func:`~.model.dahl_friction_substeps` gives.
 """
 
 from __future__ import annotations
 
 import numba as nb
-import numpy as np
 
-from hydro_envs.plants.force_actuator.model import dahl_friction_refinement, dahl_friction_shallow
+from hydro_envs.plants.force_actuator.model import dahl_friction_refinement, dahl_friction_substeps
 from hydro_envs.plants.force_actuator.model import force_actuator_rhs as rhs
 from hydro_envs.plants.force_actuator.model import force_actuator_guard as guard
-from hydro_envs.sim.rk4 import in_blocks, rhs_along, rk4_advance_refined, rk4_trajectory_refined
+from hydro_envs.sim.rk4 import in_blocks, rhs_along, rk4_advance_lookahead, rk4_trajectory_lookahead
 
 __all__ = ["step_serial", "step_parallel", "trajectories", "derivatives", "rhs", "guard"]
 
@@ -25,11 +25,10 @@ __all__ = ["step_serial", "step_parallel", "trajectories", "derivatives", "rhs",
 @nb.njit(cache=True, error_model="numpy")
 def step_serial(Y, U, P, dt, NSUB, W, clamps):
     """Advance every copy by one step of ``dt`` seconds in ``NSUB[i]`` sub-steps (serial)."""
-    back = np.empty(Y.shape[1])
     for i in range(Y.shape[0]):
         h = dt / NSUB[i]
-        clamps[i] += rk4_advance_refined(rhs, guard, dahl_friction_shallow, Y[i], U[i], P[i], h, NSUB[i],
-                                         dahl_friction_refinement(P[i], h), W[i], back)
+        clamps[i] += rk4_advance_lookahead(rhs, guard, dahl_friction_substeps, Y[i], U[i], P[i], h, NSUB[i],
+                                           dahl_friction_refinement(P[i], h), W[i])
 
 
 @nb.njit(cache=True, error_model="numpy", parallel=True)
@@ -43,8 +42,8 @@ def trajectories(Y0, U, P, dt, NSUB, W, OUT, clamps):
     """Whole trajectories ``OUT[i] (T + 1, n_states)`` under inputs ``U[i] (T, n_in)``."""
     for i in nb.prange(Y0.shape[0]):
         m = dahl_friction_refinement(P[i], dt / NSUB[i])
-        clamps[i] += rk4_trajectory_refined(rhs, guard, dahl_friction_shallow, Y0[i], U[i], P[i], dt, NSUB[i], m,
-                                            W[i], np.empty(Y0.shape[1]), OUT[i])
+        clamps[i] += rk4_trajectory_lookahead(rhs, guard, dahl_friction_substeps, Y0[i], U[i], P[i], dt, NSUB[i], m,
+                                              W[i], OUT[i])
 
 
 @nb.njit(cache=True, error_model="numpy", parallel=True)

@@ -121,6 +121,7 @@ from hydro_envs.laws.elementary import tanh_one_exp
 from hydro_envs.laws.filters import lfilter_from_rest
 from hydro_envs.laws.friction import dahl_friction_rate, tanh_sign
 from hydro_envs.laws.hysteresis import pi_memories, pi_threshold_scale, play_operator
+from hydro_envs.sim.rk4 import local_substeps
 from hydro_envs.sim.stiffness import DEFAULT_SAFETY, RK4_REAL_STABILITY_LIMIT
 from hydro_envs.plants.force_actuator.params import (  # noqa: F401  (re-exported)
     ForceActuatorParams, I_A1, I_AR, I_ASTOP, I_BS, I_DA, I_DG, I_DK, I_DLIN, I_DV, I_FC, I_FLOAD,
@@ -137,6 +138,7 @@ __all__ = [
     "dahl_relaxation_bound",
     "dahl_friction_shallow",
     "dahl_friction_refinement",
+    "dahl_friction_substeps",
     "static_force",
     "null_valve_offset",
     "valve_zoh_tf",
@@ -495,10 +497,10 @@ def stiffness_modes(params: ForceActuatorParams) -> dict[str, float]:
       frictionless set: the slow relaxation of its Dahl state.
 
     The Dahl state's relaxation (``friction_model = 0``), ``4 sigma0 |v| / F_c`` at the relative
-    velocity v, is not among them: it is stiff only at speed, and the kernels redo a sub-step in
-    :func:`dahl_friction_refinement` finer ones where :func:`dahl_friction_shallow` fails along it
-    (:func:`hydro_envs.sim.rk4.rk4_advance_refined`). :func:`dahl_relaxation_bound` is its value
-    at the velocity bound.
+    velocity v, is not among them: it is stiff only at speed, and the kernels take a sub-step as
+    :func:`dahl_friction_substeps` finer ones where :func:`dahl_friction_shallow` fails at its
+    start or at the Euler prediction of its end (:func:`hydro_envs.sim.rk4.rk4_advance_lookahead`).
+    :func:`dahl_relaxation_bound` is its value at the velocity bound.
     """
     m = params.sensor_mass
     c_d = params.damping_gain * (
@@ -563,6 +565,23 @@ def dahl_friction_shallow(y0, y, p, h):
     if (v > 0.0) != (y0[VP] + y0[VS] > 0.0):
         return False
     return h * 4.0 * p[I_SIG] * abs(v) / p[I_FC] <= _STABLE_H_LAMBDA
+
+
+@nb.njit(cache=True, error_model="numpy")
+def dahl_friction_substeps(y0, x, p, h, m):
+    """RK4 steps of ``h / n`` that take a sub-step of ``h`` from ``y0`` (Euler prediction of its
+    end ``x``) with the Dahl state stable (:func:`hydro_envs.sim.rk4.rk4_advance_lookahead`):
+    1 where :func:`dahl_friction_shallow` holds at ``y0`` and ``x``; ``m`` (the count at the
+    velocity bound, :func:`dahl_friction_refinement`) across a velocity reversal; else the count
+    for the larger relaxation rate ``4 sigma0 |v| / F_c`` at the two
+    (:func:`hydro_envs.sim.rk4.local_substeps`)."""
+    if dahl_friction_shallow(y0, y0, p, h) and dahl_friction_shallow(y0, x, p, h):
+        return 1
+    v0 = y0[VP] + y0[VS]
+    v1 = x[VP] + x[VS]
+    if (v1 > 0.0) != (v0 > 0.0):
+        return m
+    return local_substeps(h * 4.0 * p[I_SIG] * max(abs(v0), abs(v1)) / p[I_FC], _STABLE_H_LAMBDA, m)
 
 
 @nb.njit(cache=True, error_model="numpy")

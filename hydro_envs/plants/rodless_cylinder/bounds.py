@@ -13,8 +13,8 @@ finer ones (:func:`hydro_envs.sim.rk4.rk4_advance_lookahead`):
 * ``end_stop``: the bumper in contact.
 
 This module gives their worst cases over the state space (pressures up to 1.5 p_s,
-temperatures up to 1.5 T_s, the speed bound, full thrust on the bumper), from which the kernels
-take the number of fine sub-steps. Functions of the parameter set (a
+temperatures up to 1.5 T_s, the speed bound, full thrust on the bumper): the most fine
+sub-steps the kernels take; elsewhere they size them from the local rates. Functions of the parameter set (a
 :class:`~hydro_envs.plants.rodless_cylinder.params.RodlessCylinderParams`), plain Python.
 """
 

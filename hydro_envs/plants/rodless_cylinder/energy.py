@@ -76,5 +76,5 @@ def energy_replay(Y0, U, P, dt, NSUB, W, Yend, out):
     refinement (see there for ``out``)."""
     for i in nb.prange(Y0.shape[0]):
         m = rc.local_mode_refinement(P[i], dt / NSUB[i])
-        replay_step_lookahead(rhs, guard, rc.local_mode_shallow, mech_terms, Y0[i], U[i], P[i], dt, NSUB[i], m,
+        replay_step_lookahead(rhs, guard, rc.local_mode_substeps, mech_terms, Y0[i], U[i], P[i], dt, NSUB[i], m,
                               W[i], Yend[i], out[i])

@@ -7,15 +7,15 @@ right-hand side along recorded trajectories. Layouts: :mod:`hydro_envs.sim.rk4`.
 step with :func:`~hydro_envs.sim.rk4.rk4_advance_lookahead`: sub-steps sized by the modes that
 are stiff everywhere (:func:`~.model.stiffness_modes`), each taken as finer ones where a
 locally stiff mode (the flow law's laminar tail, the friction at speed or near v = 0, a bumper
-in contact; :func:`~.model.local_mode_shallow`) would make it unstable at its start or at the
-Euler prediction of its end.
+in contact) would make it unstable at its start or at the Euler prediction of its end, as many
+as :func:`~.model.local_mode_substeps` gives.
 
 :func:`for_params` gives an env the step kernels it needs, each bit-identical to the general
 ones on the rows it is chosen for: without supply droop in any copy (``supply_line_resistance =
 0``, the seed's stiff supply and every default set) bound to
 :func:`~.model.rodless_cylinder_rhs_stiff_supply`, whose compilation skips the droop solve (a
 cold first step 0.8 s shorter); with a bristle state in every copy (the default) with
-:func:`~.model.lugre_local_shallow`, compiled without the static curve.
+:func:`~.model.lugre_local_substeps`, compiled without the static curve.
 """
 
 from __future__ import annotations
@@ -29,7 +29,7 @@ from hydro_envs.plants.rodless_cylinder.model import I_RSUP, I_SIG0
 from hydro_envs.plants.rodless_cylinder.model import rodless_cylinder_rhs as rhs
 from hydro_envs.plants.rodless_cylinder.model import rodless_cylinder_rhs_stiff_supply as rhs_stiff
 from hydro_envs.plants.rodless_cylinder.model import rodless_cylinder_guard as guard
-from hydro_envs.plants.rodless_cylinder.model import local_mode_refinement, local_mode_shallow, lugre_local_shallow
+from hydro_envs.plants.rodless_cylinder.model import local_mode_refinement, local_mode_substeps, lugre_local_substeps
 from hydro_envs.sim.rk4 import in_blocks, rhs_along, rk4_advance_lookahead, rk4_trajectory_lookahead
 
 __all__ = ["step_serial", "step_parallel", "trajectories", "derivatives", "rhs", "guard", "for_params"]
@@ -40,7 +40,7 @@ def step_serial(Y, U, P, dt, NSUB, W, clamps):
     """Advance every copy by one step of ``dt`` seconds in ``NSUB[i]`` sub-steps (serial)."""
     for i in range(Y.shape[0]):
         h = dt / NSUB[i]
-        clamps[i] += rk4_advance_lookahead(rhs, guard, local_mode_shallow, Y[i], U[i], P[i], h, NSUB[i],
+        clamps[i] += rk4_advance_lookahead(rhs, guard, local_mode_substeps, Y[i], U[i], P[i], h, NSUB[i],
                                            local_mode_refinement(P[i], h), W[i])
 
 
@@ -55,7 +55,7 @@ def trajectories(Y0, U, P, dt, NSUB, W, OUT, clamps):
     """Whole trajectories ``OUT[i] (T + 1, n_states)`` under inputs ``U[i] (T, n_in)``."""
     for i in nb.prange(Y0.shape[0]):
         m = local_mode_refinement(P[i], dt / NSUB[i])
-        clamps[i] += rk4_trajectory_lookahead(rhs, guard, local_mode_shallow, Y0[i], U[i], P[i], dt, NSUB[i], m,
+        clamps[i] += rk4_trajectory_lookahead(rhs, guard, local_mode_substeps, Y0[i], U[i], P[i], dt, NSUB[i], m,
                                               W[i], OUT[i])
 
 
@@ -70,7 +70,7 @@ def derivatives(X, U, P, OUT):
 def _step_serial_stiff(Y, U, P, dt, NSUB, W, clamps):
     for i in range(Y.shape[0]):
         h = dt / NSUB[i]
-        clamps[i] += rk4_advance_lookahead(rhs_stiff, guard, local_mode_shallow, Y[i], U[i], P[i], h, NSUB[i],
+        clamps[i] += rk4_advance_lookahead(rhs_stiff, guard, local_mode_substeps, Y[i], U[i], P[i], h, NSUB[i],
                                            local_mode_refinement(P[i], h), W[i])
 
 
@@ -83,7 +83,7 @@ def _step_parallel_stiff(Y, U, P, dt, NSUB, W, clamps):
 def _step_serial_lugre(Y, U, P, dt, NSUB, W, clamps):
     for i in range(Y.shape[0]):
         h = dt / NSUB[i]
-        clamps[i] += rk4_advance_lookahead(rhs, guard, lugre_local_shallow, Y[i], U[i], P[i], h, NSUB[i],
+        clamps[i] += rk4_advance_lookahead(rhs, guard, lugre_local_substeps, Y[i], U[i], P[i], h, NSUB[i],
                                            local_mode_refinement(P[i], h), W[i])
 
 
@@ -96,7 +96,7 @@ def _step_parallel_lugre(Y, U, P, dt, NSUB, W, clamps):
 def _step_serial_stiff_lugre(Y, U, P, dt, NSUB, W, clamps):
     for i in range(Y.shape[0]):
         h = dt / NSUB[i]
-        clamps[i] += rk4_advance_lookahead(rhs_stiff, guard, lugre_local_shallow, Y[i], U[i], P[i], h, NSUB[i],
+        clamps[i] += rk4_advance_lookahead(rhs_stiff, guard, lugre_local_substeps, Y[i], U[i], P[i], h, NSUB[i],
                                            local_mode_refinement(P[i], h), W[i])
 
 

@@ -96,6 +96,7 @@ from hydro_envs.laws.pneumatic_chamber import chamber_pressure_rate, gas_interna
 from hydro_envs.laws.stribeck_lugre import lugre_exponential_rate, lugre_exponential_rate_bound
 from hydro_envs.laws.valve import second_order_valve_acceleration
 from hydro_envs.sim.stiffness import DEFAULT_SAFETY, RK4_REAL_STABILITY_LIMIT
+from hydro_envs.sim.rk4 import local_substeps
 from hydro_envs.plants.rodless_cylinder.bounds import (
     local_mode_rates as _local_mode_rates, piston_area, smallest_chamber_volume, speed_bound,
 )
@@ -122,6 +123,8 @@ __all__ = [
     "local_mode_shallow",
     "lugre_local_shallow",
     "local_mode_refinement",
+    "local_mode_substeps",
+    "lugre_local_substeps",
     "local_mode_rates",
     "stiffness_modes",
     "piston_area",
@@ -507,6 +510,40 @@ def local_mode_shallow(y0, y, p, h):
     return h * local_mode_rate(y, p) <= _STABLE_H_LAMBDA
 
 
+@nb.njit(cache=True, error_model="numpy")
+def _lugre_local_rate(y, p):
+    """The larger of :func:`orifice_rate` and the LuGre block's rate at state ``y`` [1/s]."""
+    return max(orifice_rate(y, p), _lugre_rate(y, p))
+
+
+@nb.njit(cache=True, error_model="numpy")
+def lugre_local_substeps(y0, x, p, h, m):
+    """:func:`local_mode_substeps` for parameter sets with a bristle state, compiled without the
+    static curve's branch (the envs' kernels when every copy has one). 1 exactly where
+    :func:`lugre_local_shallow` holds at ``y0`` and ``x``."""
+    if _on_bumper(y0, p) or _on_bumper(x, p) or _crossed(y0, x, p):
+        return m
+    return local_substeps(h * max(_lugre_local_rate(y0, p), _lugre_local_rate(x, p)), _STABLE_H_LAMBDA, m)
+
+
+@nb.njit(cache=True, error_model="numpy")
+def local_mode_substeps(y0, x, p, h, m):
+    """RK4 steps of ``h / n`` that take a sub-step of ``h`` from ``y0`` (Euler prediction of its
+    end ``x``) stably in the locally refined modes (:func:`hydro_envs.sim.rk4.rk4_advance_lookahead`):
+    1 where :func:`local_mode_shallow` holds at ``y0`` and ``x``, else ``m`` (the worst case,
+    :func:`local_mode_refinement`), except with a bristle state (:func:`lugre_local_substeps`)
+    off the bumpers and away from the supply and exhaust pressures: there the count for the
+    larger rate of the flow law and the LuGre block at the two
+    (:func:`hydro_envs.sim.rk4.local_substeps`). The static curve's slope changes by orders of
+    magnitude within a sub-step near v = 0 (``F_s / v_eps`` at v = 0), which its rates at two
+    points do not bound, so it keeps the worst case."""
+    if p[I_SIG0] > 0.0:
+        return lugre_local_substeps(y0, x, p, h, m)
+    if local_mode_shallow(y0, y0, p, h) and local_mode_shallow(y0, x, p, h):
+        return 1
+    return m
+
+
 @nb.njit(cache=True, error_model="numpy", inline="always")
 def local_mode_refinement(p, h):
     """Fine sub-steps per sub-step of ``h`` seconds that keep the locally refined modes stable
@@ -658,9 +695,9 @@ def stiffness_modes(params: RodlessCylinderParams) -> dict[str, float]:
     Stiff only in part of the state space, and left out here (:mod:`.bounds`,
     :func:`local_mode_rates`): the flow law's laminar tail, LuGre's bristle relaxation at speed
     or the static curve's steep part near v = 0, and the bumpers in contact. The kernels
-    (:mod:`.kernels`) take a sub-step as :func:`local_mode_refinement` finer ones where
-    :func:`local_mode_shallow` fails at its start or at the Euler prediction of its end
-    (:func:`hydro_envs.sim.rk4.rk4_advance_lookahead`).
+    (:mod:`.kernels`) take a sub-step as :func:`local_mode_substeps` finer ones (at most
+    :func:`local_mode_refinement`) where :func:`local_mode_shallow` fails at its start or at the
+    Euler prediction of its end (:func:`hydro_envs.sim.rk4.rk4_advance_lookahead`).
     """
     a = piston_area(params)
     m = params.mass
