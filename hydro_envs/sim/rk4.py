@@ -108,13 +108,12 @@ def rk4_advance_lookahead(rhs, guard, refinement, y, u, p, h, n_sub, m, work):
     numbers bit for bit, one that always returns ``m`` those of ``n_sub m`` sub-steps.
 
     No step is taken back: a stiff region entered within one step further than the Euler
-    prediction reaches is refined from the next step on (checking the three stage states and
-    the end state and redoing a failed step instead took the force actuator's kernel 7 % longer
-    and compiled about 0.6 s slower). Every stage of
-    every step, coarse or fine, runs through one call of ``rhs``: with separate calls for the
-    decision's ``k1`` and the later steps' (three call sites), the force actuator's step kernel
-    ran 1.4x slower (1024 copies, interleaved in one process), and a plant's kernel compiles
-    faster with the right-hand side in the loop once.
+    prediction reaches is refined from the next step on. Checking the three stage states and
+    the end state instead and redoing a failed step took the force actuator's kernel 7 % longer
+    and the rodless cylinder's 0.6 s longer to compile. Every stage of every step, coarse or
+    fine, runs through one call of ``rhs``: with separate calls for the decision's ``k1`` and
+    for the later steps' (three call sites), the force actuator's step kernel ran 1.4x slower
+    (1024 copies, interleaved in one process).
     """
     ny = y.shape[0]
     stage = work[4]
