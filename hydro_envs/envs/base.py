@@ -264,9 +264,10 @@ class PlantBatch:
     def observe(self) -> None:
         """Fill ``obs`` and ``reward`` of every copy (a compiled kernel). A serial loop over the
         copies unless the per-copy work is heavy: for a light observation a prange loop over
-        1024 copies costs more than it saves (servo vector env, ``bench/step_rate.py
-        --profile``: 72-74 us per step parallel, 35-38 us serial; the shaking table's filters,
-        84 us parallel against 147 us serial, keep theirs)."""
+        1024 copies gains nothing (servo and force actuator vector envs, swapped in and out in
+        one process: the step rates within the VM's noise; with ``OMP_WAIT_POLICY=PASSIVE``
+        the parallel one cost 72-74 us per step against 35-38 serial), while the shaking
+        table's filters keep theirs (84 us parallel against 147 us serial)."""
         raise NotImplementedError
 
     def observation_space(self) -> spaces.Box:
