@@ -158,11 +158,12 @@ def _substep_modes(b) -> dict[str, object]:
     return {"set_by": names.most_common(1)[0][0], "n_sub_next": float(np.mean(without))}
 
 
-def parallel_call_time(gap: float, calls: int = 300) -> float:
+def parallel_call_times(gaps: list[float], calls: int = 300) -> list[float]:
     """Wall time [s] of a call of an empty parallel kernel (a ``prange`` over 64 blocks, as
-    :func:`hydro_envs.sim.rk4.in_blocks` makes) when ``gap`` seconds of other work separate the
-    calls, as observation, reward and Python separate two vector-env steps: what entering a
-    parallel region costs under the OpenMP wait settings in force (median of ``calls``)."""
+    :func:`hydro_envs.sim.rk4.in_blocks` makes) when each of ``gaps`` seconds of other work
+    separates the calls, as observation, reward and Python separate two vector-env steps: what
+    entering a parallel region costs under the OpenMP wait settings in force (median of
+    ``calls`` per gap)."""
     import numba
 
     @numba.njit(parallel=True)
@@ -172,21 +173,24 @@ def parallel_call_time(gap: float, calls: int = 300) -> float:
 
     x = np.zeros(64)
     empty(x)
-    spent = []
-    for _ in range(calls):
-        t = time.perf_counter()
-        while time.perf_counter() - t < gap:
-            pass
-        t = time.perf_counter()
-        empty(x)
-        spent.append(time.perf_counter() - t)
-    return float(np.median(spent))
+    result = []
+    for gap in gaps:
+        spent = []
+        for _ in range(calls):
+            t = time.perf_counter()
+            while time.perf_counter() - t < gap:
+                pass
+            t = time.perf_counter()
+            empty(x)
+            spent.append(time.perf_counter() - t)
+        result.append(float(np.median(spent)))
+    return result
 
 
 def print_profile(env_ids: list[str], n: int, steps: int, repeats: int) -> None:
     print(f"profile of one {n}-copy vector step (best of {repeats}, {steps} steps after warm-up)")
-    print("an empty parallel kernel call 50 / 200 us after the last: "
-          f"{parallel_call_time(50e-6) * 1e6:.1f} / {parallel_call_time(200e-6) * 1e6:.1f} us")
+    near, far = parallel_call_times([50e-6, 200e-6])
+    print(f"an empty parallel kernel call 50 / 200 us after the last: {near * 1e6:.1f} / {far * 1e6:.1f} us")
     head = (f"{'env id':<42} {'M steps/s':>9} {'sub-steps':>9} {'step us':>7} {'kernel':>6} {'obs+rew':>7} "
             f"{'python':>6} {'rhs ns':>6} {'rhs/step':>8} {'at 2M':>5}  {'set by':<12} {'next':>4}")
     print(head)

@@ -574,8 +574,8 @@ def dahl_friction_substeps(y0, x, p, h, m):
     1 where :func:`dahl_friction_shallow` holds at ``y0`` and ``x``; ``m`` (the count at the
     velocity bound, :func:`dahl_friction_refinement`) across a velocity reversal; else the count
     for the larger relaxation rate ``4 sigma0 |v| / F_c`` at the two
-    (:func:`hydro_envs.sim.rk4.local_substeps`)."""
-    if dahl_friction_shallow(y0, y0, p, h) and dahl_friction_shallow(y0, x, p, h):
+    (:func:`hydro_envs.sim.rk4.local_substeps`). 1 for the static curve and a frictionless set."""
+    if p[I_FMOD] > 0.5 or not p[I_FC] > 0.0:
         return 1
     v0 = y0[VP] + y0[VS]
     v1 = x[VP] + x[VS]

@@ -487,12 +487,18 @@ def local_mode_rate(y, p):
 
 
 @nb.njit(cache=True, error_model="numpy")
+def _lugre_local_rate(y, p):
+    """The larger of :func:`orifice_rate` and the LuGre block's rate at state ``y`` [1/s]."""
+    return max(orifice_rate(y, p), _lugre_rate(y, p))
+
+
+@nb.njit(cache=True, error_model="numpy")
 def lugre_local_shallow(y0, y, p, h):
     """:func:`local_mode_shallow` for parameter sets with a bristle state, compiled without the
     static curve's branch (the envs' kernels when every copy has one)."""
     if _on_bumper(y, p) or _crossed(y0, y, p):
         return False
-    return h * max(orifice_rate(y, p), _lugre_rate(y, p)) <= _STABLE_H_LAMBDA
+    return h * _lugre_local_rate(y, p) <= _STABLE_H_LAMBDA
 
 
 @nb.njit(cache=True, error_model="numpy")
@@ -508,12 +514,6 @@ def local_mode_shallow(y0, y, p, h):
     if (y[V] > 0.0) != (y0[V] > 0.0) or _crossed(y0, y, p):
         return False
     return h * local_mode_rate(y, p) <= _STABLE_H_LAMBDA
-
-
-@nb.njit(cache=True, error_model="numpy")
-def _lugre_local_rate(y, p):
-    """The larger of :func:`orifice_rate` and the LuGre block's rate at state ``y`` [1/s]."""
-    return max(orifice_rate(y, p), _lugre_rate(y, p))
 
 
 @nb.njit(cache=True, error_model="numpy")
