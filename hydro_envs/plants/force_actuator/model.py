@@ -120,13 +120,14 @@ from hydro_envs.laws.contact import end_stop_force
 from hydro_envs.laws.elementary import tanh_one_exp
 from hydro_envs.laws.filters import lfilter_from_rest
 from hydro_envs.laws.friction import dahl_friction_rate, tanh_sign
-from hydro_envs.laws.hysteresis import pi_memories, pi_threshold_scale, play_operator
+from hydro_envs.laws.hysteresis import pi_memories, play_operator
 from hydro_envs.sim.rk4 import local_substeps
 from hydro_envs.sim.stiffness import DEFAULT_SAFETY, RK4_REAL_STABILITY_LIMIT
 from hydro_envs.plants.force_actuator.params import (  # noqa: F401  (re-exported)
     ForceActuatorParams, I_A1, I_AR, I_ASTOP, I_BS, I_DA, I_DG, I_DK, I_DLIN, I_DV, I_FC, I_FLOAD,
     I_FMOD, I_FSE, I_FSR, I_HR, I_HW, I_IMAX, I_IR, I_KL, I_KS, I_KSTOP, I_L, I_LOCK, I_M, I_ML,
-    I_MP, I_PS, I_SIG, I_VEPS, I_VS, I_WC, I_XOFF, N_PARAMS, PLANT, null_valve_offset, I_FFILT, I_TDEL,
+    I_MP, I_PS, I_SIG, I_VEPS, I_VS, I_WC, I_XOFF, N_PARAMS, N_PLAY, PLANT, null_valve_offset, I_FFILT, I_TDEL,
+    D_PLAY0, D_PLAYW, D_TANHK,
 )
 
 __all__ = [
@@ -151,7 +152,6 @@ __all__ = [
     "valve_memory_track",
 ]
 
-N_PLAY = 6
 STATE_NAMES = (
     ("ic",) + tuple(f"h{k + 1}" for k in range(N_PLAY)) + ("gw", "fa", "fb", "fc")
     + tuple(f"r{k + 1}" for k in range(6)) + ("xs", "vs", "xp", "vp", "ff", "vf", "fm", "fmd")
@@ -332,13 +332,20 @@ def hydraulic_damping(xi, v, a_sat, v_max, kappa, c_lin):
     ``A = a_sat phi``, ``d = -v_max phi``, ``s = kappa / (v_max phi)``,
     ``phi = 0.1 + 0.9 min(|xi|, 1)``. Continuous (zero) at v = 0.
     """
+    return hydraulic_damping_knee(xi, v, a_sat, v_max, kappa, tanh_one_exp(kappa), c_lin)
+
+
+@nb.njit(cache=True, error_model="numpy")
+def hydraulic_damping_knee(xi, v, a_sat, v_max, kappa, tanh_kappa, c_lin):
+    """:func:`hydraulic_damping` with ``tanh(kappa)`` given (a parameter-only term, the
+    ``D_TANHK`` column of the kernel parameter row)."""
     a = abs(xi)
     if a > 1.0:
         a = 1.0
     phi = _PHI0 + (1.0 - _PHI0) * a
     vk = v_max * phi
     av = abs(v)
-    f = a_sat * phi * (tanh_one_exp(kappa * (av / vk - 1.0)) + tanh_one_exp(kappa))
+    f = a_sat * phi * (tanh_one_exp(kappa * (av / vk - 1.0)) + tanh_kappa)
     if v < 0.0:
         f = -f
     return f + c_lin * v
@@ -356,11 +363,10 @@ def stiction_level(v, f_c, fs_retract, fs_extend, v_s):
 def valve_position(y, p):
     """Normalised valve position x_v from the coil current and the hysteresis memory."""
     ic = y[IC]
-    big_r = pi_threshold_scale(p[I_HW], p[I_HR], N_PLAY)
-    w = (1.0 - p[I_HR]) / N_PLAY
+    w = p[D_PLAYW]  # (1 - w0) / n
     xt = p[I_HR] * ic
     for k in range(N_PLAY):
-        xt += w * play_operator(y[H0 + k], ic, big_r * (k + 1) / N_PLAY)
+        xt += w * play_operator(y[H0 + k], ic, p[D_PLAY0 + k])  # threshold R (k + 1) / n
     # slow valve stage: (K/a)(s + c)/(s + b) -> x_v = (K/a)(x~ + (c - b) w)
     xv = VALVE_K / VALVE_A * (xt + (VALVE_C - VALVE_B) * y[GW])
     return xt, xv
@@ -403,7 +409,7 @@ def force_actuator_rhs(y, u, p, dy):
     # mechanics: relative (piston vs cylinder) velocity drives friction and damping
     vrel = y[VP] + y[VS]
     q = y[XP] + y[XS]
-    f_damp = p[I_DG] * hydraulic_damping(xi, y[VF], p[I_DA], p[I_DV], p[I_DK], p[I_DLIN])  # (5)
+    f_damp = p[I_DG] * hydraulic_damping_knee(xi, y[VF], p[I_DA], p[I_DV], p[I_DK], p[D_TANHK], p[I_DLIN])  # (5)
     f_stop = end_stop_force(q, vrel, 0.0, p[I_L], p[I_KSTOP], p[I_ASTOP])
     g = stiction_level(vrel, p[I_FC], p[I_FSR], p[I_FSE], p[I_VS])
     static = p[I_FMOD] > 0.5
@@ -439,9 +445,8 @@ def force_actuator_guard(y, p):
     """After a sub-step: update the play memories (exact for the monotone coil current) and
     project the friction force onto ``|F_f| <= max static level``; return #clamps."""
     ic = y[IC]
-    big_r = pi_threshold_scale(p[I_HW], p[I_HR], N_PLAY)
     for k in range(N_PLAY):
-        y[H0 + k] = play_operator(y[H0 + k], ic, big_r * (k + 1) / N_PLAY)
+        y[H0 + k] = play_operator(y[H0 + k], ic, p[D_PLAY0 + k])
     g_hi = max(p[I_FC], p[I_FSR], p[I_FSE])
     if y[FF] > g_hi:
         y[FF] = g_hi

@@ -2,7 +2,9 @@
 
 Defaults: ``001_3253c61f41166c3e.txt`` (sec. 2-4, Table 1) and the assumptions each field's
 source names; pressures gauge. The index constants ``I_*`` are the columns of the packed
-kernel parameter array.
+kernel parameter array; ``D_*`` the derived columns :meth:`ForceActuatorParams.to_array`
+appends (parameter-only terms of the right-hand side, computed once per parameter set by the
+same arithmetic the kernels used).
 """
 
 from __future__ import annotations
@@ -10,11 +12,17 @@ from __future__ import annotations
 import dataclasses
 import math
 
+import numpy as np
+
+from hydro_envs.laws.elementary import tanh_one_exp
+from hydro_envs.laws.hysteresis import pi_threshold_scale
 from hydro_envs.params import ParameterError, PhysicalParams, physical
 
-__all__ = ["PLANT", "ForceActuatorParams", "N_PARAMS", "null_valve_offset"]
+__all__ = ["PLANT", "ForceActuatorParams", "N_PARAMS", "N_FIELDS", "N_PLAY", "null_valve_offset"]
 
 PLANT = "force_actuator"
+#: plays of the valve's Prandtl-Ishlinskii hysteresis (001 sec. 3.3)
+N_PLAY = 6
 
 
 # ----------------------------------------------------------------------------- geometry
@@ -217,6 +225,22 @@ class ForceActuatorParams(PhysicalParams):
         if self.friction_model not in (0.0, 1.0):
             raise ParameterError(f"ForceActuatorParams.friction_model must be 0 or 1, got {self.friction_model}")
 
+    def to_array(self) -> np.ndarray:
+        """The fields, then the derived columns ``D_*`` (by the kernels' own arithmetic:
+        bit-identical to computing them in every right-hand side)."""
+        big_r = pi_threshold_scale.py_func(self.hysteresis_width, self.hysteresis_reversal_slope, N_PLAY)
+        derived = [tanh_one_exp.py_func(self.damping_sharpness), (1.0 - self.hysteresis_reversal_slope) / N_PLAY]
+        derived += [big_r * (k + 1) / N_PLAY for k in range(N_PLAY)]
+        return np.concatenate([super().to_array(), np.array(derived, dtype=np.float64)])
+
+    @classmethod
+    def from_array(cls, values: np.ndarray) -> "ForceActuatorParams":
+        values = np.asarray(values, dtype=np.float64)
+        n = len(cls.names())
+        if values.shape not in ((n,), (n + 2 + N_PLAY,)):
+            raise ParameterError(f"{cls.__name__}: expected {n} (or {n + 2 + N_PLAY}) values, got {values.shape}")
+        return cls(**{k: float(v) for k, v in zip(cls.names(), values[:n])})
+
     # convenience
     @property
     def max_thrust(self) -> float:
@@ -234,8 +258,12 @@ class ForceActuatorParams(PhysicalParams):
     I_LOCK, I_FC, I_FSR, I_FSE, I_VS, I_SIG, I_DG, I_DLIN, I_WC, I_DA, I_DV, I_DK, I_KSTOP, I_ASTOP,
     I_FMOD, I_VEPS, I_FLOAD, I_FFILT, I_TDEL,
 ) = range(34)
-N_PARAMS = 34
-assert ForceActuatorParams.names()[I_ASTOP] == "stop_damping" and len(ForceActuatorParams.names()) == N_PARAMS
+N_FIELDS = 34
+assert ForceActuatorParams.names()[I_ASTOP] == "stop_damping" and len(ForceActuatorParams.names()) == N_FIELDS
+#: derived columns: tanh(kappa) of the damping law (eq (5)), the plays' weight
+#: (1 - w0)/n and their thresholds R k/n (sec. 3.3), k = 1..N_PLAY
+D_TANHK, D_PLAYW, D_PLAY0 = N_FIELDS, N_FIELDS + 1, N_FIELDS + 2
+N_PARAMS = N_FIELDS + 2 + N_PLAY
 assert ForceActuatorParams.names()[I_VEPS] == "friction_sign_velocity"
 assert ForceActuatorParams.names()[I_FLOAD] == "load_force"
 assert ForceActuatorParams.names()[I_TDEL] == "control_delay"
