@@ -18,7 +18,7 @@ from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 
 import hydro_envs  # noqa: F401  (registers the env)
-from hydro_envs.laws.hysteresis import pi_output, play_operator
+from hydro_envs.laws.hysteresis import pi_output, pi_threshold_scale, play_operator
 from hydro_envs.params import ParameterError
 from hydro_envs.plants.force_actuator import model as fa
 from hydro_envs.plants.force_actuator import closed_loop
@@ -277,7 +277,7 @@ def test_valve_memory_track_equals_the_kernel_s_coil_and_plays():
     np.testing.assert_allclose(h, ys[:-1, fa.H0:fa.H0 + fa.N_PLAY], rtol=0, atol=rk4_error)
     _, h_late = fa.valve_memory_track(cur[1500:], DT, p.rated_current, p.hysteresis_width,
                                       p.hysteresis_reversal_slope)
-    big_r = fa.pi_threshold_scale(p.hysteresis_width, p.hysteresis_reversal_slope, fa.N_PLAY)
+    big_r = pi_threshold_scale(p.hysteresis_width, p.hysteresis_reversal_slope, fa.N_PLAY)
     assert np.abs(h_late[-1] - h[-1]).max() > 0.1 * big_r
 
 
