@@ -14,7 +14,9 @@ flagged when
 * any parameter's relative standard error ``SE / |value|`` exceeds :data:`MAX_REL_SE`
   (100 %): the data do not tell the value from zero, so the number must not be used;
 * an FRF fit rests on fewer than :data:`MIN_FRF_POINTS` (10) frequency points of coherence
-  >= 0.9 (the points the fit keeps): a short or badly excited record.
+  >= 0.9 (the points the fit keeps): a short or badly excited record;
+* a grey-box fit's optimiser stopped before converging (``success`` false: its evaluations ran
+  out): the values are not a least-squares minimum, whatever their standard errors say.
 
 The thresholds are conventions, not derived from a seed: 50 % is the common "fit" level below
 which a linear model is rejected in identification practice (``fit = 100 (1 - NRMSE)`` as in
@@ -85,6 +87,9 @@ def assess(res: Mapping[str, Any], method: str | None = None, *, min_fit: float 
             reasons.append(f"{k} = {v:.4g} +- {s:.3g} {units.get(k, '')}".rstrip()
                            + f": relative standard error {100 * rel:.3g} % > {100 * max_rel_se:g} %"
                            " (the data do not determine it)")
+    if method == "greybox" and res.get("success") is False:
+        reasons.append(f"the fit did not converge ({res.get('message', 'no message')}): the values are not "
+                       "a least-squares minimum; start closer or allow more evaluations")
     if method == "frf" and "n_points" in metrics and int(metrics["n_points"]) < MIN_FRF_POINTS:
         reasons.append(f"only {int(metrics['n_points'])} frequency points with coherence >= 0.9 "
                        f"(fewer than {MIN_FRF_POINTS}): excite longer or wider")

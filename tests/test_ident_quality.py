@@ -76,6 +76,12 @@ def test_assess_thresholds_are_the_documented_ones():
     gb = {"parameters": {}, "metrics": {"nrmse_x": 0.2, "nrmse_p1": 0.6}}
     q = quality.assess(gb, "greybox")
     assert not q["ok"] and len(q["reasons"]) == 1 and "fit_p1 = 40 %" in q["reasons"][0]
+    # greybox: a fit whose optimiser ran out of evaluations is not a minimum
+    stopped = {"parameters": {}, "metrics": {"nrmse_x": 0.01}, "success": False,
+               "message": "The maximum number of function evaluations is exceeded."}
+    q = quality.assess(stopped, "greybox")
+    assert not q["ok"] and len(q["reasons"]) == 1 and "did not converge" in q["reasons"][0]
+    assert quality.assess({**stopped, "success": True}, "greybox")["ok"]
     # a zero estimate with any error is flagged
     assert not quality.assess({"parameters": {"a": 0.0}, "std_errors": {"a": 1e-9}, "metrics": {}}, "arx")["ok"]
 
