@@ -168,12 +168,23 @@ def calibrated_controllers(fit: Any) -> tuple[Any, Any, dict[str, float]]:
 
 
 # ------------------------------------------------------------------ 3. train
+def free_run_name(out: Path, base: str) -> str:
+    """``base``, or ``base_2``, ``base_3``, ... : the first name under ``out`` that is not a
+    non-empty folder (a rerun of the demo keeps the earlier agent and trains beside it)."""
+    name, k = base, 1
+    while (out / name).exists() and any((out / name).iterdir()):
+        k += 1
+        name = f"{base}_{k}"
+    return name
+
+
 def train_agent(algo: str, timesteps: int, seed: int, out: Path, progress_bar: bool = True) -> Path:
-    """:func:`agents.train.train` with randomisation; returns the run folder."""
+    """:func:`agents.train.train` with randomisation into ``out/<algo>_seed<seed>`` (or the next
+    free name, :func:`free_run_name`); returns the run folder."""
     from agents.train import train
 
     return train(ENV_ID, algo, timesteps=timesteps, seed=seed, randomize=True, out=out,
-                 name=f"{algo}_seed{seed}", progress_bar=progress_bar, eval_freq=0,
+                 name=free_run_name(Path(out), f"{algo}_seed{seed}"), progress_bar=progress_bar, eval_freq=0,
                  n_eval_episodes=8, torch_threads=1)
 
 

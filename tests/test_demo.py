@@ -110,6 +110,19 @@ def test_demo_end_to_end_quick(tmp_path, tiny_run):
     assert res["total_s"] > 0
 
 
+def test_a_rerun_of_the_demo_trains_beside_the_earlier_agent(tmp_path):
+    """The demo's agent folder is ``ppo_seed0``; a rerun finds it full and takes the next free
+    name instead of stopping (the earlier run is kept)."""
+    assert demo.free_run_name(tmp_path, "ppo_seed0") == "ppo_seed0"
+    (tmp_path / "ppo_seed0").mkdir()
+    assert demo.free_run_name(tmp_path, "ppo_seed0") == "ppo_seed0"  # empty: reused
+    (tmp_path / "ppo_seed0" / "model.zip").write_bytes(b"x")
+    assert demo.free_run_name(tmp_path, "ppo_seed0") == "ppo_seed0_2"
+    (tmp_path / "ppo_seed0_2").mkdir()
+    (tmp_path / "ppo_seed0_2" / "model.zip").write_bytes(b"x")
+    assert demo.free_run_name(tmp_path, "ppo_seed0") == "ppo_seed0_3"
+
+
 def test_demo_rejects_bad_arguments(tmp_path):
     with pytest.raises(ValueError, match="algo"):
         demo.run(tmp_path, algo="dqn")
