@@ -210,6 +210,15 @@ class _Evaluator:
         self.nsub = n
         return n
 
+    def restart_substeps(self, theta: np.ndarray) -> int:
+        """Set the sub-step count to the one the parameters ``theta`` need themselves (capped),
+        as at the start of a fit, for a new solver run from ``theta``; return the count before."""
+        before = self.nsub
+        if self.prob.fixed_nsub is None:
+            n = self.prob.nsub(self.prob.param_arrays(theta[None, :]))
+            self.nsub = n if self.cap is None else min(n, self.cap)
+        return before
+
     def _tick(self) -> None:
         if self.progress is not None:
             self.progress(self.nfev + self.njev, self.max_calls)
@@ -395,6 +404,12 @@ def fit_greybox(
     parameters that follow fitted ones (e.g. a static friction level kept equal to the
     Coulomb level while no Stribeck effect is modelled).
 
+    The solver (trf) stops on first-order optimality (``gtol``), a small relative cost change
+    (``ftol``) or a small step (``xtol``), each ``tol``. The last two also end a run whose trust
+    region has shrunk in a curved valley far from the minimum, so such a stop is followed by one
+    more run from its point, kept if it lowers the cost (with a note; at a minimum it ends at
+    once); ``max_nfev`` bounds each run.
+
     ``jacobian``: finite differences of the Jacobians the iterations use: ``"central"``
     (``2 p`` perturbed copies per Jacobian) or ``"forward"`` (``p`` copies, re-using the
     residual the solver has just evaluated at the same point: about half the simulation cost
@@ -441,8 +456,9 @@ def fit_greybox(
     prob = _build_problem(base, fit, experiments, channels, sigma,
                           True if log_scale is None else log_scale, bounds, n_substeps, tie, offsets)
     theta0 = prob.to_theta(np.array([getattr(base, n) for n in prob.names]))
-    ev = _Evaluator(prob, base, fd_step, progress, (2 if reweight else 1) * 2 * max_nfev + 1, max_substep_ratio,
+    ev = _Evaluator(prob, base, fd_step, progress, (2 if reweight else 1) * 4 * max_nfev + 1, max_substep_ratio,
                     substep_reference)
+    notes: list[str] = []
 
     def solve(theta_start):
         last_cost = [math.inf]
@@ -462,11 +478,28 @@ def fit_greybox(
                 if cost - left * gained > bar:
                     raise StopIteration
 
-        sol = optimize.least_squares(ev.fun, theta_start, jac=ev.jac_forward if jacobian == "forward" else ev.jac,
-                                     bounds=(prob.lo, prob.hi), method="trf",
-                                     x_scale=1.0, ftol=tol, xtol=tol, gtol=tol, max_nfev=max_nfev,
-                                     callback=(None if cost_tol is None and cost_ceiling is None and cost_target is None
-                                               else stop_when_flat))
+        def run(theta):
+            return optimize.least_squares(ev.fun, theta, jac=ev.jac_forward if jacobian == "forward" else ev.jac,
+                                          bounds=(prob.lo, prob.hi), method="trf",
+                                          x_scale=1.0, ftol=tol, xtol=tol, gtol=tol, max_nfev=max_nfev,
+                                          callback=(None if cost_tol is None and cost_ceiling is None
+                                                    and cost_target is None else stop_when_flat))
+
+        sol = run(theta_start)
+        if sol.status in (2, 3, 4):
+            # stopped on a small cost change or step, not on the gradient: a trust region that
+            # has shrunk in a curved valley stops there too, far from the minimum; a second
+            # run from that point starts with a fresh one (at a minimum it ends at once), and
+            # with the sub-steps that point needs (a stiff trial point of the first run may
+            # have raised them for the rest of it)
+            before = ev.restart_substeps(sol.x)
+            again = run(sol.x)
+            if again.cost < sol.cost:
+                notes.append(f"restarted from the first stop ({sol.message}, cost {sol.cost:.4g}): cost "
+                             f"{again.cost:.4g}")
+                sol = again
+            else:
+                ev.nsub = max(ev.nsub, before)
         if sol.status == -2:  # stopped by stop_when_flat
             sol.success = True
             sol.message = ("an iteration lowered the cost by less than cost_tol, above cost_ceiling by less "
@@ -474,7 +507,6 @@ def fit_greybox(
         return sol
 
     sol = solve(np.clip(theta0, prob.lo, prob.hi))
-    notes: list[str] = []
     if reweight and _reestimate_sigma(prob, sol.x, ev.nsub, set(sigma or {})):
         sol = solve(sol.x)
         notes.append("channel weights re-estimated from the residual RMS of a first fit (noise levels)")

@@ -125,6 +125,20 @@ def test_load_sensing_record_gives_back_load_and_compensator_damping(tmp_path, c
     _check(res, true)
 
 
+def test_a_fit_stopped_on_its_step_size_is_restarted_to_the_minimum(tmp_path, capsys):
+    # the load-sensing record from another start: a trial point of the first solver run needs
+    # 166 sub-steps (a light load), which then hold for the rest of that run, and it ends on
+    # its step size (xtol) at c = 0.025 c_true with the gradient far from zero; one more run
+    # from there, with the sub-steps that point needs, reaches the parameters that made it
+    data, _ = _record(tmp_path, capsys, "hydro_envs/LoadSensing-v0", 1000)
+    true = _truth(data, ("load_mass", "actuator_viscous", "viscous_friction_40c"))
+    res = _fit("load_sensing", data, {"load_mass": 1.15 * true["load_mass"],
+                                       "actuator_viscous": 0.8 * true["actuator_viscous"],
+                                       "viscous_friction_40c": 1.3 * true["viscous_friction_40c"]}, **FAST)
+    _check(res, true)
+    assert any(n.startswith("restarted from the first stop") for n in res.notes), res.notes
+
+
 def test_record_with_the_input_one_row_late_does_not_identify(tmp_path, capsys):
     # the check above can fail: the same rodless record with u recorded one sample late (the
     # convention error a logger can make) misses the friction by far more than the tolerance
