@@ -21,7 +21,7 @@ from hydro_envs.plants.load_sensing.params import LoadSensingParams
 from hydro_envs.randomization import load_randomization
 from hydro_envs import registry
 from hydro_envs.sim.reference import reference_rollout
-from hydro_envs.sim.stiffness import substeps_from_stiffness
+from hydro_envs.sim.stiffness import DEFAULT_SAFETY, RK4_REAL_STABILITY_LIMIT, substeps_from_stiffness
 
 ENV_ID = "hydro_envs/LoadSensing-v0"
 NOMINAL = LoadSensingParams()
@@ -130,11 +130,15 @@ def test_fixed_step_matches_radau():
 
 
 def test_stiffness_bound_covers_the_numerical_jacobian(spec):
+    """The modes that size the sub-step with the worst cases of the locally refined ones bound
+    the numerical Jacobian everywhere; with the local rate at the state
+    (:func:`local_mode_rate`, the worst case on a spool stop) instead, at that state."""
     rng = np.random.default_rng(0)
     sets = [NOMINAL, spec.corner(False), spec.corner(True)] + [
         spec.corner(rng.integers(0, 2, len(spec.entries)).astype(bool)) for _ in range(2)]
     for p in sets:
-        bound = max(cc.stiffness_modes(p).values())
+        everywhere = max(cc.stiffness_modes(p).values())
+        bound = max(everywhere, max(cc.local_mode_rates(p).values()))
         pa = p.to_array()
         worst = 0.0
         base = cc.standby_state(p, 0.1)
@@ -155,9 +159,54 @@ def test_stiffness_bound_covers_the_numerical_jacobian(spec):
                         registry.get("load_sensing").kernels.rhs(yp, u, pa, f0)
                         registry.get("load_sensing").kernels.rhs(ym, u, pa, f1)
                         J[:, j] = (f0 - f1) / (2 * h)
-                    worst = max(worst, np.abs(np.linalg.eigvals(J)).max())
-        assert worst <= 1.02 * bound, (worst, cc.stiffness_modes(p))
+                    here = np.abs(np.linalg.eigvals(J)).max()
+                    on_stop = x < 0.0 or x > p.spool_stroke
+                    local = pa[cc.D_LOCAL] if on_stop else cc.local_mode_rate(y, pa)
+                    assert here <= 1.02 * max(everywhere, local), (x, yc, ps_px, here, everywhere, local)
+                    worst = max(worst, here)
+        assert worst <= 1.02 * bound, (worst, cc.stiffness_modes(p), cc.local_mode_rates(p))
         assert worst >= 0.3 * bound
+
+
+def test_local_modes_left_out_of_the_substep_are_refined_where_stiff():
+    """The sub-step count leaves out the spool stops and the orifices' zero-drop slopes (their
+    worst cases would need 5 sub-steps per 1 ms instead of 3); the look-ahead takes a sub-step
+    as the worst case's fine ones on a stop or across a zero drop, as the local rate's count
+    near one, and whole at the standby's working drops."""
+    dt = 1e-3
+    pa = NOMINAL.to_array()
+    n = substeps_from_stiffness(cc.stiffness_modes(NOMINAL), dt)[0]
+    assert n == 3
+    assert substeps_from_stiffness({**cc.stiffness_modes(NOMINAL), **cc.local_mode_rates(NOMINAL)}, dt)[0] == 5
+    h = dt / n
+    stable = DEFAULT_SAFETY * RK4_REAL_STABILITY_LIMIT
+    m = cc.local_mode_refinement(pa, h)
+    assert m >= 2 and h * max(cc.local_mode_rates(NOMINAL).values()) / m <= stable
+    rest = cc.standby_state(NOMINAL, 0.1)
+    assert cc.local_mode_substeps(rest, rest, pa, h, m) == 1
+    seat = rest.copy()
+    seat[cc.X] = -1e-6
+    assert cc.local_mode_substeps(rest, seat, pa, h, m) == m
+    assert cc.local_mode_substeps(seat, rest, pa, h, m) == m
+    # the delivery pressure passing the load pressure between start and prediction (CV drop 0)
+    below = rest.copy()
+    below[cc.PS] = below[cc.PL] - 1e3
+    assert cc.local_mode_substeps(rest, below, pa, h, m) == m
+    # the delivery pressure a tenth of the transition pressure above the load: the CV's drop
+    # in the laminar core, stiff in the delivery volume
+    near = rest.copy()
+    near[cc.PS] = near[cc.PL] + 0.1 * NOMINAL.orifice_transition_pressure
+    assert h * cc.local_mode_rate(near, pa) > stable
+    assert cc.local_mode_substeps(near, near, pa, h, m) == m
+    # the rate bound at a state is the zero-drop worst case of bounds.local_mode_rates there
+    zero = near.copy()
+    zero[cc.X] = NOMINAL.metering_lap + NOMINAL.port_length  # P -> X fully open
+    zero[cc.PX] = zero[cc.PS]
+    zero[cc.PL] = zero[cc.PS] - 1.0
+    zero[cc.Y] = 0.0
+    zero[cc.XA] = 0.0
+    worst = cc.local_mode_rates(NOMINAL)
+    assert cc.local_mode_rate(zero, pa) == pytest.approx(max(worst["control_chamber"], worst["delivery"]), rel=1e-3)
 
 
 # ------------------------------------------------------------------------------- env API

@@ -50,10 +50,14 @@ demanded velocities [m/s], one per step, in [0, 0.2]).
 **Info**: ``state`` (SI: ``x, v, p_s, p_x, y, vy, p_l, xa, va, q_ls, p_ls, f_sol``) and
 ``params``.
 
-**Numerics**: 5 RK4 sub-steps per 1 ms step for the nominal plant and at every randomisation
-corner (0.2 ms; :func:`hydro_envs.plants.load_sensing.stiffness_modes`: the FC spool's seat
-contact, 9.9e3 1/s, sets the bound, then the delivery node 7.5e3 and the control chamber
-6.4e3). Each reset settles the circuit for 0.1 s in one kernel call (about 0.6 ms).
+**Numerics**: 3 RK4 sub-steps per 1 ms step for the nominal plant and at every randomisation
+corner (0.33 ms; :func:`hydro_envs.plants.load_sensing.stiffness_modes`: the control pistons'
+oil spring, 6.0e3 1/s, sets the bound, then the LS line 5.0e3). A sub-step is taken as two
+(:func:`hydro_envs.plants.load_sensing.model.local_mode_substeps`) where the FC spool is on its
+seat or stop (9.9e3 1/s) or an orifice's drop is near zero at its start or at the Euler
+prediction of its end (the delivery node 7.2e3 nominal, the control chamber 6.4e3):
+:func:`hydro_envs.sim.rk4.rk4_advance_lookahead`. Each reset settles the circuit for 0.1 s in
+one kernel call (uniform sub-steps at the worst case, 5 per ms; about 0.6 ms).
 """
 
 from __future__ import annotations

@@ -62,16 +62,17 @@ import numpy as np
 from hydro_envs.laws.contact import end_stop_force
 from hydro_envs.laws.friction import tanh_sign
 from hydro_envs.laws.orifice import regularized_signed_sqrt
+from hydro_envs.plants.load_sensing import bounds as _bounds
 from hydro_envs.plants.load_sensing.params import (  # noqa: F401  (re-exported)
-    D_A, D_C, D_KFF, D_KM, D_LLS, D_RLS, D_VLINE, I_A1, I_A2, I_AC, I_ACVMAX, I_ASS, I_BA,
-    I_BETA, I_BY, I_C40, I_CD, I_DLS, I_DP, I_DPTR, I_DS, I_F0, I_FB0, I_FCA, I_FL, I_FSMAX,
+    D_A, D_C, D_DROPRATE, D_KFF, D_KM, D_LEAKRATE, D_LLS, D_LOCAL, D_RLS, D_VLINE, I_A1, I_A2, I_AC,
+    I_ACVMAX, I_ASS, I_BA, I_BETA, I_BY, I_C40, I_CD, I_DLS, I_DP, I_DPTR, I_DS, I_F0, I_FB0, I_FCA, I_FL, I_FSMAX,
     I_GP, I_GRV, I_GX, I_K, I_KAS, I_KB, I_KSS, I_KYS, I_LLS, I_LPORT, I_M, I_MS, I_MY,
     I_PFLOOR, I_PRV, I_PT, I_RD, I_RHO, I_STROKE, I_T, I_THETA, I_TSOL, I_VEPS, I_VG, I_VL0,
     I_VS, I_VSC, I_VX0, I_W, I_WP, I_XLAP, I_XMAX, I_YMAX, LoadSensingParams, N_FIELDS, N_PARAMS,
     PLANT, _ATM, _BAR, _DERIVED, derived,
 )
-from hydro_envs.sim.rk4 import rk4_advance
-from hydro_envs.sim.stiffness import substeps_from_stiffness
+from hydro_envs.sim.rk4 import local_substeps, rk4_advance
+from hydro_envs.sim.stiffness import DEFAULT_SAFETY, RK4_REAL_STABILITY_LIMIT, substeps_from_stiffness
 
 __all__ = [
     "LoadSensingParams",
@@ -80,6 +81,10 @@ __all__ = [
     "load_sensing_rhs",
     "load_sensing_guard",
     "stiffness_modes",
+    "local_mode_rates",
+    "local_mode_rate",
+    "local_mode_substeps",
+    "local_mode_refinement",
     "derived",
     "margin",
     "standby_state",
@@ -198,6 +203,87 @@ def load_sensing_guard(y, p):
     return n
 
 
+# ------------------------------------------------------- local refinement (look-ahead kernels)
+_STABLE_H_LAMBDA = DEFAULT_SAFETY * RK4_REAL_STABILITY_LIMIT
+
+
+@nb.njit(cache=True, error_model="numpy", inline="always")
+def _root_slope_bound(dp, dp_tr):
+    """Upper bound ``(dp^2 + dp_tr^2)^(-1/4)`` [Pa^-1/2] of the slope of
+    :func:`~hydro_envs.laws.orifice.regularized_signed_sqrt` at the drop ``dp`` (its slope is
+    ``(dp^2/2 + dp_tr^2) / (dp^2 + dp_tr^2)^(5/4)``: equal at zero drop, half of it far away);
+    falls monotonically with ``|dp|``."""
+    return 1.0 / math.sqrt(math.sqrt(dp * dp + dp_tr * dp_tr))
+
+
+@nb.njit(cache=True, error_model="numpy", inline="always")
+def _on_spool_stop(y, p):
+    """Whether the FC spool at state ``y`` is in contact with its seat or its spring-side stop."""
+    return y[X] < 0.0 or y[X] > p[I_XMAX]
+
+
+@nb.njit(cache=True, error_model="numpy", inline="always")
+def _drop_crossed(y0, y, p):
+    """Whether the drop across an FC metering edge (P -> X, X -> T) or the CV changed sign
+    between ``y0`` and ``y``: the orifice law is steepest at zero drop."""
+    pt = p[I_PT]
+    return ((y0[PS] - y0[PX]) * (y[PS] - y[PX]) < 0.0 or (y0[PX] - pt) * (y[PX] - pt) < 0.0
+            or (y0[PS] - y0[PL]) * (y[PS] - y[PL]) < 0.0)
+
+
+@nb.njit(cache=True, error_model="numpy", inline="always")
+def _smallest_drop(y, p):
+    """Smallest magnitude [Pa] of the drops across the FC metering edges and the CV at ``y``."""
+    return min(abs(y[PS] - y[PX]), min(abs(y[PX] - p[I_PT]), abs(y[PS] - y[PL])))
+
+
+@nb.njit(cache=True, error_model="numpy", inline="always")
+def local_mode_rate(y, p):
+    """Upper estimate [1/s] of the locally refined orifice modes at state ``y``
+    (:func:`.bounds.local_mode_rates` with the drops and openings of ``y``): the FC metering
+    edges and the leak into the control chamber, the CV (at full area: the input is not known
+    here), the FC port, the pump leak and the relief into the delivery volume, the CV into the
+    load line; the largest of the three."""
+    beta = p[I_BETA]
+    dptr = p[I_DPTR]
+    ps = y[PS]
+    px = y[PX]
+    pl = y[PL]
+    kw = p[D_KM] * p[I_W]
+    g_px = kw * min(max(y[X] - p[I_XLAP], 0.0), p[I_LPORT]) * _root_slope_bound(ps - px, dptr)
+    g_xt = kw * min(max(p[I_XLAP] - y[X], 0.0), p[I_LPORT]) * _root_slope_bound(px - p[I_PT], dptr)
+    g_cv = p[D_KM] * p[I_ACVMAX] * _root_slope_bound(ps - pl, dptr) if ps > pl else 0.0
+    control = beta / max(p[I_VX0] + p[I_A1] * y[Y], p[I_VX0]) * (g_px + g_xt + p[I_GX])
+    delivery = beta / p[I_VS] * (g_cv + g_px + p[I_GP] + p[I_GRV])
+    load = beta / max(p[I_VL0] + p[I_AC] * y[XA], 0.5 * p[I_VL0]) * g_cv
+    return max(control, max(delivery, load))
+
+
+@nb.njit(cache=True, error_model="numpy")
+def local_mode_substeps(y0, x, p, h, m):
+    """RK4 steps of ``h / n`` that take a sub-step of ``h`` from ``y0`` (Euler prediction of its
+    end ``x``) stably in the locally refined modes (:func:`hydro_envs.sim.rk4.rk4_advance_lookahead`):
+    ``m`` (the worst case, :func:`local_mode_refinement`) with the FC spool on a stop at either
+    state or a drop across the FC port or the CV changing sign between them, else the count for
+    the larger :func:`local_mode_rate` of the two (:func:`hydro_envs.sim.rk4.local_substeps`)."""
+    if _on_spool_stop(y0, p) or _on_spool_stop(x, p) or _drop_crossed(y0, x, p):
+        return m
+    # short cut, same answer: with every drop at least dp_min the rate is at most C / sqrt(dp_min)
+    # + G (.bounds.orifice_rate_coefficients), stable if dp_min (stable / h - G)^2 >= C^2
+    room = _STABLE_H_LAMBDA / h - p[D_LEAKRATE]
+    dp_min = min(_smallest_drop(y0, p), _smallest_drop(x, p))
+    if room > 0.0 and dp_min * room * room >= p[D_DROPRATE] * p[D_DROPRATE]:
+        return 1
+    return local_substeps(h * max(local_mode_rate(y0, p), local_mode_rate(x, p)), _STABLE_H_LAMBDA, m)
+
+
+@nb.njit(cache=True, error_model="numpy", inline="always")
+def local_mode_refinement(p, h):
+    """Fine sub-steps per sub-step of ``h`` seconds that keep the locally refined modes stable
+    at their worst case (``D_LOCAL``, :func:`local_mode_rates`)."""
+    return max(1, int(math.ceil(h * p[D_LOCAL] / _STABLE_H_LAMBDA - 1e-12)))
+
+
 # ---------------------------------------------------------------------------- analysis
 def margin(params: LoadSensingParams, f_sol: float = 0.0) -> float:
     """Steady LS margin ``p_s - p_ls = (F0 + k x_lap + f_sol)/A`` [Pa] (000 sec. 2: ~20 bar),
@@ -242,52 +328,27 @@ def standby_state(params: LoadSensingParams, xa: float) -> np.ndarray:
 
 
 def stiffness_modes(params: LoadSensingParams) -> dict[str, float]:
-    """Upper estimates of the Jacobian eigenvalue magnitudes [1/s] (worst case over states).
+    """Upper estimates of the Jacobian eigenvalue magnitudes [1/s] of the modes that are stiff
+    everywhere (:func:`.bounds.stiffness_modes`): they set the sub-step count. The modes stiff
+    only locally (the FC spool on a stop, an orifice near zero drop) are left out and refined
+    where they are stiff (:func:`local_mode_rates`, :func:`local_mode_substeps`)."""
+    return _bounds.stiffness_modes(params, derived(params))
 
-    * ``spool``: FC spool on spring + flow-force stiffness at the relief pressure, plus c/m;
-      ``spool_stop``: seat contact sqrt(k/m) + alpha F_max/m with F_max = A p_relief + k x_max.
-    * ``control_chamber``: laminar slopes of the fully open FC port and the leak into V_x0;
-      ``control_piston``: oil spring beta A1^2/V_x0 on m_y, plus b_y/m_y and the stop spring.
-    * ``delivery``: laminar slopes of the open CV and FC port, leak and relief into V_s.
-    * ``load``: laminar CV slope into V_l0, oil spring of the load, friction slope on M.
-    * ``ls_line``: RLC line with the spool's displacement (eq (17)-type bound) + R/L.
-    * ``solenoid``: 1/tau.
-    """
-    p = params
-    d = derived(p)
-    A, m = d["spool_area"], p.spool_mass
-    beta = p.bulk_modulus
-    g_lam = 1.0 / math.sqrt(p.orifice_transition_pressure)
-    dp_max = p.relief_pressure
-    k_spool = p.spring_stiffness + d["k_flow_force"] * dp_max
-    f_max = A * dp_max + p.spring_stiffness * p.spool_stroke
-    g_port = d["k_meter"] * p.metering_width * p.port_length * g_lam
-    g_cv = d["k_meter"] * p.cv_area_max * g_lam
-    c_ls_min = (d["ls_line_volume"] + p.spring_chamber_volume - A * p.spool_stroke) / beta
-    omega_ls2 = 1.0 / (d["ls_inductance"] * c_ls_min) + A * A / (m * c_ls_min) + k_spool / m
-    return {
-        "spool": math.sqrt(k_spool / m) + d["viscous"] / m,
-        "spool_stop": math.sqrt(p.spool_stop_stiffness / m) + p.spool_stop_damping * f_max / m,
-        "control_chamber": beta / p.control_volume * (g_port + p.control_leakage),
-        "control_piston": math.sqrt(beta * p.control_area_large**2 / (p.control_volume * p.control_mass)
-                                    + p.control_stop_stiffness / p.control_mass)
-        + p.control_damping / p.control_mass,
-        "delivery": beta / p.delivery_volume * (g_cv + g_port + p.pump_leakage + p.relief_gradient)
-        + math.sqrt(beta * p.control_area_small**2 / (p.delivery_volume * p.control_mass)),
-        "load": beta / p.line_volume * g_cv
-        + math.sqrt(beta * p.piston_area**2 / (p.line_volume * p.load_mass) + p.actuator_stop_stiffness / p.load_mass)
-        + (p.actuator_coulomb / p.friction_sign_velocity + p.actuator_viscous) / p.load_mass,
-        "ls_line": math.sqrt(omega_ls2) + (d["ls_resistance"] + p.ls_damping_resistance) / d["ls_inductance"],
-        "solenoid": 1.0 / p.solenoid_time_constant,
-    }
+
+def local_mode_rates(params: LoadSensingParams) -> dict[str, float]:
+    """Worst cases [1/s] of the locally refined modes (:func:`.bounds.local_mode_rates`); the
+    largest is ``D_LOCAL`` of the kernel parameter array."""
+    return _bounds.local_mode_rates(params, derived(params))
 
 
 def settled_standby_state(params: LoadSensingParams, xa: float) -> np.ndarray:
     """:func:`standby_state` integrated for ``STANDBY_SETTLE_TIME`` with the CV closed and no
-    solenoid force (RK4, sub-steps from :func:`stiffness_modes` per ``STANDBY_SETTLE_STEP``),
+    solenoid force (RK4, uniform sub-steps per ``STANDBY_SETTLE_STEP`` from :func:`stiffness_modes`
+    and the worst cases of :func:`local_mode_rates`),
     then the actuator put back at ``xa`` at rest: the state a LoadSensing-v0 episode starts in."""
     n_int = int(round(STANDBY_SETTLE_TIME / STANDBY_SETTLE_STEP))
-    nsub = substeps_from_stiffness(stiffness_modes(params), STANDBY_SETTLE_STEP)[0] * n_int
+    worst = {**stiffness_modes(params), **local_mode_rates(params)}
+    nsub = substeps_from_stiffness(worst, STANDBY_SETTLE_STEP)[0] * n_int
     y = standby_state(params, xa)
     _settle(y, np.zeros(2), params.to_array(), STANDBY_SETTLE_TIME / nsub, nsub, np.zeros((5, N_STATES)))
     y[XA] = xa

@@ -16,6 +16,7 @@ import numpy as np
 from hydro_envs.laws.pipe import pipe_inductance, pipe_laminar_resistance
 from hydro_envs.laws.viscosity import iso_vg_kinematic_viscosity
 from hydro_envs.params import ParameterError, PhysicalParams, physical
+from hydro_envs.plants.load_sensing.bounds import local_mode_rates, orifice_rate_coefficients
 from hydro_envs.plants.ls_compensator.params import ORIGINAL_SPRING_STIFFNESS, LSCompensatorParams
 
 __all__ = ["PLANT", "LoadSensingParams", "N_PARAMS", "N_FIELDS", "derived"]
@@ -206,17 +207,21 @@ N_FIELDS = len(_FIELDS)
     I_STROKE, I_VL0, I_M, I_FL, I_BA, I_FCA, I_VEPS, I_KAS, I_PT, I_DPTR, I_PFLOOR,
 ) = range(52)
 assert N_FIELDS == 52 and _FIELDS[I_PFLOOR] == "pressure_floor" and _FIELDS[I_FL] == "load_force"
-_DERIVED = ("spool_area", "viscous", "ls_inductance", "ls_resistance", "ls_line_volume", "k_meter", "k_flow_force")
-(D_A, D_C, D_LLS, D_RLS, D_VLINE, D_KM, D_KFF) = range(N_FIELDS, N_FIELDS + len(_DERIVED))
+_DERIVED = ("spool_area", "viscous", "ls_inductance", "ls_resistance", "ls_line_volume", "k_meter", "k_flow_force",
+            "local_rate", "drop_rate", "leak_rate")
+(D_A, D_C, D_LLS, D_RLS, D_VLINE, D_KM, D_KFF, D_LOCAL, D_DROPRATE, D_LEAKRATE) = range(
+    N_FIELDS, N_FIELDS + len(_DERIVED))
 N_PARAMS = N_FIELDS + len(_DERIVED)
 
 
 def derived(params: LoadSensingParams) -> dict[str, float]:
-    """Kernel quantities computed once per parameter set (viscosity-dependent c and R)."""
+    """Kernel quantities computed once per parameter set (viscosity-dependent c and R; the
+    largest worst-case rate of the locally refined modes, :func:`.bounds.local_mode_rates`, and
+    the coefficients of their bound in the smallest drop, :func:`.bounds.orifice_rate_coefficients`)."""
     p = params
     nu = iso_vg_kinematic_viscosity(p.oil_grade, p.oil_temperature)
     nu40 = iso_vg_kinematic_viscosity(p.oil_grade, 40.0)
-    return {
+    d = {
         "spool_area": 0.25 * math.pi * p.spool_diameter**2,
         "viscous": p.viscous_friction_40c * nu / nu40,
         "ls_inductance": pipe_inductance(p.oil_density, p.ls_line_length, p.ls_line_diameter),
@@ -225,3 +230,6 @@ def derived(params: LoadSensingParams) -> dict[str, float]:
         "k_meter": p.discharge_coefficient * math.sqrt(2.0 / p.oil_density),
         "k_flow_force": 2.0 * p.discharge_coefficient * math.cos(p.jet_angle) * p.metering_width,
     }
+    d["local_rate"] = max(local_mode_rates(p, d).values())
+    d["drop_rate"], d["leak_rate"] = orifice_rate_coefficients(p, d)
+    return d
