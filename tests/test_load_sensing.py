@@ -21,6 +21,7 @@ from hydro_envs.plants.load_sensing.params import LoadSensingParams
 from hydro_envs.randomization import load_randomization
 from hydro_envs import registry
 from hydro_envs.sim.reference import reference_rollout
+from hydro_envs.sim.rk4 import local_substeps
 from hydro_envs.sim.stiffness import DEFAULT_SAFETY, RK4_REAL_STABILITY_LIMIT, substeps_from_stiffness
 
 ENV_ID = "hydro_envs/LoadSensing-v0"
@@ -198,6 +199,20 @@ def test_local_modes_left_out_of_the_substep_are_refined_where_stiff():
     near[cc.PS] = near[cc.PL] + 0.1 * NOMINAL.orifice_transition_pressure
     assert h * cc.local_mode_rate(near, pa) > stable
     assert cc.local_mode_substeps(near, near, pa, h, m) == m
+    # the drop-threshold short cut gives the count the local rates give
+    rng = np.random.default_rng(5)
+    for _ in range(400):
+        a = rest.copy()
+        a[cc.X] = rng.uniform(-1e-5, NOMINAL.metering_lap + 2 * NOMINAL.port_length)
+        a[cc.PX] = a[cc.PS] - rng.choice([1.0, 1e3, 1e5, 1e6]) * rng.uniform(-1, 3)
+        a[cc.PL] = a[cc.PS] - rng.choice([1.0, 1e3, 1e5, 1e6]) * rng.uniform(-1, 3)
+        b = a.copy()
+        b[[cc.PS, cc.PX, cc.PL]] += rng.normal(0.0, 2e4, 3)
+        if cc._on_spool_stop(a, pa) or cc._on_spool_stop(b, pa) or cc._drop_crossed(a, b, pa):
+            want = m
+        else:
+            want = local_substeps(h * max(cc.local_mode_rate(a, pa), cc.local_mode_rate(b, pa)), stable, m)
+        assert cc.local_mode_substeps(a, b, pa, h, m) == want
     # the rate bound at a state is the zero-drop worst case of bounds.local_mode_rates there
     zero = near.copy()
     zero[cc.X] = NOMINAL.metering_lap + NOMINAL.port_length  # P -> X fully open
