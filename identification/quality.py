@@ -89,7 +89,7 @@ def assess(res: Mapping[str, Any], method: str | None = None, *, min_fit: float 
                            " (the data do not determine it)")
     if method == "greybox" and res.get("success") is False:
         reasons.append(f"the fit did not converge ({res.get('message', 'no message')}): the values are not "
-                       "a least-squares minimum; start closer or allow more evaluations")
+                       "a least-squares minimum; start it closer to the values (--set NAME=VALUE)")
     if method == "frf" and "n_points" in metrics and int(metrics["n_points"]) < MIN_FRF_POINTS:
         reasons.append(f"only {int(metrics['n_points'])} frequency points with coherence >= 0.9 "
                        f"(fewer than {MIN_FRF_POINTS}): excite longer or wider")
