@@ -11,7 +11,7 @@ part of the state space, and the kernels take a sub-step there as finer ones
   ``|dp|^(-1/2)`` away from it) of the FC metering edges, the CV and the leaks into the
   control chamber ``V_x``, the delivery volume ``V_s`` and the load line ``V_l``: stiff only
   while the drop across an open edge is within a few ``dp_tr`` of zero. Working drops are
-  20 bar and more (the LS margin), where the slope is about a quarter of its zero-drop value.
+  20 bar and more (the LS margin), where the slope is about a tenth of its zero-drop value.
 
 Each is a worst case over the state space (relief pressure on the spool, full openings, the
 smallest volumes); the largest local one sets the most fine sub-steps a sub-step is taken as.
