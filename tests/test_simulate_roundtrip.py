@@ -112,31 +112,23 @@ def test_force_actuator_record_gives_back_supply_pressure_and_sensor(tmp_path, c
     _check(res, true)
 
 
-def test_load_sensing_record_gives_back_load_and_compensator_damping(tmp_path, capsys):
+@pytest.mark.parametrize("mass_start", [1.2, 1.15])
+def test_load_sensing_record_gives_back_load_and_compensator_damping(tmp_path, capsys, mass_start):
     # PRBS on both inputs (solenoid force on the FC spool, CV opening), pressures, actuator
     # position and velocity measured: the load's oil-spring oscillation sets the load mass and
     # its decay the actuator's viscous friction; the pressure transients of the compensator
-    # its viscous coefficient (000 Fig. 14: the parameter deciding LS stability)
+    # its viscous coefficient (000 Fig. 14: the parameter deciding LS stability). From a 1.15x
+    # load the first solver run stops on its step size (xtol) with the gradient far from zero
+    # (a trial point of a light load raised its sub-steps for the rest of it); the second run
+    # from there, with the sub-steps that point needs, reaches the parameters that made the record
     data, _ = _record(tmp_path, capsys, "hydro_envs/LoadSensing-v0", 1000)
     true = _truth(data, ("load_mass", "actuator_viscous", "viscous_friction_40c"))
-    res = _fit("load_sensing", data, {"load_mass": 1.2 * true["load_mass"],
+    res = _fit("load_sensing", data, {"load_mass": mass_start * true["load_mass"],
                                        "actuator_viscous": 0.8 * true["actuator_viscous"],
                                        "viscous_friction_40c": 1.3 * true["viscous_friction_40c"]}, **FAST)
     _check(res, true)
-
-
-def test_a_fit_stopped_on_its_step_size_is_restarted_to_the_minimum(tmp_path, capsys):
-    # the load-sensing record from another start: a trial point of the first solver run needs
-    # 166 sub-steps (a light load), which then hold for the rest of that run, and it ends on
-    # its step size (xtol) at c = 0.025 c_true with the gradient far from zero; one more run
-    # from there, with the sub-steps that point needs, reaches the parameters that made it
-    data, _ = _record(tmp_path, capsys, "hydro_envs/LoadSensing-v0", 1000)
-    true = _truth(data, ("load_mass", "actuator_viscous", "viscous_friction_40c"))
-    res = _fit("load_sensing", data, {"load_mass": 1.15 * true["load_mass"],
-                                       "actuator_viscous": 0.8 * true["actuator_viscous"],
-                                       "viscous_friction_40c": 1.3 * true["viscous_friction_40c"]}, **FAST)
-    _check(res, true)
-    assert any(n.startswith("restarted from the first stop") for n in res.notes), res.notes
+    if mass_start == 1.15:
+        assert any(n.startswith("restarted from the first stop") for n in res.notes), res.notes
 
 
 def test_record_with_the_input_one_row_late_does_not_identify(tmp_path, capsys):
