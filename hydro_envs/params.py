@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from typing import Any, ClassVar, Mapping
+from typing import Any, ClassVar, Mapping, Sequence
 
 import numpy as np
 
@@ -66,6 +66,10 @@ class PhysicalParams:
 
     #: Plant name used by configs, channels and the CLI (set by subclasses).
     plant: ClassVar[str] = ""
+    #: Names of the derived kernel columns :meth:`to_array` appends after the fields: terms of a
+    #: plant's right-hand side that depend on the parameters only, computed once per set by
+    #: :meth:`derived_columns` (none by default).
+    derived_names: ClassVar[tuple[str, ...]] = ()
 
     def __post_init__(self) -> None:
         for f in self._fields():
@@ -123,17 +127,30 @@ class PhysicalParams:
     def index(cls, name: str) -> int:
         return cls.names().index(name)
 
+    def derived_columns(self) -> Sequence[float]:
+        """Values of :attr:`derived_names` (override together with it)."""
+        return ()
+
     def to_array(self) -> np.ndarray:
-        return np.array([getattr(self, n) for n in self.names()], dtype=np.float64)
+        """The kernel parameter row: the fields in declaration order, then the derived columns."""
+        fields = np.array([getattr(self, n) for n in self.names()], dtype=np.float64)
+        if not self.derived_names:
+            return fields
+        extra = np.asarray(self.derived_columns(), dtype=np.float64)
+        if extra.shape != (len(self.derived_names),):
+            raise ParameterError(f"{type(self).__name__}.derived_columns gave {extra.shape[0]} values for "
+                                 f"{len(self.derived_names)} derived_names")
+        return np.concatenate([fields, extra])
 
     @classmethod
     def from_array(cls, values: np.ndarray) -> "PhysicalParams":
+        """The parameter set of a kernel row, with or without its derived columns."""
         values = np.asarray(values, dtype=np.float64)
-        if values.shape != (len(cls.names()),):
-            raise ParameterError(
-                f"{cls.__name__}: expected {len(cls.names())} values, got shape {values.shape}"
-            )
-        return cls(**{n: float(v) for n, v in zip(cls.names(), values)})
+        n, k = len(cls.names()), len(cls.derived_names)
+        if values.shape not in ((n,), (n + k,)):
+            alt = f" (or {n + k} with derived columns)" if k else ""
+            raise ParameterError(f"{cls.__name__}: expected {n}{alt} values, got shape {values.shape}")
+        return cls(**{name: float(v) for name, v in zip(cls.names(), values[:n])})
 
     def as_dict(self) -> dict[str, float]:
         return {n: getattr(self, n) for n in self.names()}

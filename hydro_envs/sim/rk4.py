@@ -34,7 +34,10 @@ import math
 import numba as nb
 import numpy as np
 
-__all__ = ["rk4_advance", "rk4_advance_lookahead", "local_substeps", "LOCAL_RATE_MARGIN", "rk4_trajectory",
+from hydro_envs.sim.stiffness import DEFAULT_SAFETY, RK4_REAL_STABILITY_LIMIT
+
+__all__ = ["rk4_advance", "rk4_advance_lookahead", "local_substeps", "worst_case_substeps", "STABLE_H_LAMBDA",
+           "LOCAL_RATE_MARGIN", "rk4_trajectory",
            "rk4_trajectory_lookahead", "rhs_along", "in_blocks"]
 
 #: most blocks of copies :func:`in_blocks` makes of a batch (copies differ in sub-step count;
@@ -81,6 +84,16 @@ def rk4_advance(rhs, guard, y, u, p, h, n_sub, work):
 #: :func:`local_substeps` sizes its refinement: the rate may grow along the sub-step (a friction
 #: state's rate with the speed, a flow law's with the pressure ratio); assumed
 LOCAL_RATE_MARGIN = 1.5
+#: ``h |lambda|`` within which the sub-step bound keeps every mode (:mod:`hydro_envs.sim.stiffness`)
+STABLE_H_LAMBDA = DEFAULT_SAFETY * RK4_REAL_STABILITY_LIMIT
+
+
+@nb.njit(cache=True, error_model="numpy", inline="always")
+def worst_case_substeps(h_lambda):
+    """Fewest RK4 steps of ``h / m`` that keep a mode with ``h |lambda| = h_lambda`` inside
+    :data:`STABLE_H_LAMBDA`: ``ceil(h_lambda / STABLE_H_LAMBDA)``, at least 1 (the ``m`` of
+    :func:`rk4_advance_lookahead` for a plant's locally refined modes at their worst case)."""
+    return max(1, int(math.ceil(h_lambda / STABLE_H_LAMBDA - 1e-12)))
 
 
 @nb.njit(cache=True, error_model="numpy", inline="always")

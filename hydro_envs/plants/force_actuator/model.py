@@ -121,8 +121,7 @@ from hydro_envs.laws.elementary import tanh_one_exp
 from hydro_envs.laws.filters import lfilter_from_rest
 from hydro_envs.laws.friction import dahl_friction_rate, tanh_sign
 from hydro_envs.laws.hysteresis import pi_memories, play_operator
-from hydro_envs.sim.rk4 import local_substeps
-from hydro_envs.sim.stiffness import DEFAULT_SAFETY, RK4_REAL_STABILITY_LIMIT
+from hydro_envs.sim.rk4 import STABLE_H_LAMBDA, local_substeps
 from hydro_envs.plants.force_actuator.params import (  # noqa: F401  (re-exported)
     ForceActuatorParams, I_A1, I_AR, I_ASTOP, I_BS, I_DA, I_DG, I_DK, I_DLIN, I_DV, I_FC, I_FLOAD,
     I_FMOD, I_FSE, I_FSR, I_HR, I_HW, I_IMAX, I_IR, I_KL, I_KS, I_KSTOP, I_L, I_LOCK, I_M, I_ML,
@@ -554,7 +553,6 @@ def dahl_relaxation_bound(params: ForceActuatorParams) -> float:
 
 
 #: h lambda at which an RK4 sub-step is taken stable (the sub-step safety of hydro_envs.sim.stiffness)
-_STABLE_H_LAMBDA = DEFAULT_SAFETY * RK4_REAL_STABILITY_LIMIT
 
 
 @nb.njit(cache=True, error_model="numpy")
@@ -569,7 +567,7 @@ def dahl_friction_shallow(y0, y, p, h):
     v = y[VP] + y[VS]
     if (v > 0.0) != (y0[VP] + y0[VS] > 0.0):
         return False
-    return h * 4.0 * p[I_SIG] * abs(v) / p[I_FC] <= _STABLE_H_LAMBDA
+    return h * 4.0 * p[I_SIG] * abs(v) / p[I_FC] <= STABLE_H_LAMBDA
 
 
 @nb.njit(cache=True, error_model="numpy")
@@ -586,7 +584,7 @@ def dahl_friction_substeps(y0, x, p, h, m):
     v1 = x[VP] + x[VS]
     if (v1 > 0.0) != (v0 > 0.0):
         return m
-    return local_substeps(h * 4.0 * p[I_SIG] * max(abs(v0), abs(v1)) / p[I_FC], _STABLE_H_LAMBDA, m)
+    return local_substeps(h * 4.0 * p[I_SIG] * max(abs(v0), abs(v1)) / p[I_FC], STABLE_H_LAMBDA, m)
 
 
 @nb.njit(cache=True, error_model="numpy")
@@ -597,7 +595,7 @@ def dahl_friction_refinement(p, h):
     if p[I_FMOD] > 0.5 or not p[I_FC] > 0.0:
         return m
     need = h * 4.0 * p[I_SIG] * _velocity_bound_row(p) / p[I_FC]  # h lambda at the velocity bound
-    while m * _STABLE_H_LAMBDA < need * (1.0 - 1e-12):  # the smallest m with h lambda / m stable
+    while m * STABLE_H_LAMBDA < need * (1.0 - 1e-12):  # the smallest m with h lambda / m stable
         m += 1
     return m
 

@@ -11,8 +11,8 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from typing import ClassVar
 
-import numpy as np
 
 from hydro_envs.laws.elementary import tanh_one_exp
 from hydro_envs.laws.hysteresis import pi_threshold_scale
@@ -225,21 +225,15 @@ class ForceActuatorParams(PhysicalParams):
         if self.friction_model not in (0.0, 1.0):
             raise ParameterError(f"ForceActuatorParams.friction_model must be 0 or 1, got {self.friction_model}")
 
-    def to_array(self) -> np.ndarray:
-        """The fields, then the derived columns ``D_*`` (by the kernels' own arithmetic:
-        bit-identical to computing them in every right-hand side)."""
+    derived_names: ClassVar[tuple[str, ...]] = (
+        ("tanh_damping_sharpness", "play_weight") + tuple(f"play_threshold_{k + 1}" for k in range(N_PLAY)))
+
+    def derived_columns(self) -> list[float]:
+        """The ``D_*`` columns, by the kernels' own arithmetic (bit-identical to computing them
+        in every right-hand side)."""
         big_r = pi_threshold_scale.py_func(self.hysteresis_width, self.hysteresis_reversal_slope, N_PLAY)
         derived = [tanh_one_exp.py_func(self.damping_sharpness), (1.0 - self.hysteresis_reversal_slope) / N_PLAY]
-        derived += [big_r * (k + 1) / N_PLAY for k in range(N_PLAY)]
-        return np.concatenate([super().to_array(), np.array(derived, dtype=np.float64)])
-
-    @classmethod
-    def from_array(cls, values: np.ndarray) -> "ForceActuatorParams":
-        values = np.asarray(values, dtype=np.float64)
-        n = len(cls.names())
-        if values.shape not in ((n,), (n + 2 + N_PLAY,)):
-            raise ParameterError(f"{cls.__name__}: expected {n} (or {n + 2 + N_PLAY}) values, got {values.shape}")
-        return cls(**{k: float(v) for k, v in zip(cls.names(), values[:n])})
+        return derived + [big_r * (k + 1) / N_PLAY for k in range(N_PLAY)]
 
     # convenience
     @property
@@ -263,7 +257,7 @@ assert ForceActuatorParams.names()[I_ASTOP] == "stop_damping" and len(ForceActua
 #: derived columns: tanh(kappa) of the damping law (eq (5)), the plays' weight
 #: (1 - w0)/n and their thresholds R k/n (sec. 3.3), k = 1..N_PLAY
 D_TANHK, D_PLAYW, D_PLAY0 = N_FIELDS, N_FIELDS + 1, N_FIELDS + 2
-N_PARAMS = N_FIELDS + 2 + N_PLAY
+N_PARAMS = N_FIELDS + len(ForceActuatorParams.derived_names)
 assert ForceActuatorParams.names()[I_VEPS] == "friction_sign_velocity"
 assert ForceActuatorParams.names()[I_FLOAD] == "load_force"
 assert ForceActuatorParams.names()[I_TDEL] == "control_delay"

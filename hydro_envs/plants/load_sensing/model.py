@@ -71,8 +71,8 @@ from hydro_envs.plants.load_sensing.params import (  # noqa: F401  (re-exported)
     I_VS, I_VSC, I_VX0, I_W, I_WP, I_XLAP, I_XMAX, I_YMAX, LoadSensingParams, N_FIELDS, N_PARAMS,
     PLANT, _ATM, _BAR, _DERIVED, derived,
 )
-from hydro_envs.sim.rk4 import local_substeps, rk4_advance
-from hydro_envs.sim.stiffness import DEFAULT_SAFETY, RK4_REAL_STABILITY_LIMIT, substeps_from_stiffness
+from hydro_envs.sim.rk4 import STABLE_H_LAMBDA, local_substeps, rk4_advance, worst_case_substeps
+from hydro_envs.sim.stiffness import substeps_from_stiffness
 
 __all__ = [
     "LoadSensingParams",
@@ -204,7 +204,6 @@ def load_sensing_guard(y, p):
 
 
 # ------------------------------------------------------- local refinement (look-ahead kernels)
-_STABLE_H_LAMBDA = DEFAULT_SAFETY * RK4_REAL_STABILITY_LIMIT
 
 
 @nb.njit(cache=True, error_model="numpy", inline="always")
@@ -270,18 +269,18 @@ def local_mode_substeps(y0, x, p, h, m):
         return m
     # short cut, same answer: with every drop at least dp_min the rate is at most C / sqrt(dp_min)
     # + G (.bounds.orifice_rate_coefficients), stable if dp_min (stable / h - G)^2 >= C^2
-    room = _STABLE_H_LAMBDA / h - p[D_LEAKRATE]
+    room = STABLE_H_LAMBDA / h - p[D_LEAKRATE]
     dp_min = min(_smallest_drop(y0, p), _smallest_drop(x, p))
     if room > 0.0 and dp_min * room * room >= p[D_DROPRATE] * p[D_DROPRATE]:
         return 1
-    return local_substeps(h * max(local_mode_rate(y0, p), local_mode_rate(x, p)), _STABLE_H_LAMBDA, m)
+    return local_substeps(h * max(local_mode_rate(y0, p), local_mode_rate(x, p)), STABLE_H_LAMBDA, m)
 
 
 @nb.njit(cache=True, error_model="numpy", inline="always")
 def local_mode_refinement(p, h):
     """Fine sub-steps per sub-step of ``h`` seconds that keep the locally refined modes stable
     at their worst case (``D_LOCAL``, :func:`local_mode_rates`)."""
-    return max(1, int(math.ceil(h * p[D_LOCAL] / _STABLE_H_LAMBDA - 1e-12)))
+    return worst_case_substeps(h * p[D_LOCAL])
 
 
 # ---------------------------------------------------------------------------- analysis

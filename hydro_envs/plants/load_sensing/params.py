@@ -10,8 +10,8 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from typing import ClassVar
 
-import numpy as np
 
 from hydro_envs.laws.pipe import pipe_inductance, pipe_laminar_resistance
 from hydro_envs.laws.viscosity import iso_vg_kinematic_viscosity
@@ -185,17 +185,13 @@ class LoadSensingParams(PhysicalParams):
                 f"{a * (self.spool_stroke + 1e-4)} m^3, got {self.spring_chamber_volume} m^3"
             )
 
-    def to_array(self) -> np.ndarray:
-        d = derived(self)
-        return np.concatenate([super().to_array(), np.array([d[k] for k in _DERIVED], dtype=np.float64)])
+    derived_names: ClassVar[tuple[str, ...]] = (
+        "spool_area", "viscous", "ls_inductance", "ls_resistance", "ls_line_volume", "k_meter", "k_flow_force",
+        "local_rate", "drop_rate", "leak_rate")
 
-    @classmethod
-    def from_array(cls, values: np.ndarray) -> "LoadSensingParams":
-        values = np.asarray(values, dtype=np.float64)
-        n = len(cls.names())
-        if values.shape not in ((n,), (n + len(_DERIVED),)):
-            raise ParameterError(f"{cls.__name__}: expected {n} (or {n + len(_DERIVED)}) values, got {values.shape}")
-        return cls(**{k: float(v) for k, v in zip(cls.names(), values[:n])})
+    def derived_columns(self) -> list[float]:
+        d = derived(self)
+        return [d[k] for k in self.derived_names]
 
 
 _FIELDS = LoadSensingParams.names()
@@ -207,8 +203,7 @@ N_FIELDS = len(_FIELDS)
     I_STROKE, I_VL0, I_M, I_FL, I_BA, I_FCA, I_VEPS, I_KAS, I_PT, I_DPTR, I_PFLOOR,
 ) = range(52)
 assert N_FIELDS == 52 and _FIELDS[I_PFLOOR] == "pressure_floor" and _FIELDS[I_FL] == "load_force"
-_DERIVED = ("spool_area", "viscous", "ls_inductance", "ls_resistance", "ls_line_volume", "k_meter", "k_flow_force",
-            "local_rate", "drop_rate", "leak_rate")
+_DERIVED = LoadSensingParams.derived_names
 (D_A, D_C, D_LLS, D_RLS, D_VLINE, D_KM, D_KFF, D_LOCAL, D_DROPRATE, D_LEAKRATE) = range(
     N_FIELDS, N_FIELDS + len(_DERIVED))
 N_PARAMS = N_FIELDS + len(_DERIVED)

@@ -10,8 +10,8 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from typing import ClassVar
 
-import numpy as np
 
 from hydro_envs.laws.pipe import pipe_inductance, pipe_laminar_resistance
 from hydro_envs.laws.viscosity import iso_vg_kinematic_viscosity
@@ -206,21 +206,12 @@ class LSCompensatorParams(PhysicalParams):
 
     # kernel array: the fields, then derived columns (viscosity-dependent c and R, ...),
     # computed once per parameter set so the right-hand side needs no transcendental calls
-    def to_array(self) -> np.ndarray:
-        d = derived(self)
-        extra = [d[name] for name in _DERIVED]
-        return np.concatenate([super().to_array(), np.array(extra, dtype=np.float64)])
+    derived_names: ClassVar[tuple[str, ...]] = (
+        "mass", "viscous", "area", "inductance", "resistance", "pipe_volume", "k_meter", "k_orifice", "k_flow_force")
 
-    @classmethod
-    def from_array(cls, values: np.ndarray) -> "LSCompensatorParams":
-        values = np.asarray(values, dtype=np.float64)
-        n = len(cls.names())
-        if values.shape not in ((n,), (n + len(_DERIVED),)):
-            raise ParameterError(
-                f"{cls.__name__}: expected {n} (or {n + len(_DERIVED)} with derived columns) "
-                f"values, got shape {values.shape}"
-            )
-        return cls(**{k: float(v) for k, v in zip(cls.names(), values[:n])})
+    def derived_columns(self) -> list[float]:
+        d = derived(self)
+        return [d[name] for name in self.derived_names]
 
 
 (
@@ -231,7 +222,7 @@ class LSCompensatorParams(PhysicalParams):
 assert LSCompensatorParams.names()[I_PFLOOR] == "pressure_floor"
 N_FIELDS = 32
 # derived columns appended by to_array()
-_DERIVED = ("mass", "viscous", "area", "inductance", "resistance", "pipe_volume", "k_meter", "k_orifice", "k_flow_force")
+_DERIVED = LSCompensatorParams.derived_names
 (D_M, D_C, D_A, D_L, D_R, D_VPIPE, D_KM, D_KO, D_KFF) = range(N_FIELDS, N_FIELDS + len(_DERIVED))
 N_PARAMS = N_FIELDS + len(_DERIVED)
 

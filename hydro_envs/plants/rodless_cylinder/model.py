@@ -95,8 +95,7 @@ from hydro_envs.laws.orifice import circular_orifice_area, iso6358_mass_flow_lam
 from hydro_envs.laws.pneumatic_chamber import chamber_pressure_rate, gas_internal_energy
 from hydro_envs.laws.stribeck_lugre import lugre_exponential_rate, lugre_exponential_rate_bound
 from hydro_envs.laws.valve import second_order_valve_acceleration
-from hydro_envs.sim.stiffness import DEFAULT_SAFETY, RK4_REAL_STABILITY_LIMIT
-from hydro_envs.sim.rk4 import local_substeps
+from hydro_envs.sim.rk4 import STABLE_H_LAMBDA, local_substeps, worst_case_substeps
 from hydro_envs.plants.rodless_cylinder.bounds import (
     local_mode_rates as _local_mode_rates, piston_area, smallest_chamber_volume, speed_bound,
 )
@@ -400,7 +399,6 @@ def _rhs(supply, y, u, p, dy):
 
 
 # ------------------------------------------------------- sub-steps of the static friction curve
-_STABLE_H_LAMBDA = DEFAULT_SAFETY * RK4_REAL_STABILITY_LIMIT
 
 
 @nb.njit(cache=True, error_model="numpy")
@@ -498,7 +496,7 @@ def lugre_local_shallow(y0, y, p, h):
     static curve's branch (the envs' kernels when every copy has one)."""
     if _on_bumper(y, p) or _crossed(y0, y, p):
         return False
-    return h * _lugre_local_rate(y, p) <= _STABLE_H_LAMBDA
+    return h * _lugre_local_rate(y, p) <= STABLE_H_LAMBDA
 
 
 @nb.njit(cache=True, error_model="numpy")
@@ -513,7 +511,7 @@ def local_mode_shallow(y0, y, p, h):
         return lugre_local_shallow(y0, y, p, h)
     if (y[V] > 0.0) != (y0[V] > 0.0) or _crossed(y0, y, p):
         return False
-    return h * local_mode_rate(y, p) <= _STABLE_H_LAMBDA
+    return h * local_mode_rate(y, p) <= STABLE_H_LAMBDA
 
 
 @nb.njit(cache=True, error_model="numpy")
@@ -523,7 +521,7 @@ def lugre_local_substeps(y0, x, p, h, m):
     :func:`lugre_local_shallow` holds at ``y0`` and ``x``."""
     if _on_bumper(y0, p) or _on_bumper(x, p) or _crossed(y0, x, p):
         return m
-    return local_substeps(h * max(_lugre_local_rate(y0, p), _lugre_local_rate(x, p)), _STABLE_H_LAMBDA, m)
+    return local_substeps(h * max(_lugre_local_rate(y0, p), _lugre_local_rate(x, p)), STABLE_H_LAMBDA, m)
 
 
 @nb.njit(cache=True, error_model="numpy")
@@ -548,7 +546,7 @@ def local_mode_substeps(y0, x, p, h, m):
 def local_mode_refinement(p, h):
     """Fine sub-steps per sub-step of ``h`` seconds that keep the locally refined modes stable
     at their worst case (``D_LOCAL``, :func:`local_mode_rates`)."""
-    return max(1, int(math.ceil(h * p[D_LOCAL] / _STABLE_H_LAMBDA - 1e-12)))
+    return worst_case_substeps(h * p[D_LOCAL])
 
 
 @nb.njit(cache=True, error_model="numpy")

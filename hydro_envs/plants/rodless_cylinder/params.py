@@ -10,8 +10,8 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from typing import ClassVar
 
-import numpy as np
 
 from hydro_envs.laws.nozzle_fast import nozzle_flow_constants, nozzle_mass_flow_fast
 from hydro_envs.laws.orifice import circular_orifice_area, iso6358_mass_flow_laminar
@@ -189,7 +189,11 @@ class RodlessCylinderParams(PhysicalParams):
     # right-hand side needs no pow calls (see hydro_envs.laws.nozzle_fast). The two laws run as
     # plain Python here (``py_func``: the same libm calls, bit-identical results): compiling
     # them would add about 0.8 s to an env's cold first step.
-    def to_array(self) -> np.ndarray:
+    derived_names: ClassVar[tuple[str, ...]] = (
+        "piston_area", "crit", "psi_c", "psi_lam", "inv_k", "coef", "sqrt_rts", "k_v", "s_full", "orifice_rate",
+        "local_rate")
+
+    def derived_columns(self) -> list[float]:
         constants = nozzle_flow_constants.py_func(self.heat_capacity_ratio, self.laminar_pressure_ratio)
         s_full = float(circular_orifice_area.py_func(self.spool_stroke + self.valve_underlap, self.port_radius))
         orifice = self._orifice_rate_volume(s_full, constants)
@@ -202,7 +206,7 @@ class RodlessCylinderParams(PhysicalParams):
             orifice,
             max(local_mode_rates(self, orifice).values()),
         ]
-        return np.concatenate([super().to_array(), np.array(extra, dtype=np.float64)])
+        return extra
 
     def _orifice_rate_volume(self, s_full: float, constants: tuple) -> float:
         """``kappa R T_max`` [J/kg] times the laminar-tail slope [kg/(s Pa)] of the fully open
@@ -219,16 +223,6 @@ class RodlessCylinderParams(PhysicalParams):
                                                      rl * ps, t_max, T_REF_ISO, RHO_REF_ISO, rl)
         return self.heat_capacity_ratio * self.gas_constant * t_max * flow / (ps * (1.0 - rl))
 
-    @classmethod
-    def from_array(cls, values: np.ndarray) -> "RodlessCylinderParams":
-        values = np.asarray(values, dtype=np.float64)
-        n = len(cls.names())
-        if values.shape not in ((n,), (N_PARAMS,)):
-            raise ParameterError(
-                f"{cls.__name__}: expected {n} (or {N_PARAMS} with derived columns) values, got shape {values.shape}"
-            )
-        return cls(**{k: float(v) for k, v in zip(cls.names(), values[:n])})
-
 
 # Column indices of the packed parameter array (declaration order of the dataclass).
 (
@@ -240,7 +234,7 @@ N_FIELDS = 37
 # derived columns appended by RodlessCylinderParams.to_array()
 (D_AREA, D_CRIT, D_PSIC, D_PSIL, D_INVK, D_COEF, D_SQRTRTS, D_KV, D_SFULL, D_ORIFICE, D_LOCAL) = range(
     N_FIELDS, N_FIELDS + 11)
-N_PARAMS = N_FIELDS + 11
+N_PARAMS = N_FIELDS + len(RodlessCylinderParams.derived_names)
 assert RodlessCylinderParams.names()[I_VMIN] == "min_chamber_volume"
 assert RodlessCylinderParams.names()[I_SIG1] == "bristle_damping"
 assert RodlessCylinderParams.names()[I_RSUP] == "supply_line_resistance"
