@@ -38,6 +38,7 @@ from hydro_envs.params import ParameterError
 from hydro_envs.plants.shaking_table import model as st
 from hydro_envs.plants.shaking_table import analysis as st_analysis
 from hydro_envs.plants.shaking_table import validation as st_validation
+from hydro_envs.plants.shaking_table.bounds import AIR_COMPLIANCE_SHARE, SPOOL_H_OMEGA, air_release_pressure
 from hydro_envs.plants.shaking_table.params import PRESETS, ShakingTableParams
 from hydro_envs.randomization import load_randomization
 from hydro_envs import registry
@@ -386,13 +387,23 @@ def numerical_jacobian(y, p_arr):
     return J
 
 
+def _true_rate_modes(p):
+    """stiffness_modes with the spool at its pole magnitude (the table's entry is scaled for accuracy)."""
+    modes = dict(st.stiffness_modes(p))
+    modes["valve"] = p.valve_natural_frequency
+    return modes
+
+
 def test_stiffness_bound_covers_the_numerical_jacobian(spec):
+    """Everywhere the modes stiff everywhere and the worst-case orifice rate bound the Jacobian;
+    at each state the global modes and the local orifice rate of that state do."""
     rng = np.random.default_rng(0)
     sets = [NOMINAL, ShakingTableParams.preset("ifas", "none"), ShakingTableParams.preset("constant", "500kg"),
             spec.corner(False), spec.corner(True)]
     sets += [spec.corner(rng.integers(0, 2, len(spec.entries)).astype(bool)) for _ in range(2)]
     for p in sets:
-        bound = max(st.stiffness_modes(p).values())
+        modes = _true_rate_modes(p)
+        bound = max(max(modes.values()), max(st.local_mode_rates(p).values()))
         pa = p.to_array()
         ps, pt, L = p.supply_pressure, p.tank_pressure, p.stroke
         pen = p.piston_area * ps / p.stop_stiffness
@@ -400,26 +411,92 @@ def test_stiffness_bound_covers_the_numerical_jacobian(spec):
         worst = 0.0
         for x in (-0.5 * L - pen, -0.5 * L + 1e-4, 0.0, 0.5 * L - 1e-4, 0.5 * L + pen):
             for v in (0.0, 1e-5, 0.01, -0.3, 0.3):
-                for p1, p2 in ((pn, pn), (ps, pt), (pt, ps), (1.4 * ps, 5e5), (5e5, 1.4 * ps)):
+                for p1, p2 in ((pn, pn), (ps, pt), (pt, ps), (1.4 * ps, 5e5), (5e5, 1.4 * ps), (0.7 * ps, 0.3 * ps)):
                     # low-pressure chambers only at low speed: the air-release transient is
                     # excluded by design (stiffness_modes docstring; Radau test above)
                     if min(p1, p2) < 5e5 and abs(v) > 0.01:
                         continue
-                    for xv in (0.0, 1.0, -1.0, 0.003):
-                        ev = np.linalg.eigvals(numerical_jacobian(np.array([x, v, p1, p2, xv, 0.0]), pa))
+                    for xv in (0.0, 1.0, -1.0, 0.003, 0.3):
+                        y = np.array([x, v, p1, p2, xv, 0.0])
+                        ev = np.linalg.eigvals(numerical_jacobian(y, pa))
                         growth = (np.abs(ev.imag) < 1e-9) & (ev.real > 0)  # no RK4 stability limit
-                        worst = max(worst, np.abs(ev[~growth]).max())
+                        here = np.abs(ev[~growth]).max()
+                        # where the kernels always take the worst-case refinement (air-release
+                        # band, notch edges, a zero drop), the worst-case rate applies
+                        forced = st.local_mode_substeps(y, y, pa, DT, 10**6) == 10**6
+                        rate = max(st.local_mode_rates(p).values()) if forced else st.local_mode_rate(y, pa)
+                        local = max(max(modes.values()), rate)
+                        assert here <= local * 1.02, (p, y, here, local)
+                        worst = max(worst, here)
         assert worst <= bound * 1.02, (worst, bound)
         assert worst >= 0.5 * bound  # the bound is not uselessly loose
 
 
 def test_substeps_nominal_and_at_the_randomisation_corners(spec):
-    assert substeps_from_stiffness(st.stiffness_modes(NOMINAL), DT)[0] == 4  # documented in the env
+    """Two sub-steps per ms at the nominal plant and every corner: the spool's accuracy bound
+    (h w_0 <= 0.41) sets them, the orifice cores are refined locally (up to 6 fine steps)."""
+    assert substeps_from_stiffness(st.stiffness_modes(NOMINAL), DT)[0] == 2  # documented in the env
     for flags in (False, True):
         p = spec.corner(flags)
-        n_sub, h, _ = substeps_from_stiffness(st.stiffness_modes(p), DT)
+        n_sub, h, name = substeps_from_stiffness(st.stiffness_modes(p), DT)
+        assert (n_sub, name) == (2, "valve")
+        assert h * p.valve_natural_frequency <= SPOOL_H_OMEGA
         assert h * max(st.stiffness_modes(p).values()) <= DEFAULT_SAFETY * RK4_REAL_STABILITY_LIMIT + 1e-12
-        assert n_sub <= 8
+        m = st.local_mode_refinement(p.to_array(), h)
+        assert h / m * max(st.local_mode_rates(p).values()) <= DEFAULT_SAFETY * RK4_REAL_STABILITY_LIMIT + 1e-12
+        assert m <= 6
+
+
+def test_spool_accuracy_bound_is_rk4s_error_per_step():
+    """SPOOL_H_OMEGA: RK4's error over one step on the spool's oscillation (003 eq (5), zeta =
+    0.73) against the exact transition matrix, about 1e-4 of the amplitude."""
+    w0, zeta = NOMINAL.valve_natural_frequency, NOMINAL.valve_damping
+    a = np.array([[0.0, 1.0], [-w0 * w0, -2.0 * zeta * w0]])
+    h = SPOOL_H_OMEGA / w0
+    ah = a * h
+    rk4 = np.eye(2) + ah + ah @ ah / 2 + ah @ ah @ ah / 6 + ah @ ah @ ah @ ah / 24
+    scale = np.diag([1.0, 1.0 / w0])  # position and velocity / w0: the oscillation's amplitude
+    err = np.linalg.norm(scale @ (rk4 - expm(ah)) @ np.linalg.inv(scale), 2)
+    assert 5e-5 < err < 2e-4  # 1.65e-4: the leading term (h w_0)^5/120 = 1e-4 and the damping
+
+
+@pytest.mark.parametrize("preset", ["modified_ifas", "ifas"])
+def test_air_release_pressure_is_where_air_takes_one_percent_of_the_compliance(preset):
+    p = ShakingTableParams.preset(preset)
+    pr = air_release_pressure(p)
+    e = ifas_bulk_modulus(pr, p.e0, p.p0, p.oil_exponent, p.air_content, p.polytropic_exponent, p.pressure_floor)
+    e_oil = ifas_bulk_modulus(pr, p.e0, p.p0, p.oil_exponent, 0.0, p.polytropic_exponent, p.pressure_floor)
+    assert e_oil / e - 1.0 == pytest.approx(AIR_COMPLIANCE_SHARE, rel=2e-3)
+    assert 1e5 < pr < 2e6
+    assert air_release_pressure(ShakingTableParams.preset("constant")) == 0.0
+
+
+def test_local_refinement_decisions():
+    p = NOMINAL
+    pa = p.to_array()
+    h = DT / 2
+    m = st.local_mode_refinement(pa, h)
+    assert m == 2
+    pn = st.null_pressure(p)
+    mid = np.array([0.0, 0.1, pn + 30e5, pn - 30e5, 0.3, 0.0])  # drops of tens of bar, off the notch
+    assert st.local_mode_substeps(mid, mid, pa, h, m) == 1
+    up = mid.copy()
+    up[st.PA] = p.supply_pressure + 1e5
+    near = mid.copy()
+    near[st.X] = -0.5 * p.stroke + 1e-3  # chamber a at its smallest
+    near[st.XV] = 1.0  # P -> a fully open
+    up[st.X], up[st.XV] = near[st.X], near[st.XV]
+    near[st.PA] = p.supply_pressure - 1e5
+    assert st.local_mode_substeps(near, up, pa, h, m) == m  # crosses the supply: zero drop between
+    assert 1 < st.local_mode_substeps(near, near, pa, h, m) <= m  # 1 bar below it: the laminar core
+    low = mid.copy()
+    low[st.PB] = 0.5 * air_release_pressure(p)
+    assert st.local_mode_substeps(mid, low, pa, h, m) == m  # air-release band
+    edge = mid.copy()
+    edge[st.PA], edge[st.PB] = pn + 0.5 * p.threshold_pressure, pn - 0.5 * p.threshold_pressure
+    assert st.local_mode_substeps(mid, edge, pa, h, m) == m  # sweeps the notch edge at P_Lt
+    const = ShakingTableParams.preset("constant").to_array()
+    assert st.local_mode_substeps(mid, edge, const, h, m) == 1  # no notch without the modified law
 
 
 def test_parallel_and_serial_kernels_are_bit_identical(spec):

@@ -13,7 +13,7 @@ from hydro_envs.laws.friction import stribeck_gaussian
 from hydro_envs.plants.shaking_table import model as st
 from hydro_envs.plants.shaking_table.model import shaking_table_guard as guard
 from hydro_envs.plants.shaking_table.model import shaking_table_rhs as rhs
-from hydro_envs.sim.balance import replay_step, stop_split, stroke_check
+from hydro_envs.sim.balance import replay_step_lookahead, stop_split, stroke_check
 
 __all__ = ["mech_terms", "state_breaches", "energy_replay", "N_BODIES"]
 
@@ -53,6 +53,9 @@ def state_breaches(Y, P, RUN, flags):
 
 @nb.njit(cache=True, error_model="numpy", parallel=True)
 def energy_replay(Y0, U, P, dt, NSUB, W, Yend, out):
-    """:func:`hydro_envs.sim.balance.replay_step` of every copy (see there for ``out``)."""
+    """:func:`hydro_envs.sim.balance.replay_step_lookahead` of every copy with the kernels' local
+    refinement (see there for ``out``)."""
     for i in nb.prange(Y0.shape[0]):
-        replay_step(rhs, guard, mech_terms, Y0[i], U[i], P[i], dt, NSUB[i], W[i], Yend[i], out[i])
+        m = st.local_mode_refinement(P[i], dt / NSUB[i])
+        replay_step_lookahead(rhs, guard, st.local_mode_substeps, mech_terms, Y0[i], U[i], P[i], dt, NSUB[i], m,
+                              W[i], Yend[i], out[i])

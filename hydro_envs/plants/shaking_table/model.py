@@ -88,12 +88,14 @@ from hydro_envs.laws.contact import end_stop_force
 from hydro_envs.laws.friction import stribeck_gaussian
 from hydro_envs.laws.orifice import regularized_signed_sqrt, underlap_orifice_opening
 from hydro_envs.laws.valve import second_order_valve_acceleration
+from hydro_envs.plants.shaking_table.bounds import local_mode_rates, stiffness_modes
 from hydro_envs.plants.shaking_table.params import (  # noqa: F401  (re-exported)
-    BULK_MODULUS_MODELS, I_A, I_ALPHA, I_ASTOP, I_BETA, I_CEL, I_CIL, I_DPTR, I_E0, I_FC, I_FS,
+    BULK_MODULUS_MODELS, D_EMAX, D_LOCAL, D_PAIR, I_A, I_ALPHA, I_ASTOP, I_BETA, I_CEL, I_CIL, I_DPTR, I_E0, I_FC, I_FS,
     I_FV, I_KAPPA, I_KSTOP, I_KU, I_L, I_L1, I_L2, I_M, I_MB, I_MODEL, I_MS, I_MU, I_P0,
     I_PFLOOR, I_PLT, I_PS, I_PT, I_R, I_U, I_UMAX, I_V0, I_VMIN, I_VS, I_W0, I_ZETA, N_PARAMS,
     PLANT, PRESETS, SPECIMENS, ShakingTableParams,
 )
+from hydro_envs.sim.rk4 import STABLE_H_LAMBDA, local_substeps, worst_case_substeps
 
 __all__ = [
     "PLANT",
@@ -108,6 +110,10 @@ __all__ = [
     "valve_flows",
     "chamber_moduli",
     "stiffness_modes",
+    "local_mode_rates",
+    "local_mode_rate",
+    "local_mode_substeps",
+    "local_mode_refinement",
     "hydraulic_natural_frequency",
     "null_pressure",
     "rest_state",
@@ -233,6 +239,88 @@ def _moduli_array(pa, pb, p, out):
         out[k, 1] = eb
 
 
+# ------------------------------------------------------- local refinement (look-ahead kernels)
+@nb.njit(cache=True, error_model="numpy", inline="always")
+def _root_slope_bound(dp, dp_tr):
+    """Upper bound ``(dp^2 + dp_tr^2)^(-1/4)`` [Pa^-1/2] of the slope of
+    :func:`~hydro_envs.laws.orifice.regularized_signed_sqrt` at the drop ``dp`` (equal at zero
+    drop, half of it far away); falls monotonically with ``|dp|``."""
+    return 1.0 / math.sqrt(math.sqrt(dp * dp + dp_tr * dp_tr))
+
+
+@nb.njit(cache=True, error_model="numpy", inline="always")
+def local_mode_rate(y, p):
+    """Upper estimate [1/s] of the orifice modes at state ``y`` (:func:`.bounds.local_mode_rates`
+    with the openings, drops and volumes of ``y`` and the largest modulus ``D_EMAX``): per
+    chamber ``E_max / V (R (sgt_in root'(P_s - P) + sgt_out root'(P - P_T)) + 2 C_il + C_el)``
+    (eqs (1)-(3), (6)-(9)); the larger of the two."""
+    xo = min(max(y[XV], -1.0), 1.0)
+    sa = underlap_orifice_opening(xo, p[I_U])
+    sb = underlap_orifice_opening(-xo, p[I_U])
+    dptr = p[I_DPTR]
+    ps = p[I_PS]
+    pt = p[I_PT]
+    pa = y[PA]
+    pb = y[PB]
+    leak = 2.0 * p[I_CIL] + p[I_CEL]
+    ga = p[I_R] * (sa * _root_slope_bound(ps - pa, dptr) + sb * _root_slope_bound(pa - pt, dptr)) + leak
+    gb = p[I_R] * (sb * _root_slope_bound(ps - pb, dptr) + sa * _root_slope_bound(pb - pt, dptr)) + leak
+    half = 0.5 * p[I_L]
+    vol_a = max(p[I_V0] + p[I_A] * (half + y[X]), p[I_VMIN])
+    vol_b = max(p[I_V0] + p[I_A] * (half - y[X]), p[I_VMIN])
+    return p[D_EMAX] * max(ga / vol_a, gb / vol_b)
+
+
+@nb.njit(cache=True, error_model="numpy", inline="always")
+def _crossed(a0, a1, level):
+    """Whether ``a0`` and ``a1`` lie on different sides of ``level``."""
+    return (a0 - level) * (a1 - level) < 0.0
+
+
+@nb.njit(cache=True, error_model="numpy", inline="always")
+def _meets_band(a0, a1, lo, hi):
+    """Whether the interval between ``a0`` and ``a1`` meets ``[lo, hi]``."""
+    return max(a0, a1) > lo and min(a0, a1) < hi
+
+
+#: half-width of the modified-IFAS notch edges the kernels refine across, in units of ``1/mu``
+#: (``tanh`` is within 0.5 % of +-1 beyond it)
+NOTCH_EDGE_WIDTHS = 3.0
+
+
+@nb.njit(cache=True, error_model="numpy")
+def local_mode_substeps(y0, x, p, h, m):
+    """RK4 steps of ``h / n`` that take a sub-step of ``h`` from ``y0`` (Euler prediction of its
+    end ``x``) in the locally refined modes (:func:`hydro_envs.sim.rk4.rk4_advance_lookahead`):
+    ``m`` (the worst case, :func:`local_mode_refinement`) where a chamber pressure crosses the
+    supply or the tank pressure (an orifice's zero drop), lies below the air-release pressure
+    (``D_PAIR``, eq (13)) at either state, or the load pressure meets an edge of the modified-IFAS
+    notch (eq (19), ``+-P_Lt`` within :data:`NOTCH_EDGE_WIDTHS` ``/ mu``); else the count for the
+    larger :func:`local_mode_rate` of the two (:func:`hydro_envs.sim.rk4.local_substeps`)."""
+    ps = p[I_PS]
+    pt = p[I_PT]
+    if (_crossed(y0[PA], x[PA], ps) or _crossed(y0[PB], x[PB], ps) or _crossed(y0[PA], x[PA], pt)
+            or _crossed(y0[PB], x[PB], pt)):
+        return m
+    if min(min(y0[PA], y0[PB]), min(x[PA], x[PB])) < p[D_PAIR]:
+        return m
+    if p[I_MODEL] > 1.5:
+        d0 = y0[PA] - y0[PB]
+        d1 = x[PA] - x[PB]
+        w = NOTCH_EDGE_WIDTHS / p[I_MU]
+        c = p[I_PLT]
+        if _meets_band(d0, d1, c - w, c + w) or _meets_band(d0, d1, -c - w, -c + w):
+            return m
+    return local_substeps(h * max(local_mode_rate(y0, p), local_mode_rate(x, p)), STABLE_H_LAMBDA, m)
+
+
+@nb.njit(cache=True, error_model="numpy", inline="always")
+def local_mode_refinement(p, h):
+    """Fine sub-steps per sub-step of ``h`` seconds that keep the orifice modes stable at their
+    worst case (``D_LOCAL``, :func:`.bounds.local_mode_rates`)."""
+    return worst_case_substeps(h * p[D_LOCAL])
+
+
 # ---------------------------------------------------------------------------- analysis
 def effective_bulk_modulus(params: ShakingTableParams, pa, pb) -> np.ndarray:
     """Chamber moduli ``(..., 2)`` [Pa] (E_a, E_b) at pressures ``pa``, ``pb`` (broadcast)."""
@@ -241,23 +329,6 @@ def effective_bulk_modulus(params: ShakingTableParams, pa, pb) -> np.ndarray:
     out = np.empty((pa.size, 2))
     _moduli_array(np.ascontiguousarray(pa.ravel()), np.ascontiguousarray(pb.ravel()), params.to_array(), out)
     return out.reshape(shape + (2,))
-
-
-def _modulus_upper_bound(params: ShakingTableParams, p_hi: float | None = None) -> float:
-    """Largest chamber modulus [Pa] for pressures up to ``p_hi`` (default 1.5 P_s; IFAS grows
-    with P, h is at most max(lambda_1, h(0)))."""
-    if p_hi is None:
-        p_hi = 1.5 * params.supply_pressure
-    if params.bulk_modulus_model == 0.0:
-        return params.e0
-    e = float(
-        ifas_bulk_modulus(p_hi, params.e0, params.p0, params.oil_exponent, params.air_content,
-                          params.polytropic_exponent, params.pressure_floor)
-    )
-    if params.bulk_modulus_model == 2.0:
-        h_notch = params.lambda_1 - 2.0 * params.lambda_2 * math.tanh(params.mu * params.threshold_pressure)
-        e *= max(params.lambda_1, h_notch)
-    return e
 
 
 def null_pressure(params: ShakingTableParams) -> float:
@@ -334,52 +405,6 @@ def no_load_velocity(params: ShakingTableParams) -> float:
 def max_drive_force(params: ShakingTableParams) -> float:
     """Largest hydraulic force A (P_s - P_T) [N] (stalled, full opening)."""
     return params.piston_area * (params.supply_pressure - params.tank_pressure)
-
-
-def stiffness_modes(params: ShakingTableParams) -> dict[str, float]:
-    """Upper estimates of the Jacobian eigenvalue magnitudes [1/s] of every fast mode.
-
-    Each entry is a worst case over the state space (pressures up to 1.5 P_s):
-
-    * ``valve``: spool poles, ``|lambda| = w_0`` (eq (5)).
-    * ``hydraulic``: oil springs on the lightest mass at the stroke end,
-      ``sqrt(A^2 E_max (1/V_0 + 1/(V_0 + A L)) / M)``.
-    * ``orifice``: laminar slope of the regularised root at zero drop, full opening plus the
-      underlap edge, and the leaks, into the smallest chamber:
-      ``E(P_s) / V_0 (R (1 + 2U) / sqrt(dp_tr) + 2 C_il + C_el)``. The slope is largest at zero
-      drop, i.e. with the chamber at supply pressure (E evaluated at ``P_s + 10 dp_tr``); above
-      P_s the reverse drop flattens it like ``|dp|^(-1/2)``, and at tank pressure E is small.
-    * ``friction``: slope of eq (11)-(12): ``F_s beta + F_v`` at v = 0 and the Stribeck dip's
-      steepest (negative) slope ``(F_s - F_c) sqrt(2/e) / v_s``, over M.
-    * ``end_stop``: contact spring ``sqrt(k/M)`` plus its damping ``alpha F_max / M``.
-
-    Not bounded, by design: a pressure-dependent modulus adds ``dP'/dP = (dE/dP) F / V`` (F the
-    net inflow), i.e. ``(d ln E / dP) P'``: large only while the pressure sweeps fast through a
-    band where E changes steeply -- the air term of IFAS below a few bar (E' peaks near
-    0.2-1.8 bar) and the edge of the modified-IFAS notch (``d ln h / d(P_a - P_b)`` up to about
-    ``2 lambda_2 mu / h``, 1/mu = 0.5-2.5 bar wide). At the pressure rates of this plant such a
-    band is crossed in well under one sub-step, so the mode cannot grow; compressing air it is
-    a growth mode anyway, expanding it ends at the cavitation floor the guard holds. The tests
-    check the bound against the numerical Jacobian away from those bands, and the fixed step
-    against Radau through stop impacts, cavitation and notch crossings at the steepest corner.
-    """
-    m = params.mass
-    a = params.piston_area
-    e_max = _modulus_upper_bound(params)
-    e_orifice = _modulus_upper_bound(params, params.supply_pressure + 10.0 * params.orifice_transition_pressure)
-    v0 = max(params.dead_volume, params.min_chamber_volume)
-    k_h = a * a * e_max * (1.0 / v0 + 1.0 / (v0 + a * params.stroke))
-    g_lam = (params.flow_coefficient * (1.0 + 2.0 * params.underlap) / math.sqrt(params.orifice_transition_pressure)
-             + 2.0 * params.internal_leakage + params.external_leakage)
-    dip = (params.static_friction - params.coulomb_friction) * math.sqrt(2.0 / math.e) / params.stribeck_velocity
-    f_max = a * (1.5 * params.supply_pressure - params.pressure_floor)
-    return {
-        "valve": params.valve_natural_frequency,
-        "hydraulic": math.sqrt(k_h / m),
-        "orifice": e_orifice / v0 * g_lam,
-        "friction": (max(params.static_friction * params.tanh_gain, dip) + params.viscous_friction) / m,
-        "end_stop": math.sqrt(params.stop_stiffness / m) + params.stop_damping * f_max / m,
-    }
 
 
 def ifas_relative_volume(params: ShakingTableParams, p) -> np.ndarray:

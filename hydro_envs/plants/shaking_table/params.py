@@ -9,10 +9,11 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from typing import Any
+from typing import Any, ClassVar
 
 from hydro_envs.laws.bulk_modulus import modified_ifas_shape_is_valid
 from hydro_envs.params import ParameterError, PhysicalParams, physical
+from hydro_envs.plants.shaking_table.bounds import air_release_pressure, local_mode_rates, modulus_upper_bound
 
 __all__ = ["PLANT", "ShakingTableParams", "PRESETS", "SPECIMENS", "BULK_MODULUS_MODELS", "N_PARAMS"]
 
@@ -154,6 +155,14 @@ class ShakingTableParams(PhysicalParams):
                 f"{self.dead_volume} m^3"
             )
 
+    derived_names: ClassVar[tuple[str, ...]] = ("modulus_max", "local_rate", "air_release_pressure")
+
+    def derived_columns(self) -> list[float]:
+        """Kernel quantities computed once per parameter set: the largest chamber modulus, the
+        worst-case rate of the locally refined orifice modes and the air-release pressure
+        (:mod:`.bounds`)."""
+        return [modulus_upper_bound(self), max(local_mode_rates(self).values()), air_release_pressure(self)]
+
     # ------------------------------------------------------------------ presets
     @property
     def mass(self) -> float:
@@ -208,7 +217,10 @@ SPECIMENS: dict[str, float] = {"none": 0.0, "200kg": 200.0, "500kg": 500.0}
     I_FC, I_FS, I_FV, I_VS, I_BETA, I_MODEL, I_E0, I_P0, I_M, I_ALPHA, I_KAPPA, I_L1, I_L2, I_MU,
     I_PLT, I_KSTOP, I_ASTOP, I_DPTR, I_PFLOOR, I_VMIN,
 ) = range(35)
-N_PARAMS = 35
+N_FIELDS = 35
 assert ShakingTableParams.names()[I_VMIN] == "min_chamber_volume"
 assert ShakingTableParams.names()[I_MODEL] == "bulk_modulus_model"
-assert len(ShakingTableParams.names()) == N_PARAMS
+assert len(ShakingTableParams.names()) == N_FIELDS
+#: derived columns (:meth:`ShakingTableParams.derived_columns`)
+D_EMAX, D_LOCAL, D_PAIR = range(N_FIELDS, N_FIELDS + len(ShakingTableParams.derived_names))
+N_PARAMS = N_FIELDS + len(ShakingTableParams.derived_names)
