@@ -495,6 +495,9 @@ def test_local_refinement_decisions():
     edge = mid.copy()
     edge[st.PA], edge[st.PB] = pn + 0.5 * p.threshold_pressure, pn - 0.5 * p.threshold_pressure
     assert st.local_mode_substeps(mid, edge, pa, h, m) == m  # sweeps the notch edge at P_Lt
+    closing = mid.copy()
+    closing[st.XV] = -0.3  # the spool passes -U..U: eq (3)'s kinks
+    assert st.local_mode_substeps(mid, closing, pa, h, m) == m
     const = ShakingTableParams.preset("constant").to_array()
     assert st.local_mode_substeps(mid, edge, const, h, m) == 1  # no notch without the modified law
 

@@ -50,8 +50,9 @@ def modulus_upper_bound(p: Any, p_hi: float | None = None) -> float:
         p_hi = 1.5 * p.supply_pressure
     if p.bulk_modulus_model == 0.0:
         return p.e0
-    e = float(ifas_bulk_modulus(p_hi, p.e0, p.p0, p.oil_exponent, p.air_content, p.polytropic_exponent,
-                                p.pressure_floor))
+    # the law's Python body: the same arithmetic without compiling it when a parameter set is made
+    e = float(ifas_bulk_modulus.py_func(p_hi, p.e0, p.p0, p.oil_exponent, p.air_content, p.polytropic_exponent,
+                                        p.pressure_floor))
     if p.bulk_modulus_model == 2.0:
         h_notch = p.lambda_1 - 2.0 * p.lambda_2 * math.tanh(p.mu * p.threshold_pressure)
         e *= max(p.lambda_1, h_notch)

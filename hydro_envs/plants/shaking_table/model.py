@@ -240,47 +240,29 @@ def _moduli_array(pa, pb, p, out):
 
 
 # ------------------------------------------------------- local refinement (look-ahead kernels)
-@nb.njit(cache=True, error_model="numpy", inline="always")
-def _root_slope_bound(dp, dp_tr):
-    """Upper bound ``(dp^2 + dp_tr^2)^(-1/4)`` [Pa^-1/2] of the slope of
-    :func:`~hydro_envs.laws.orifice.regularized_signed_sqrt` at the drop ``dp`` (equal at zero
-    drop, half of it far away); falls monotonically with ``|dp|``."""
-    return 1.0 / math.sqrt(math.sqrt(dp * dp + dp_tr * dp_tr))
-
-
-@nb.njit(cache=True, error_model="numpy", inline="always")
+@nb.njit(cache=True, error_model="numpy")
 def local_mode_rate(y, p):
     """Upper estimate [1/s] of the orifice modes at state ``y`` (:func:`.bounds.local_mode_rates`
     with the openings, drops and volumes of ``y`` and the largest modulus ``D_EMAX``): per
     chamber ``E_max / V (R (sgt_in root'(P_s - P) + sgt_out root'(P - P_T)) + 2 C_il + C_el)``
-    (eqs (1)-(3), (6)-(9)); the larger of the two."""
+    (eqs (1)-(3), (6)-(9)), with the slope of the regularised root bounded by
+    ``(dp^2 + dp_tr^2)^(-1/4)`` (:func:`~hydro_envs.laws.orifice.regularized_signed_sqrt`: equal at
+    zero drop, half of it far away); the larger of the two chambers'."""
     xo = min(max(y[XV], -1.0), 1.0)
-    sa = underlap_orifice_opening(xo, p[I_U])
-    sb = underlap_orifice_opening(-xo, p[I_U])
-    dptr = p[I_DPTR]
-    ps = p[I_PS]
-    pt = p[I_PT]
-    pa = y[PA]
-    pb = y[PB]
+    sa = max(xo + p[I_U], 0.0)  # sgt(xv, U), eq (3)
+    sb = max(p[I_U] - xo, 0.0)  # sgt(-xv, U)
+    tr2 = p[I_DPTR] * p[I_DPTR]
+    d1 = p[I_PS] - y[PA]
+    d2 = y[PA] - p[I_PT]
+    d3 = p[I_PS] - y[PB]
+    d4 = y[PB] - p[I_PT]
     leak = 2.0 * p[I_CIL] + p[I_CEL]
-    ga = p[I_R] * (sa * _root_slope_bound(ps - pa, dptr) + sb * _root_slope_bound(pa - pt, dptr)) + leak
-    gb = p[I_R] * (sb * _root_slope_bound(ps - pb, dptr) + sa * _root_slope_bound(pb - pt, dptr)) + leak
+    ga = p[I_R] * (sa / math.sqrt(math.sqrt(d1 * d1 + tr2)) + sb / math.sqrt(math.sqrt(d2 * d2 + tr2))) + leak
+    gb = p[I_R] * (sb / math.sqrt(math.sqrt(d3 * d3 + tr2)) + sa / math.sqrt(math.sqrt(d4 * d4 + tr2))) + leak
     half = 0.5 * p[I_L]
     vol_a = max(p[I_V0] + p[I_A] * (half + y[X]), p[I_VMIN])
     vol_b = max(p[I_V0] + p[I_A] * (half - y[X]), p[I_VMIN])
     return p[D_EMAX] * max(ga / vol_a, gb / vol_b)
-
-
-@nb.njit(cache=True, error_model="numpy", inline="always")
-def _crossed(a0, a1, level):
-    """Whether ``a0`` and ``a1`` lie on different sides of ``level``."""
-    return (a0 - level) * (a1 - level) < 0.0
-
-
-@nb.njit(cache=True, error_model="numpy", inline="always")
-def _meets_band(a0, a1, lo, hi):
-    """Whether the interval between ``a0`` and ``a1`` meets ``[lo, hi]``."""
-    return max(a0, a1) > lo and min(a0, a1) < hi
 
 
 #: half-width of the modified-IFAS notch edges the kernels refine across, in units of ``1/mu``
@@ -294,22 +276,31 @@ def local_mode_substeps(y0, x, p, h, m):
     end ``x``) in the locally refined modes (:func:`hydro_envs.sim.rk4.rk4_advance_lookahead`):
     ``m`` (the worst case, :func:`local_mode_refinement`) where a chamber pressure crosses the
     supply or the tank pressure (an orifice's zero drop), lies below the air-release pressure
-    (``D_PAIR``, eq (13)) at either state, or the load pressure meets an edge of the modified-IFAS
-    notch (eq (19), ``+-P_Lt`` within :data:`NOTCH_EDGE_WIDTHS` ``/ mu``); else the count for the
+    (``D_PAIR``, eq (13)) at either state, the spool crosses a kink of the metering openings (eq
+    (3) at ``x_v = +-U``, the stroke limit at ``+-1``: the flow's slope jumps there, and RK4 across
+    such a point loses its order), or the load pressure meets an edge of the modified-IFAS notch
+    (eq (19), ``+-P_Lt`` within :data:`NOTCH_EDGE_WIDTHS` ``/ mu``); else the count for the
     larger :func:`local_mode_rate` of the two (:func:`hydro_envs.sim.rk4.local_substeps`)."""
     ps = p[I_PS]
     pt = p[I_PT]
-    if (_crossed(y0[PA], x[PA], ps) or _crossed(y0[PB], x[PB], ps) or _crossed(y0[PA], x[PA], pt)
-            or _crossed(y0[PB], x[PB], pt)):
+    a0, a1, b0, b1 = y0[PA], x[PA], y0[PB], x[PB]
+    if ((a0 - ps) * (a1 - ps) < 0.0 or (b0 - ps) * (b1 - ps) < 0.0 or (a0 - pt) * (a1 - pt) < 0.0
+            or (b0 - pt) * (b1 - pt) < 0.0):
         return m
-    if min(min(y0[PA], y0[PB]), min(x[PA], x[PB])) < p[D_PAIR]:
+    if min(min(a0, b0), min(a1, b1)) < p[D_PAIR]:
         return m
-    if p[I_MODEL] > 1.5:
-        d0 = y0[PA] - y0[PB]
-        d1 = x[PA] - x[PB]
+    s0 = y0[XV]
+    s1 = x[XV]
+    u_lap = p[I_U]
+    if ((s0 + u_lap) * (s1 + u_lap) < 0.0 or (s0 - u_lap) * (s1 - u_lap) < 0.0 or (s0 - 1.0) * (s1 - 1.0) < 0.0
+            or (s0 + 1.0) * (s1 + 1.0) < 0.0):  # a kink of the openings: eq (3) at +-U, the stroke limit
+        return m
+    if p[I_MODEL] > 1.5:  # does the load pressure's path meet a notch edge +-P_Lt (+- w)?
+        lo = min(a0 - b0, a1 - b1)
+        hi = max(a0 - b0, a1 - b1)
         w = NOTCH_EDGE_WIDTHS / p[I_MU]
         c = p[I_PLT]
-        if _meets_band(d0, d1, c - w, c + w) or _meets_band(d0, d1, -c - w, -c + w):
+        if (hi > c - w and lo < c + w) or (hi > -c - w and lo < -c + w):
             return m
     return local_substeps(h * max(local_mode_rate(y0, p), local_mode_rate(x, p)), STABLE_H_LAMBDA, m)
 
