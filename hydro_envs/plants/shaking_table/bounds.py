@@ -13,12 +13,13 @@ small part of the state space, and the kernels take a sub-step there as finer on
   of the supply or the tank pressure. Working drops are tens of bar, where the slope is a
   fifth of its zero-drop value or less.
 
-Two features are not modes a rate bounds, and the kernels refine a sub-step across them too
-(:func:`.model.local_mode_substeps`): the edges of the modified-IFAS notch (eq (19), ``h`` moves
-by ``lambda_2`` over ``1/mu`` = 0.5-2.5 bar of load pressure, which a reversal sweeps in a
-fraction of a sub-step) and the air-release band of IFAS (eq (13)) below
-:func:`air_release_pressure`, where ``E`` grows steeply with ``P`` and a cavitated chamber's
-refilling runs fast.
+Three features are not modes a rate bounds, and the kernels refine a sub-step across them too
+(:func:`.model.local_mode_substeps`): the kinks of the metering openings (eq (3) at
+``x_v = +-U`` and the stroke limit, where the flow's slope in ``x_v`` jumps and RK4 stepping
+across loses its order), the edges of the modified-IFAS notch (eq (19), ``h`` moves by
+``lambda_2`` over ``1/mu`` = 0.5-2.5 bar of load pressure, which a reversal sweeps in a fraction
+of a sub-step) and the air-release band of IFAS (eq (13)) below :func:`air_release_pressure`,
+where ``E`` grows steeply with ``P`` and a cavitated chamber's refilling runs fast.
 
 Functions of a :class:`~hydro_envs.plants.shaking_table.params.ShakingTableParams`, plain Python.
 """

@@ -6,9 +6,9 @@ whole input sequences (:func:`hydro_envs.sim.simulate`); ``derivatives`` evaluat
 right-hand side along recorded trajectories. Layouts: :mod:`hydro_envs.sim.rk4`. All of them
 step with :func:`~hydro_envs.sim.rk4.rk4_advance_lookahead`: sub-steps sized by the modes that
 are stiff everywhere (:func:`~.model.stiffness_modes`), each taken as finer ones where an
-orifice's laminar core, a notch edge of the modified IFAS law or the air-release band would
-need them at its start or at the Euler prediction of its end, as many as
-:func:`~.model.local_mode_substeps` gives.
+orifice's laminar core, a kink of the metering openings, a notch edge of the modified IFAS law
+or the air-release band lies at its start, at the Euler prediction of its end or between them,
+as many as :func:`~.model.local_mode_substeps` gives.
 """
 
 from __future__ import annotations
