@@ -449,7 +449,7 @@ def test_stiffness_bound_covers_the_numerical_jacobian(spec):
 
 def test_substeps_nominal_and_at_the_randomisation_corners(spec):
     """Two sub-steps per ms at the nominal plant and every corner: the spool's accuracy bound
-    (h w_0 <= 0.41) sets them, the orifice cores are refined locally (up to 6 fine steps)."""
+    (h w_0 <= 0.41) sets them; the orifice cores are refined locally (2-4 fine steps)."""
     assert substeps_from_stiffness(st.stiffness_modes(NOMINAL), DT)[0] == 2  # documented in the env
     for flags in (False, True):
         p = spec.corner(flags)
