@@ -40,6 +40,7 @@ from hydro_envs.laws import (
     pneumatic_mass_flow,
     pneumatic_mass_flow_laminar,
     regularized_signed_sqrt,
+    regularized_signed_sqrt_slope_bound,
     saturate,
     second_order_valve_acceleration,
     spool_edge_opening,
@@ -328,6 +329,22 @@ def test_regularized_signed_sqrt_limits():
     ys = np.array([regularized_signed_sqrt(x, dp_tr) for x in xs])
     assert np.all(np.diff(ys) > 0)
     assert np.allclose(ys, -ys[::-1])
+
+
+def test_regularized_signed_sqrt_slope_bound_covers_the_slope():
+    """The bound against the central-difference slope of the law: equal at zero drop, above it
+    everywhere, within a factor 2 far from zero, falling with |dp|."""
+    dp_tr = 1e5
+    dps = np.concatenate([[0.0], np.geomspace(1e2, 3e7, 60)])
+    bounds = np.array([regularized_signed_sqrt_slope_bound(d, dp_tr) for d in dps])
+    for d, bound in zip(dps, bounds):
+        h = 1e-3 * max(abs(d), dp_tr)
+        slope = (regularized_signed_sqrt(d + h, dp_tr) - regularized_signed_sqrt(d - h, dp_tr)) / (2 * h)
+        assert slope <= bound * (1 + 1e-6)
+        assert slope >= 0.5 * bound * (1 - 1e-6)
+        assert regularized_signed_sqrt_slope_bound(-d, dp_tr) == bound
+    assert bounds[0] == pytest.approx(1 / math.sqrt(dp_tr), rel=1e-15)
+    assert np.all(np.diff(bounds) < 0)
 
 
 def test_orifice_flow_hand_value_002():

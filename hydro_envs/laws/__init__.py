@@ -20,6 +20,7 @@ friction (:mod:`hydro_envs.laws.friction`)
 
 orifice (:mod:`hydro_envs.laws.orifice`)
     regularized_signed_sqrt(dp, dp_tr)                Modelica regRoot / Hopsan (NOTES.md)
+    regularized_signed_sqrt_slope_bound(dp, dp_tr)    its slope's bound (sub-step control)
     orifice_flow(cd, area, dp, rho, dp_tr)            002 eqs (3)-(4), 003 eqs (1)-(2)
     supply_pressure_at_flow(p_s, p_down, cd, area, rho, r_line)  supply droop (assumed linear)
     spool_edge_opening(x_v, x_lap)                    Hopsan valve laps (NOTES.md)
@@ -123,6 +124,7 @@ from hydro_envs.laws.orifice import (
     pneumatic_mass_flow,
     pneumatic_mass_flow_laminar,
     regularized_signed_sqrt,
+    regularized_signed_sqrt_slope_bound,
     spool_edge_opening,
     supply_pressure_at_flow,
     underlap_orifice_opening,
@@ -169,6 +171,7 @@ __all__ = [
     "karnopp_friction",
     # orifice
     "regularized_signed_sqrt",
+    "regularized_signed_sqrt_slope_bound",
     "orifice_flow",
     "spool_edge_opening",
     "supply_pressure_at_flow",

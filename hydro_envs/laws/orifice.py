@@ -61,6 +61,20 @@ def regularized_signed_sqrt(dp, dp_tr):
     return dp / math.sqrt(math.sqrt(dp * dp + dp_tr * dp_tr))
 
 
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def regularized_signed_sqrt_slope_bound(dp, dp_tr):
+    """Upper bound ``(dp^2 + dp_tr^2)^(-1/4)`` [Pa^-1/2] of the slope of
+    :func:`regularized_signed_sqrt` at ``dp``.
+
+    The slope is ``(dp^2/2 + dp_tr^2) / (dp^2 + dp_tr^2)^(5/4)``: equal to the bound at zero
+    drop (``1/sqrt(dp_tr)``), half of it for ``|dp| >> dp_tr``; the bound falls monotonically
+    with ``|dp|``. An orifice's contribution to a chamber's Jacobian is its coefficient times
+    this (sub-step control of the look-ahead kernels).
+    Units: dp [Pa], dp_tr [Pa] -> [Pa^-1/2].
+    """
+    return 1.0 / math.sqrt(math.sqrt(dp * dp + dp_tr * dp_tr))
+
+
 @numba.njit(cache=True, error_model="numpy")
 def orifice_flow(cd, area, dp, rho, dp_tr):
     """Turbulent orifice volume flow with a laminar core.

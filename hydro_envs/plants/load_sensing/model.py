@@ -61,7 +61,7 @@ import numpy as np
 
 from hydro_envs.laws.contact import end_stop_force
 from hydro_envs.laws.friction import tanh_sign
-from hydro_envs.laws.orifice import regularized_signed_sqrt
+from hydro_envs.laws.orifice import regularized_signed_sqrt, regularized_signed_sqrt_slope_bound
 from hydro_envs.plants.load_sensing import bounds as _bounds
 from hydro_envs.plants.load_sensing.params import (  # noqa: F401  (re-exported)
     D_A, D_C, D_DROPRATE, D_KFF, D_KM, D_LEAKRATE, D_LLS, D_LOCAL, D_RLS, D_VLINE, I_A1, I_A2, I_AC,
@@ -207,15 +207,6 @@ def load_sensing_guard(y, p):
 
 
 @nb.njit(cache=True, error_model="numpy", inline="always")
-def _root_slope_bound(dp, dp_tr):
-    """Upper bound ``(dp^2 + dp_tr^2)^(-1/4)`` [Pa^-1/2] of the slope of
-    :func:`~hydro_envs.laws.orifice.regularized_signed_sqrt` at the drop ``dp`` (its slope is
-    ``(dp^2/2 + dp_tr^2) / (dp^2 + dp_tr^2)^(5/4)``: equal at zero drop, half of it far away);
-    falls monotonically with ``|dp|``."""
-    return 1.0 / math.sqrt(math.sqrt(dp * dp + dp_tr * dp_tr))
-
-
-@nb.njit(cache=True, error_model="numpy", inline="always")
 def _on_spool_stop(y, p):
     """Whether the FC spool at state ``y`` is in contact with its seat or its spring-side stop."""
     return y[X] < 0.0 or y[X] > p[I_XMAX]
@@ -249,9 +240,11 @@ def local_mode_rate(y, p):
     px = y[PX]
     pl = y[PL]
     kw = p[D_KM] * p[I_W]
-    g_px = kw * min(max(y[X] - p[I_XLAP], 0.0), p[I_LPORT]) * _root_slope_bound(ps - px, dptr)
-    g_xt = kw * min(max(p[I_XLAP] - y[X], 0.0), p[I_LPORT]) * _root_slope_bound(px - p[I_PT], dptr)
-    g_cv = p[D_KM] * p[I_ACVMAX] * _root_slope_bound(ps - pl, dptr) if ps > pl else 0.0
+    g_px = (kw * min(max(y[X] - p[I_XLAP], 0.0), p[I_LPORT])
+            * regularized_signed_sqrt_slope_bound(ps - px, dptr))
+    g_xt = (kw * min(max(p[I_XLAP] - y[X], 0.0), p[I_LPORT])
+            * regularized_signed_sqrt_slope_bound(px - p[I_PT], dptr))
+    g_cv = p[D_KM] * p[I_ACVMAX] * regularized_signed_sqrt_slope_bound(ps - pl, dptr) if ps > pl else 0.0
     control = beta / max(p[I_VX0] + p[I_A1] * y[Y], p[I_VX0]) * (g_px + g_xt + p[I_GX])
     delivery = beta / p[I_VS] * (g_cv + g_px + p[I_GP] + p[I_GRV])
     load = beta / max(p[I_VL0] + p[I_AC] * y[XA], 0.5 * p[I_VL0]) * g_cv

@@ -86,7 +86,11 @@ from hydro_envs.laws.bulk_modulus import (
 from hydro_envs.laws.bulk_modulus_fast import ifas_bulk_modulus_fast
 from hydro_envs.laws.contact import end_stop_force
 from hydro_envs.laws.friction import stribeck_gaussian
-from hydro_envs.laws.orifice import regularized_signed_sqrt, underlap_orifice_opening
+from hydro_envs.laws.orifice import (
+    regularized_signed_sqrt,
+    regularized_signed_sqrt_slope_bound,
+    underlap_orifice_opening,
+)
 from hydro_envs.laws.valve import second_order_valve_acceleration
 from hydro_envs.plants.shaking_table.bounds import local_mode_rates, stiffness_modes
 from hydro_envs.plants.shaking_table.params import (  # noqa: F401  (re-exported)
@@ -245,20 +249,20 @@ def local_mode_rate(y, p):
     """Upper estimate [1/s] of the orifice modes at state ``y`` (:func:`.bounds.local_mode_rates`
     with the openings, drops and volumes of ``y`` and the largest modulus ``D_EMAX``): per
     chamber ``E_max / V (R (sgt_in root'(P_s - P) + sgt_out root'(P - P_T)) + 2 C_il + C_el)``
-    (eqs (1)-(3), (6)-(9)), with the slope of the regularised root bounded by
-    ``(dp^2 + dp_tr^2)^(-1/4)`` (:func:`~hydro_envs.laws.orifice.regularized_signed_sqrt`: equal at
-    zero drop, half of it far away); the larger of the two chambers'."""
+    (eqs (1)-(3), (6)-(9)), with the root's slope bounded by
+    :func:`~hydro_envs.laws.orifice.regularized_signed_sqrt_slope_bound`; the larger of the two
+    chambers'."""
     xo = min(max(y[XV], -1.0), 1.0)
-    sa = max(xo + p[I_U], 0.0)  # sgt(xv, U), eq (3)
-    sb = max(p[I_U] - xo, 0.0)  # sgt(-xv, U)
-    tr2 = p[I_DPTR] * p[I_DPTR]
-    d1 = p[I_PS] - y[PA]
-    d2 = y[PA] - p[I_PT]
-    d3 = p[I_PS] - y[PB]
-    d4 = y[PB] - p[I_PT]
+    sa = underlap_orifice_opening(xo, p[I_U])  # sgt(xv, U), eq (3)
+    sb = underlap_orifice_opening(-xo, p[I_U])
+    dptr = p[I_DPTR]
+    ps = p[I_PS]
+    pt = p[I_PT]
     leak = 2.0 * p[I_CIL] + p[I_CEL]
-    ga = p[I_R] * (sa / math.sqrt(math.sqrt(d1 * d1 + tr2)) + sb / math.sqrt(math.sqrt(d2 * d2 + tr2))) + leak
-    gb = p[I_R] * (sb / math.sqrt(math.sqrt(d3 * d3 + tr2)) + sa / math.sqrt(math.sqrt(d4 * d4 + tr2))) + leak
+    ga = p[I_R] * (sa * regularized_signed_sqrt_slope_bound(ps - y[PA], dptr)
+                   + sb * regularized_signed_sqrt_slope_bound(y[PA] - pt, dptr)) + leak
+    gb = p[I_R] * (sb * regularized_signed_sqrt_slope_bound(ps - y[PB], dptr)
+                   + sa * regularized_signed_sqrt_slope_bound(y[PB] - pt, dptr)) + leak
     half = 0.5 * p[I_L]
     vol_a = max(p[I_V0] + p[I_A] * (half + y[X]), p[I_VMIN])
     vol_b = max(p[I_V0] + p[I_A] * (half - y[X]), p[I_VMIN])
