@@ -43,6 +43,7 @@ from hydro_envs.plants.shaking_table.params import PRESETS, ShakingTableParams
 from hydro_envs.randomization import load_randomization
 from hydro_envs import registry
 from hydro_envs.sim.reference import reference_rollout
+from hydro_envs.sim.rk4 import STABLE_H_LAMBDA, local_substeps
 from hydro_envs.sim.stiffness import DEFAULT_SAFETY, RK4_REAL_STABILITY_LIMIT, substeps_from_stiffness
 from hydro_envs.validation import ValidationRow
 
@@ -515,6 +516,47 @@ def test_local_refinement_decisions():
     assert st.local_mode_substeps(mid, closing, pa, h, m) == m
     const = ShakingTableParams.preset("constant").to_array()
     assert st.local_mode_substeps(mid, edge, const, h, m) == 1  # no notch without the modified law
+
+
+def test_rate_short_cut_gives_the_count_of_the_local_rates(spec):
+    """The refinement's root-free short cut answers 1 only where the local rates at both states
+    give 1, so the count is never below the rates' (and equals it below the worst case): on random
+    state pairs (drops from a pascal to the whole supply, spools over the stroke and beyond, the
+    piston near or in its stops) for the nominal table and randomised ones of every modulus law."""
+    rng = np.random.default_rng(11)
+    sets = [NOMINAL] + [spec.sample(rng, ShakingTableParams.preset(["modified_ifas", "ifas", "constant"][k % 3]))
+                        for k in range(9)]
+    stable = STABLE_H_LAMBDA
+    taken = below = refined = 0
+    for q in sets:
+        pa = q.to_array()
+        h = DT / substeps_from_stiffness(st.stiffness_modes(q), DT)[0]
+        m = st.local_mode_refinement(pa, h)
+        pn = st.null_pressure(q)
+        for _ in range(300):
+            a = np.array([rng.uniform(-0.55, 0.55) * q.stroke, rng.normal(0.0, 0.2), 0.0, 0.0,
+                          rng.uniform(-1.2, 1.2), 0.0])
+            if rng.random() < 0.5:  # the spool wide open, the piston near a stop: the stiffest orifice modes
+                a[st.X] = rng.choice([-0.49, 0.49]) * q.stroke
+                a[st.XV] = rng.choice([-1.1, 1.1])
+            for i in (st.PA, st.PB):
+                side = rng.choice([q.supply_pressure, q.tank_pressure, pn])
+                a[i] = side + rng.choice([-1.0, 1.0]) * 10.0 ** rng.uniform(0.0, 7.3)
+            a[[st.PA, st.PB]] = np.clip(a[[st.PA, st.PB]], 1.0, 1.2 * q.supply_pressure)
+            b = a.copy()
+            b[[st.PA, st.PB]] += rng.normal(0.0, rng.choice([1.0, 1e2, 1e4]), 2)
+            b[st.X] += rng.normal(0.0, 1e-4)
+            got = st.local_mode_substeps(a, b, pa, h, m)
+            rates = local_substeps(h * max(st.local_mode_rate(a, pa), st.local_mode_rate(b, pa)), stable, m)
+            if st._orifice_modes_surely_stable(a, b, pa, h):
+                taken += 1
+                assert rates == 1
+            assert got >= rates  # an event takes the worst case, never fewer than the rates
+            if got < m:
+                below += 1
+                assert got == rates
+            refined += rates > 1
+    assert taken > 500 and below > 500 and refined > 100
 
 
 def test_parallel_and_serial_kernels_are_bit_identical(spec):
