@@ -66,7 +66,7 @@ nozzle_fast (:mod:`hydro_envs.laws.nozzle_fast`)
     nozzle_mass_flow_fast(cd_area, p_up, p_down, sqrt_rt_up, ratio_lam, *constants)  same law, pow-free
 
 bulk_modulus_fast (:mod:`hydro_envs.laws.bulk_modulus_fast`)
-    ifas_bulk_modulus_fast(p, e0, p0, m, alpha, kappa, p_floor)          003 eq (13), 2 pow calls
+    ifas_bulk_modulus_fast(p, e0, p0, m, alpha, kappa, p_floor)          003 eq (13), exp + 2 log
 
 filters (:mod:`hydro_envs.laws.filters`)
     butterworth_lowpass_sos(order, cutoff_hz, sample_rate_hz)            003 sec. 4 (order 8, 40 Hz);
