@@ -64,7 +64,8 @@ from hydro_envs.laws.friction import tanh_sign
 from hydro_envs.laws.orifice import regularized_signed_sqrt, regularized_signed_sqrt_slope_bound
 from hydro_envs.plants.load_sensing import bounds as _bounds
 from hydro_envs.plants.load_sensing.params import (  # noqa: F401  (re-exported)
-    D_A, D_C, D_DROPRATE, D_KFF, D_KM, D_LEAKRATE, D_LLS, D_LOCAL, D_RLS, D_VLINE, I_A1, I_A2, I_AC,
+    D_A, D_BETA_VS, D_C, D_DROPRATE, D_INV_LLS, D_INV_M, D_INV_MS, D_INV_MY, D_INV_TSOL, D_INV_YMAX, D_KFF, D_KM,
+    D_LEAKRATE, D_LLS, D_LOCAL, D_RLS, D_VLINE, I_A1, I_A2, I_AC,
     I_ACVMAX, I_ASS, I_BA, I_BETA, I_BY, I_C40, I_CD, I_DLS, I_DP, I_DPTR, I_DS, I_F0, I_FB0, I_FCA, I_FL, I_FSMAX,
     I_GP, I_GRV, I_GX, I_K, I_KAS, I_KB, I_KSS, I_KYS, I_LLS, I_LPORT, I_M, I_MS, I_MY,
     I_PFLOOR, I_PRV, I_PT, I_RD, I_RHO, I_STROKE, I_T, I_THETA, I_TSOL, I_VEPS, I_VG, I_VL0,
@@ -142,7 +143,7 @@ def load_sensing_rhs(y, u, p, dy):
     f_flow = p[D_KFF] * (-o_px * (ps - px) + o_xt * (px - pt))
     f_stop = end_stop_force(x, v, 0.0, p[I_XMAX], p[I_KSS], p[I_ASS])
     dy[X] = v
-    dy[V] = (area * (ps - pls) - p[I_F0] - p[I_K] * x - fsol - p[D_C] * v + f_flow + f_stop) / p[I_MS]  # 000 (4)
+    dy[V] = (area * (ps - pls) - p[I_F0] - p[I_K] * x - fsol - p[D_C] * v + f_flow + f_stop) * p[D_INV_MS]  # 000 (4)
 
     # ---- control pistons and swash plate
     vx = p[I_VX0] + p[I_A1] * yc
@@ -152,10 +153,10 @@ def load_sensing_rhs(y, u, p, dy):
     dy[PX] = dpx
     f_ystop = end_stop_force(yc, vy, 0.0, p[I_YMAX], p[I_KYS], 0.0)
     dy[Y] = vy
-    dy[VY] = (p[I_A1] * px - p[I_A2] * ps - p[I_FB0] - p[I_KB] * yc - p[I_BY] * vy + f_ystop) / p[I_MY]
+    dy[VY] = (p[I_A1] * px - p[I_A2] * ps - p[I_FB0] - p[I_KB] * yc - p[I_BY] * vy + f_ystop) * p[D_INV_MY]
 
     # ---- pump delivery node
-    eps = 1.0 - yc / p[I_YMAX]
+    eps = 1.0 - yc * p[D_INV_YMAX]
     eps = min(max(eps, 0.0), 1.0)
     q_pump = eps * p[I_DP] * p[I_WP]
     a_cv = min(max(u[1], 0.0), p[I_ACVMAX])
@@ -163,7 +164,7 @@ def load_sensing_rhs(y, u, p, dy):
     if q_cv < 0.0:
         q_cv = 0.0  # load-holding check valve
     q_rv = p[I_GRV] * max(ps - p[I_PRV], 0.0)
-    dps = beta / p[I_VS] * (q_pump - p[I_GP] * (ps - pt) + p[I_A2] * vy - q_px - area * v - q_cv - q_rv)
+    dps = p[D_BETA_VS] * (q_pump - p[I_GP] * (ps - pt) + p[I_A2] * vy - q_px - area * v - q_cv - q_rv)
     if ps <= floor and dps < 0.0:
         dps = 0.0
     dy[PS] = dps
@@ -177,10 +178,10 @@ def load_sensing_rhs(y, u, p, dy):
     f_fric = p[I_BA] * va + p[I_FCA] * tanh_sign(va, p[I_VEPS])
     f_astop = end_stop_force(xa, va, 0.0, p[I_STROKE], p[I_KAS], 0.0)
     dy[XA] = va
-    dy[VA] = (p[I_AC] * (pl - pt) - p[I_FL] - f_fric + f_astop) / p[I_M]
+    dy[VA] = (p[I_AC] * (pl - pt) - p[I_FL] - f_fric + f_astop) * p[D_INV_M]
 
     # ---- LS pilot line, 000 eqs (5)-(6)
-    dy[QLS] = (pl - pls - (p[D_RLS] + p[I_RD]) * qls) / p[D_LLS]
+    dy[QLS] = (pl - pls - (p[D_RLS] + p[I_RD]) * qls) * p[D_INV_LLS]
     vls = p[D_VLINE] + p[I_VSC] - area * x
     dpls = beta / vls * (qls + area * v)
     if pls <= floor and dpls < 0.0:
@@ -188,7 +189,7 @@ def load_sensing_rhs(y, u, p, dy):
     dy[PLS] = dpls
 
     # ---- solenoid
-    dy[FSOL] = (u[0] - fsol) / p[I_TSOL]
+    dy[FSOL] = (u[0] - fsol) * p[D_INV_TSOL]
 
 
 @nb.njit(cache=True, error_model="numpy")

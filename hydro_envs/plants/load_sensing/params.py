@@ -187,7 +187,8 @@ class LoadSensingParams(PhysicalParams):
 
     derived_names: ClassVar[tuple[str, ...]] = (
         "spool_area", "viscous", "ls_inductance", "ls_resistance", "ls_line_volume", "k_meter", "k_flow_force",
-        "local_rate", "drop_rate", "leak_rate")
+        "local_rate", "drop_rate", "leak_rate", "inv_spool_mass", "inv_control_mass", "inv_control_stroke",
+        "delivery_stiffness", "inv_load_mass", "inv_ls_inductance", "inv_solenoid_time_constant")
 
     def derived_columns(self) -> list[float]:
         d = derived(self)
@@ -204,14 +205,15 @@ N_FIELDS = len(_FIELDS)
 ) = range(52)
 assert N_FIELDS == 52 and _FIELDS[I_PFLOOR] == "pressure_floor" and _FIELDS[I_FL] == "load_force"
 _DERIVED = LoadSensingParams.derived_names
-(D_A, D_C, D_LLS, D_RLS, D_VLINE, D_KM, D_KFF, D_LOCAL, D_DROPRATE, D_LEAKRATE) = range(
-    N_FIELDS, N_FIELDS + len(_DERIVED))
+(D_A, D_C, D_LLS, D_RLS, D_VLINE, D_KM, D_KFF, D_LOCAL, D_DROPRATE, D_LEAKRATE, D_INV_MS, D_INV_MY, D_INV_YMAX,
+ D_BETA_VS, D_INV_M, D_INV_LLS, D_INV_TSOL) = range(N_FIELDS, N_FIELDS + len(_DERIVED))
 N_PARAMS = N_FIELDS + len(_DERIVED)
 
 
 def derived(params: LoadSensingParams) -> dict[str, float]:
     """Kernel quantities computed once per parameter set (viscosity-dependent c and R; the
-    largest worst-case rate of the locally refined modes, :func:`.bounds.local_mode_rates`, and
+    reciprocals of the masses, the LS line's inductance, the solenoid's time constant and the
+    control stroke, and the delivery volume's stiffness beta/V_s; the largest worst-case rate of the locally refined modes, :func:`.bounds.local_mode_rates`, and
     the coefficients of their bound in the smallest drop, :func:`.bounds.orifice_rate_coefficients`)."""
     p = params
     nu = iso_vg_kinematic_viscosity(p.oil_grade, p.oil_temperature)
@@ -227,4 +229,13 @@ def derived(params: LoadSensingParams) -> dict[str, float]:
     }
     d["local_rate"] = max(local_mode_rates(p, d).values())
     d["drop_rate"], d["leak_rate"] = orifice_rate_coefficients(p, d)
+    # the right-hand side's parameter-only divisions as factors (a multiplication is off the
+    # critical path of an RK4 stage where a division is not)
+    d["inv_spool_mass"] = 1.0 / p.spool_mass
+    d["inv_control_mass"] = 1.0 / p.control_mass
+    d["inv_control_stroke"] = 1.0 / p.control_stroke
+    d["delivery_stiffness"] = p.bulk_modulus / p.delivery_volume
+    d["inv_load_mass"] = 1.0 / p.load_mass
+    d["inv_ls_inductance"] = 1.0 / d["ls_inductance"]
+    d["inv_solenoid_time_constant"] = 1.0 / p.solenoid_time_constant
     return d
