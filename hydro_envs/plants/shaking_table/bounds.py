@@ -19,7 +19,10 @@ Three features are not modes a rate bounds, and the kernels refine a sub-step ac
 across loses its order), the edges of the modified-IFAS notch (eq (19), ``h`` moves by
 ``lambda_2`` over ``1/mu`` = 0.5-2.5 bar of load pressure, which a reversal sweeps in a fraction
 of a sub-step) and the air-release band of IFAS (eq (13)) below :func:`air_release_pressure`,
-where ``E`` grows steeply with ``P`` and a cavitated chamber's refilling runs fast.
+where ``E ~ P^((kappa+1)/kappa)``: a chamber emptying towards cavitation or refilling changes
+its pressure by orders of magnitude within a millisecond, a mode of its own pressure whose rate
+``(1 + 1/kappa) |dP/dt| / P`` sets the fine steps (:data:`ACCURATE_H_LAMBDA`,
+:func:`.model.air_band_substeps`).
 
 Functions of a :class:`~hydro_envs.plants.shaking_table.params.ShakingTableParams`, plain Python.
 """
@@ -34,12 +37,14 @@ from scipy.optimize import brentq
 from hydro_envs.laws.bulk_modulus import ifas_bulk_modulus
 from hydro_envs.sim.rk4 import STABLE_H_LAMBDA
 
-__all__ = ["SPOOL_H_OMEGA", "AIR_COMPLIANCE_SHARE", "stiffness_modes", "local_mode_rates", "modulus_upper_bound",
+__all__ = ["ACCURATE_H_LAMBDA", "SPOOL_H_OMEGA", "AIR_COMPLIANCE_SHARE", "stiffness_modes", "local_mode_rates", "modulus_upper_bound",
            "air_release_pressure"]
 
-#: ``h w_0`` at which RK4's error per step on the spool's oscillation, about ``(h w_0)^5 / 120``
-#: of its amplitude (the leading term of ``R(z) - e^z``), is 1e-4
-SPOOL_H_OMEGA = (120.0 * 1e-4) ** 0.2
+#: ``h |lambda|`` at which RK4's error per step on a mode ``e^(lambda t)``, about
+#: ``(h |lambda|)^5 / 120`` of its value (the leading term of ``R(z) - e^z``), is 1e-4
+ACCURATE_H_LAMBDA = (120.0 * 1e-4) ** 0.2
+#: ``h w_0`` at which RK4's error per step on the spool's oscillation is 1e-4 of its amplitude
+SPOOL_H_OMEGA = ACCURATE_H_LAMBDA
 #: share of the chamber compliance the air of IFAS (eq (13)) takes at :func:`air_release_pressure`
 AIR_COMPLIANCE_SHARE = 0.01
 

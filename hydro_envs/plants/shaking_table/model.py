@@ -92,7 +92,7 @@ from hydro_envs.laws.orifice import (
     underlap_orifice_opening,
 )
 from hydro_envs.laws.valve import second_order_valve_acceleration
-from hydro_envs.plants.shaking_table.bounds import local_mode_rates, stiffness_modes
+from hydro_envs.plants.shaking_table.bounds import ACCURATE_H_LAMBDA, local_mode_rates, stiffness_modes
 from hydro_envs.plants.shaking_table.params import (  # noqa: F401  (re-exported)
     BULK_MODULUS_MODELS, D_EMAX, D_LOCAL, D_PAIR, I_A, I_ALPHA, I_ASTOP, I_BETA, I_CEL, I_CIL, I_DPTR, I_E0, I_FC, I_FS,
     I_FV, I_KAPPA, I_KSTOP, I_KU, I_L, I_L1, I_L2, I_M, I_MB, I_MODEL, I_MS, I_MU, I_P0,
@@ -269,6 +269,29 @@ def local_mode_rate(y, p):
     return p[D_EMAX] * max(ga / vol_a, gb / vol_b)
 
 
+#: most fine steps per sub-step :func:`air_band_substeps` asks for
+AIR_BAND_MAX_SUBSTEPS = 64
+
+
+@nb.njit(cache=True, error_model="numpy", inline="always")
+def air_band_substeps(y0, x, p):
+    """Fine steps per sub-step that keep RK4 accurate (``h |lambda| <=``
+    :data:`~.bounds.ACCURATE_H_LAMBDA`) on a chamber in the air band of IFAS (eq (13), below
+    ``D_PAIR``): there the air term dominates, ``E ~ P^((kappa+1)/kappa)``, so a chamber emptying
+    or refilling is a mode of its own pressure with ``lambda = (1 + 1/kappa) (dP/dt) / P`` (the
+    pressure falls towards cavitation, or climbs back, by orders of magnitude within a
+    millisecond). ``dP/dt`` is that of the sub-step's start, from its Euler prediction
+    ``x = y0 + h dy/dt``: ``h |lambda| = (1 + 1/kappa) |x_P - y0_P| / y0_P``. At most
+    :data:`AIR_BAND_MAX_SUBSTEPS`; 1 with no chamber in the band at either state."""
+    band = p[D_PAIR]
+    g = 0.0
+    for i in (PA, PB):
+        if y0[i] < band or x[i] < band:
+            g = max(g, abs(x[i] - y0[i]) / max(y0[i], p[I_PFLOOR]))
+    g *= 1.0 + 1.0 / p[I_KAPPA]
+    return min(AIR_BAND_MAX_SUBSTEPS, max(1, int(math.ceil(g / ACCURATE_H_LAMBDA))))
+
+
 #: relative slack of :func:`_orifice_modes_surely_stable` against rounding in the rates it bounds
 SHORT_CUT_SLACK = 1e-6
 
@@ -306,9 +329,10 @@ NOTCH_EDGE_WIDTHS = 3.0
 def local_mode_substeps(y0, x, p, h, m):
     """RK4 steps of ``h / n`` that take a sub-step of ``h`` from ``y0`` (Euler prediction of its
     end ``x``) in the locally refined modes (:func:`hydro_envs.sim.rk4.rk4_advance_lookahead`):
-    ``m`` (the worst case, :func:`local_mode_refinement`) where a chamber pressure crosses the
-    supply or the tank pressure (an orifice's zero drop), lies below the air-release pressure
-    (``D_PAIR``, eq (13)) at either state, the spool crosses a kink of the metering openings (eq
+    ``m`` (the worst case, :func:`local_mode_refinement`) or more where a chamber lies below the
+    air-release pressure (``D_PAIR``, eq (13)) at either state (as many as
+    :func:`air_band_substeps` gives for its emptying or refilling), ``m`` where a chamber pressure
+    crosses the supply or the tank pressure (an orifice's zero drop), the spool crosses a kink of the metering openings (eq
     (3) at ``x_v = +-U``, the stroke limit at ``+-1``: the flow's slope jumps there, and RK4 across
     such a point loses its order), or the load pressure meets an edge of the modified-IFAS notch
     (eq (19), ``+-P_Lt`` within :data:`NOTCH_EDGE_WIDTHS` ``/ mu``); else the count for the
@@ -317,10 +341,10 @@ def local_mode_substeps(y0, x, p, h, m):
     ps = p[I_PS]
     pt = p[I_PT]
     a0, a1, b0, b1 = y0[PA], x[PA], y0[PB], x[PB]
+    if min(min(a0, b0), min(a1, b1)) < p[D_PAIR]:
+        return max(m, air_band_substeps(y0, x, p))
     if ((a0 - ps) * (a1 - ps) < 0.0 or (b0 - ps) * (b1 - ps) < 0.0 or (a0 - pt) * (a1 - pt) < 0.0
             or (b0 - pt) * (b1 - pt) < 0.0):
-        return m
-    if min(min(a0, b0), min(a1, b1)) < p[D_PAIR]:
         return m
     s0 = y0[XV]
     s1 = x[XV]
