@@ -367,8 +367,10 @@ def local_mode_substeps(y0, x, p, h, m):
 @nb.njit(cache=True, error_model="numpy", inline="always")
 def local_mode_refinement(p, h):
     """Fine sub-steps per sub-step of ``h`` seconds that keep the orifice modes stable at their
-    worst case (``D_LOCAL``, :func:`.bounds.local_mode_rates`)."""
-    return worst_case_substeps(h * p[D_LOCAL])
+    worst case (``D_LOCAL``, :func:`.bounds.local_mode_rates`), and at least 2: the look-ahead
+    refines the underlap's kinks, the notch edges and the air band for accuracy also where the
+    orifice modes would be stable at ``h`` (with 1 it would not look at them)."""
+    return max(2, worst_case_substeps(h * p[D_LOCAL]))
 
 
 # ---------------------------------------------------------------------------- analysis
