@@ -114,9 +114,10 @@ def rk4_advance_lookahead(rhs, guard, refinement, y, u, p, h, n_sub, m, work):
     ``h / n``, with ``y`` its start state and ``x = y + h k1`` the Euler prediction of its end.
     ``refinement`` returns 1 where the plant's locally stiff modes let an RK4 step of ``h`` stay
     stable at both (and no stiff point lies between them, such as a sign change), else the
-    count that makes them stable (:func:`local_substeps`), at most ``m``; ``m`` must make
-    ``h / m`` stable everywhere (``m <= 1``: plain RK4 sub-steps, ``refinement`` is not
-    called). ``k1`` is computed once for both uses. Returns guard clamps. Every step is
+    count that makes them stable (:func:`local_substeps`), at most ``m``, or more where the
+    plant's accuracy asks for it (the shaking table's air band); ``m`` must make ``h / m``
+    stable everywhere (``m <= 1``: plain RK4 sub-steps, ``refinement`` is not called, so a
+    plant that refines for accuracy passes ``m >= 2``). ``k1`` is computed once for both uses. Returns guard clamps. Every step is
     ``rk4_advance``'s arithmetic: ``m <= 1`` or a ``refinement`` that always returns 1 give its
     numbers bit for bit, one that always returns ``m`` those of ``n_sub m`` sub-steps.
 
