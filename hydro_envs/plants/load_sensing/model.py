@@ -143,7 +143,7 @@ def load_sensing_rhs(y, u, p, dy):
     f_flow = p[D_KFF] * (-o_px * (ps - px) + o_xt * (px - pt))
     f_stop = end_stop_force(x, v, 0.0, p[I_XMAX], p[I_KSS], p[I_ASS])
     dy[X] = v
-    dy[V] = (area * (ps - pls) - p[I_F0] - p[I_K] * x - fsol - p[D_C] * v + f_flow + f_stop) * p[D_INV_MS]  # 000 (4)
+    dy[V] = (area * (ps - pls) - p[I_F0] - p[I_K] * x - fsol - p[D_C] * v + f_flow + f_stop) * p[D_INV_MS]  # (4)
 
     # ---- control pistons and swash plate
     vx = p[I_VX0] + p[I_A1] * yc

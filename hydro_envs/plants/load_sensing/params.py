@@ -213,8 +213,9 @@ N_PARAMS = N_FIELDS + len(_DERIVED)
 def derived(params: LoadSensingParams) -> dict[str, float]:
     """Kernel quantities computed once per parameter set (viscosity-dependent c and R; the
     reciprocals of the masses, the LS line's inductance, the solenoid's time constant and the
-    control stroke, and the delivery volume's stiffness beta/V_s; the largest worst-case rate of the locally refined modes, :func:`.bounds.local_mode_rates`, and
-    the coefficients of their bound in the smallest drop, :func:`.bounds.orifice_rate_coefficients`)."""
+    control stroke, and the delivery volume's stiffness beta/V_s; the largest worst-case rate of
+    the locally refined modes, :func:`.bounds.local_mode_rates`, and the coefficients of their
+    bound in the smallest drop, :func:`.bounds.orifice_rate_coefficients`)."""
     p = params
     nu = iso_vg_kinematic_viscosity(p.oil_grade, p.oil_temperature)
     nu40 = iso_vg_kinematic_viscosity(p.oil_grade, 40.0)

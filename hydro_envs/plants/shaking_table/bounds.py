@@ -37,8 +37,8 @@ from scipy.optimize import brentq
 from hydro_envs.laws.bulk_modulus import ifas_bulk_modulus
 from hydro_envs.sim.rk4 import STABLE_H_LAMBDA
 
-__all__ = ["ACCURATE_H_LAMBDA", "SPOOL_H_OMEGA", "AIR_COMPLIANCE_SHARE", "stiffness_modes", "local_mode_rates", "modulus_upper_bound",
-           "air_release_pressure"]
+__all__ = ["ACCURATE_H_LAMBDA", "SPOOL_H_OMEGA", "AIR_COMPLIANCE_SHARE", "stiffness_modes", "local_mode_rates",
+           "modulus_upper_bound", "air_release_pressure"]
 
 #: ``h |lambda|`` at which RK4's error per step on a mode ``e^(lambda t)``, about
 #: ``(h |lambda|)^5 / 120`` of its value (the leading term of ``R(z) - e^z``), is 1e-4

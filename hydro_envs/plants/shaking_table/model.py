@@ -331,13 +331,14 @@ def local_mode_substeps(y0, x, p, h, m):
     end ``x``) in the locally refined modes (:func:`hydro_envs.sim.rk4.rk4_advance_lookahead`):
     ``m`` (the worst case, :func:`local_mode_refinement`) or more where a chamber lies below the
     air-release pressure (``D_PAIR``, eq (13)) at either state (as many as
-    :func:`air_band_substeps` gives for its emptying or refilling), ``m`` where a chamber pressure
-    crosses the supply or the tank pressure (an orifice's zero drop), the spool crosses a kink of the metering openings (eq
-    (3) at ``x_v = +-U``, the stroke limit at ``+-1``: the flow's slope jumps there, and RK4 across
-    such a point loses its order), or the load pressure meets an edge of the modified-IFAS notch
-    (eq (19), ``+-P_Lt`` within :data:`NOTCH_EDGE_WIDTHS` ``/ mu``); else the count for the
-    larger :func:`local_mode_rate` of the two (:func:`hydro_envs.sim.rk4.local_substeps`), 1 without
-    the rates where :func:`_orifice_modes_surely_stable` says so."""
+    :func:`air_band_substeps` gives for its emptying or refilling), ``m`` where a chamber
+    pressure crosses the supply or the tank pressure (an orifice's zero drop), the spool crosses
+    a kink of the metering openings (eq (3) at ``x_v = +-U``, the stroke limit at ``+-1``: the
+    flow's slope jumps there, and RK4 across such a point loses its order), or the load pressure
+    meets an edge of the modified-IFAS notch (eq (19), ``+-P_Lt`` within
+    :data:`NOTCH_EDGE_WIDTHS` ``/ mu``); else the count for the larger :func:`local_mode_rate`
+    of the two (:func:`hydro_envs.sim.rk4.local_substeps`), 1 without the rates where
+    :func:`_orifice_modes_surely_stable` says so."""
     ps = p[I_PS]
     pt = p[I_PT]
     a0, a1, b0, b1 = y0[PA], x[PA], y0[PB], x[PB]
