@@ -247,7 +247,7 @@ def local_mode_rate(y, p):
             * regularized_signed_sqrt_slope_bound(px - p[I_PT], dptr))
     g_cv = p[D_KM] * p[I_ACVMAX] * regularized_signed_sqrt_slope_bound(ps - pl, dptr) if ps > pl else 0.0
     control = beta / max(p[I_VX0] + p[I_A1] * y[Y], p[I_VX0]) * (g_px + g_xt + p[I_GX])
-    delivery = beta / p[I_VS] * (g_cv + g_px + p[I_GP] + p[I_GRV])
+    delivery = p[D_BETA_VS] * (g_cv + g_px + p[I_GP] + p[I_GRV])
     load = beta / max(p[I_VL0] + p[I_AC] * y[XA], 0.5 * p[I_VL0]) * g_cv
     return max(control, max(delivery, load))
 

@@ -158,6 +158,15 @@ def chamber_moduli(pa, pb, p):
     return ea, eb
 
 
+@nb.njit(cache=True, error_model="numpy")
+def _volumes(x, p):
+    """Chamber volumes (V_a, V_b) [m^3] at piston position ``x`` in the kernels: those of
+    :func:`chamber_volumes`, floored at the guard ``min_chamber_volume``."""
+    half = 0.5 * p[I_L]
+    return (max(p[I_V0] + p[I_A] * (half + x), p[I_VMIN]),  # V_t/2 + A x
+            max(p[I_V0] + p[I_A] * (half - x), p[I_VMIN]))  # V_t/2 - A x
+
+
 @nb.njit(cache=True, error_model="numpy", inline="always")
 def valve_flows(xv, pa, pb, p):
     """Valve flows (Q_a, Q_b) [m^3/s] into the chambers, 003 eqs (1)-(4)."""
@@ -202,12 +211,10 @@ def shaking_table_rhs(y, u, p, dy):
     pa = y[PA]
     pb = y[PB]
     area = p[I_A]
-    half = 0.5 * p[I_L]
     qa, qb = valve_flows(y[XV], pa, pb, p)  # (1)-(4)
     ea, eb = chamber_moduli(pa, pb, p)  # (13), (15)-(19)
     q_int = p[I_CIL] * (pa - pb)  # (8)-(9): internal leakage a -> b
-    vol_a = max(p[I_V0] + area * (half + x), p[I_VMIN])  # V_t/2 + A x
-    vol_b = max(p[I_V0] + area * (half - x), p[I_VMIN])  # V_t/2 - A x
+    vol_a, vol_b = _volumes(x, p)  # V_t/2 +- A x
     dpa = ea / vol_a * (qa - q_int - p[I_CEL] * (pa - p[I_PT]) - area * v)  # (6)
     dpb = eb / vol_b * (qb + q_int - p[I_CEL] * (pb - p[I_PT]) + area * v)  # (7)
     if pa <= p[I_PFLOOR] and dpa < 0.0:  # cavitation guard
@@ -263,9 +270,7 @@ def local_mode_rate(y, p):
                    + sb * regularized_signed_sqrt_slope_bound(y[PA] - pt, dptr)) + leak
     gb = p[I_R] * (sb * regularized_signed_sqrt_slope_bound(ps - y[PB], dptr)
                    + sa * regularized_signed_sqrt_slope_bound(y[PB] - pt, dptr)) + leak
-    half = 0.5 * p[I_L]
-    vol_a = max(p[I_V0] + p[I_A] * (half + y[X]), p[I_VMIN])
-    vol_b = max(p[I_V0] + p[I_A] * (half - y[X]), p[I_VMIN])
+    vol_a, vol_b = _volumes(y[X], p)
     return p[D_EMAX] * max(ga / vol_a, gb / vol_b)
 
 
@@ -292,6 +297,21 @@ def air_band_substeps(y0, x, p):
     return min(AIR_BAND_MAX_SUBSTEPS, max(1, int(math.ceil(g / ACCURATE_H_LAMBDA))))
 
 
+@nb.njit(cache=True, error_model="numpy")
+def _smallest_metering_drop(y, p):
+    """Smallest magnitude [Pa] of the drops across the metering edges at ``y``: ``P_s - P`` and
+    ``P - P_T`` of both chambers."""
+    ps = p[I_PS]
+    pt = p[I_PT]
+    return min(min(abs(ps - y[PA]), abs(y[PA] - pt)), min(abs(ps - y[PB]), abs(y[PB] - pt)))
+
+
+@nb.njit(cache=True, error_model="numpy")
+def _crossed(a0, a1, level):
+    """Whether ``a0`` and ``a1`` lie on different sides of ``level``."""
+    return (a0 - level) * (a1 - level) < 0.0
+
+
 #: relative slack of :func:`_orifice_modes_surely_stable` against rounding in the rates it bounds
 SHORT_CUT_SLACK = 1e-6
 
@@ -305,19 +325,13 @@ def _orifice_modes_surely_stable(y0, x, p, h):
     below ``|dp|^(-1/2)``), ``V_min`` the smaller chamber volume of the two states and
     ``sgt(x_v, U) + sgt(-x_v, U) <= 1 + U`` (eq (3) on the clipped stroke). Stable if
     ``dp_min room^2 >= (R (1 + U))^2`` with ``room = STABLE_H_LAMBDA V_min / (h E_max) - leak``."""
-    ps = p[I_PS]
-    pt = p[I_PT]
-    dp0 = min(min(abs(ps - y0[PA]), abs(y0[PA] - pt)), min(abs(ps - y0[PB]), abs(y0[PB] - pt)))
-    dp1 = min(min(abs(ps - x[PA]), abs(x[PA] - pt)), min(abs(ps - x[PB]), abs(x[PB] - pt)))
-    half = 0.5 * p[I_L]
-    area = p[I_A]
-    v0 = p[I_V0]
-    vol = min(min(v0 + area * (half + y0[X]), v0 + area * (half - y0[X])),
-              min(v0 + area * (half + x[X]), v0 + area * (half - x[X])))
-    vol = max(vol, p[I_VMIN])
+    va0, vb0 = _volumes(y0[X], p)
+    va1, vb1 = _volumes(x[X], p)
+    vol = min(min(va0, vb0), min(va1, vb1))
     room = STABLE_H_LAMBDA * vol / (h * p[D_EMAX]) - (2.0 * p[I_CIL] + p[I_CEL])
     c = p[I_R] * (1.0 + p[I_U])
-    return room > 0.0 and min(dp0, dp1) * room * room >= (1.0 + SHORT_CUT_SLACK) * c * c
+    dp_min = min(_smallest_metering_drop(y0, p), _smallest_metering_drop(x, p))
+    return room > 0.0 and dp_min * room * room >= (1.0 + SHORT_CUT_SLACK) * c * c
 
 
 #: half-width of the modified-IFAS notch edges the kernels refine across, in units of ``1/mu``
@@ -344,14 +358,13 @@ def local_mode_substeps(y0, x, p, h, m):
     a0, a1, b0, b1 = y0[PA], x[PA], y0[PB], x[PB]
     if min(min(a0, b0), min(a1, b1)) < p[D_PAIR]:
         return max(m, air_band_substeps(y0, x, p))
-    if ((a0 - ps) * (a1 - ps) < 0.0 or (b0 - ps) * (b1 - ps) < 0.0 or (a0 - pt) * (a1 - pt) < 0.0
-            or (b0 - pt) * (b1 - pt) < 0.0):
+    if _crossed(a0, a1, ps) or _crossed(b0, b1, ps) or _crossed(a0, a1, pt) or _crossed(b0, b1, pt):
         return m
     s0 = y0[XV]
     s1 = x[XV]
     u_lap = p[I_U]
-    if ((s0 + u_lap) * (s1 + u_lap) < 0.0 or (s0 - u_lap) * (s1 - u_lap) < 0.0 or (s0 - 1.0) * (s1 - 1.0) < 0.0
-            or (s0 + 1.0) * (s1 + 1.0) < 0.0):  # a kink of the openings: eq (3) at +-U, the stroke limit
+    if (_crossed(s0, s1, -u_lap) or _crossed(s0, s1, u_lap) or _crossed(s0, s1, 1.0)
+            or _crossed(s0, s1, -1.0)):  # a kink of the openings: eq (3) at +-U, the stroke limit
         return m
     if p[I_MODEL] > 1.5:  # does the load pressure's path meet a notch edge +-P_Lt (+- w)?
         lo = min(a0 - b0, a1 - b1)
