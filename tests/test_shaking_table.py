@@ -31,8 +31,10 @@ from hydro_envs.envs.shaking_table.references import (
     generate_table_reference,
     reference_limits,
 )
-from hydro_envs.laws.bulk_modulus import ifas_bulk_modulus
-from hydro_envs.laws.bulk_modulus_fast import ifas_bulk_modulus_fast
+from hydro_envs.laws.bulk_modulus import ifas_bulk_modulus, modified_ifas_shape
+from hydro_envs.laws.bulk_modulus_fast import (
+    ifas_bulk_modulus_fast, modified_ifas_shape_constants, modified_ifas_shape_fast,
+)
 from hydro_envs.laws.filters import butterworth_lowpass_sos, sos_filter_step
 from hydro_envs.params import ParameterError
 from hydro_envs.plants.shaking_table import model as st
@@ -255,6 +257,24 @@ def test_fast_ifas_law_equals_reference_law():
         args = (rng.uniform(1e2, 4e7), rng.uniform(3e8, 2e9), rng.uniform(1e5, 5e6), rng.uniform(2, 15),
                 10 ** rng.uniform(-8, -1), rng.uniform(0.3, 1.4), 1e3)
         assert ifas_bulk_modulus_fast(*args) == pytest.approx(ifas_bulk_modulus(*args), rel=1e-13)
+
+
+def test_one_exp_notch_shape_equals_reference_shape():
+    """Eq (19) with one exp (modified_ifas_shape_fast) against the printed two-tanh form, over
+    mu P_Lt and mu (P_a - P_b) from 1e-8 to beyond exp's range, near the notch's edges too, and
+    either sign of lambda_2 and P_Lt: within 1e-15 of lambda_1 + |lambda_2|; finite everywhere."""
+    rng = np.random.default_rng(0)
+    worst = 0.0
+    for _ in range(20000):
+        l1, l2 = rng.uniform(0.5, 2.0), rng.uniform(-1.0, 1.0)
+        mu, p_lt = 10 ** rng.uniform(-8, 0), rng.choice([-1.0, 1.0]) * 10 ** rng.uniform(0, 8)
+        pa, pb = rng.uniform(0.0, 3e7, 2)
+        if rng.random() < 0.3:  # at an edge: |P_a - P_b| within 0.1 % of P_Lt
+            pb = pa - rng.choice([-1.0, 1.0]) * abs(p_lt) * (1.0 + rng.normal(0.0, 1e-3))
+        got = modified_ifas_shape_fast(pa, pb, l1, mu, p_lt, *modified_ifas_shape_constants(l2, mu, p_lt))
+        assert math.isfinite(got)
+        worst = max(worst, abs(got - modified_ifas_shape(pa, pb, l1, l2, mu, p_lt)) / (l1 + abs(l2)))
+    assert worst < 1e-15
 
 
 def test_modified_modulus_minimum_at_equal_pressures_and_positive(spec):

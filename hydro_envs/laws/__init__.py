@@ -67,6 +67,10 @@ nozzle_fast (:mod:`hydro_envs.laws.nozzle_fast`)
 
 bulk_modulus_fast (:mod:`hydro_envs.laws.bulk_modulus_fast`)
     ifas_bulk_modulus_fast(p, e0, p0, m, alpha, kappa, p_floor)          003 eq (13), exp + 2 log
+    ifas_constants(e0, p0, m, alpha, kappa)           003 eq (13), parameter-only terms
+    ifas_bulk_modulus_scaled(p, p0, p_floor, alpha, *constants)          same law, one division
+    modified_ifas_shape_constants(lambda_2, mu, p_lt)                    003 eq (19), parameter-only terms
+    modified_ifas_shape_fast(p_a, p_b, lambda_1, mu, p_lt, *constants)   same shape, one exp
 
 filters (:mod:`hydro_envs.laws.filters`)
     butterworth_lowpass_sos(order, cutoff_hz, sample_rate_hz)            003 sec. 4 (order 8, 40 Hz);
@@ -145,7 +149,13 @@ from hydro_envs.laws.nozzle_fast import nozzle_flow_constants, nozzle_mass_flow_
 from hydro_envs.laws.stribeck_lugre import lugre_exponential_rate, stribeck_exponential_curve
 from hydro_envs.laws.hysteresis import pi_output, pi_threshold_scale, play_operator
 from hydro_envs.laws.valve import saturate, second_order_valve_acceleration
-from hydro_envs.laws.bulk_modulus_fast import ifas_bulk_modulus_fast
+from hydro_envs.laws.bulk_modulus_fast import (
+    ifas_bulk_modulus_fast,
+    ifas_bulk_modulus_scaled,
+    ifas_constants,
+    modified_ifas_shape_constants,
+    modified_ifas_shape_fast,
+)
 from hydro_envs.laws.filters import backward_difference, sos_filter_step
 from hydro_envs.laws.elementary import tanh_one_exp
 from hydro_envs.laws.viscosity import (
@@ -191,6 +201,10 @@ __all__ = [
     "modified_ifas_bulk_modulus",
     "fluid_density",
     "ifas_bulk_modulus_fast",
+    "ifas_bulk_modulus_scaled",
+    "ifas_constants",
+    "modified_ifas_shape_constants",
+    "modified_ifas_shape_fast",
     # elementary
     "tanh_one_exp",
     # filters

@@ -79,11 +79,7 @@ from typing import Any
 import numba as nb
 import numpy as np
 
-from hydro_envs.laws.bulk_modulus import (
-    ifas_bulk_modulus,
-    modified_ifas_shape,
-)
-from hydro_envs.laws.bulk_modulus_fast import ifas_bulk_modulus_fast
+from hydro_envs.laws.bulk_modulus_fast import ifas_bulk_modulus_scaled, modified_ifas_shape_fast
 from hydro_envs.laws.contact import end_stop_force
 from hydro_envs.laws.friction import stribeck_gaussian
 from hydro_envs.laws.orifice import (
@@ -94,10 +90,11 @@ from hydro_envs.laws.orifice import (
 from hydro_envs.laws.valve import second_order_valve_acceleration
 from hydro_envs.plants.shaking_table.bounds import ACCURATE_H_LAMBDA, local_mode_rates, stiffness_modes
 from hydro_envs.plants.shaking_table.params import (  # noqa: F401  (re-exported)
-    BULK_MODULUS_MODELS, D_EMAX, D_LOCAL, D_PAIR, I_A, I_ALPHA, I_ASTOP, I_BETA, I_CEL, I_CIL, I_DPTR, I_E0, I_FC, I_FS,
-    I_FV, I_KAPPA, I_KSTOP, I_KU, I_L, I_L1, I_L2, I_M, I_MB, I_MODEL, I_MS, I_MU, I_P0,
-    I_PFLOOR, I_PLT, I_PS, I_PT, I_R, I_U, I_UMAX, I_V0, I_VMIN, I_VS, I_W0, I_ZETA, N_PARAMS,
-    PLANT, PRESETS, SPECIMENS, ShakingTableParams,
+    BULK_MODULUS_MODELS, D_EMAX, D_IFAS_ALPHA_KAPPA, D_IFAS_INV_KAPPA, D_IFAS_INV_M, D_IFAS_LN_P0, D_IFAS_M_E0,
+    D_IFAS_OIL_E0, D_INV_M, D_LOCAL, D_NOTCH_AMP, D_NOTCH_C2, D_NOTCH_ONE_C2, D_PAIR, I_A, I_ALPHA, I_ASTOP, I_BETA,
+    I_CEL, I_CIL, I_DPTR, I_E0, I_FC, I_FS, I_FV, I_KAPPA, I_KSTOP, I_KU, I_L, I_L1, I_L2, I_M, I_MB, I_MODEL, I_MS,
+    I_MU, I_P0, I_PFLOOR, I_PLT, I_PS, I_PT, I_R, I_U, I_UMAX, I_V0, I_VMIN, I_VS, I_W0, I_ZETA, N_PARAMS, PLANT,
+    PRESETS, SPECIMENS, ShakingTableParams,
 )
 from hydro_envs.sim.rk4 import STABLE_H_LAMBDA, local_substeps, worst_case_substeps
 
@@ -144,15 +141,23 @@ FIT_OUTPUTS = ("x", "a")
 
 # ---------------------------------------------------------------------------- kernels
 @nb.njit(cache=True, error_model="numpy", inline="always")
+def _ifas(pr, p):
+    """IFAS modulus (eq (13)) [Pa] at pressure ``pr`` from ``p``'s derived IFAS terms."""
+    return ifas_bulk_modulus_scaled(pr, p[I_P0], p[I_PFLOOR], p[I_ALPHA], p[D_IFAS_M_E0], p[D_IFAS_INV_M],
+                                    p[D_IFAS_INV_KAPPA], p[D_IFAS_LN_P0], p[D_IFAS_OIL_E0], p[D_IFAS_ALPHA_KAPPA])
+
+
+@nb.njit(cache=True, error_model="numpy", inline="always")
 def chamber_moduli(pa, pb, p):
     """Effective bulk moduli (E_a, E_b) [Pa] of the two chambers under ``p``'s model."""
     model = p[I_MODEL]
     if model < 0.5:  # constant
         return p[I_E0], p[I_E0]
-    ea = ifas_bulk_modulus_fast(pa, p[I_E0], p[I_P0], p[I_M], p[I_ALPHA], p[I_KAPPA], p[I_PFLOOR])  # (13)/(17)
-    eb = ifas_bulk_modulus_fast(pb, p[I_E0], p[I_P0], p[I_M], p[I_ALPHA], p[I_KAPPA], p[I_PFLOOR])  # (13)/(18)
+    ea = _ifas(pa, p)  # (13)/(17)
+    eb = _ifas(pb, p)  # (13)/(18)
     if model > 1.5:  # modified IFAS (15)-(16), shape (19)
-        h = modified_ifas_shape(pa, pb, p[I_L1], p[I_L2], p[I_MU], p[I_PLT])
+        h = modified_ifas_shape_fast(pa, pb, p[I_L1], p[I_MU], p[I_PLT], p[D_NOTCH_AMP], p[D_NOTCH_C2],
+                                     p[D_NOTCH_ONE_C2])
         ea *= h
         eb *= h
     return ea, eb
@@ -200,7 +205,7 @@ def _piston_force(x, v, pa, pb, p):
 @nb.njit(cache=True, error_model="numpy")
 def table_acceleration(y, p):
     """Table acceleration dv/dt [m/s^2] of state ``y`` -- what the accelerometer reads."""
-    return _piston_force(y[X], y[V], y[PA], y[PB], p) / (p[I_MB] + p[I_MS])
+    return _piston_force(y[X], y[V], y[PA], y[PB], p) * p[D_INV_M]
 
 
 @nb.njit(cache=True, error_model="numpy")
@@ -222,7 +227,7 @@ def shaking_table_rhs(y, u, p, dy):
     if pb <= p[I_PFLOOR] and dpb < 0.0:
         dpb = 0.0
     dy[X] = v
-    dy[V] = _piston_force(x, v, pa, pb, p) / (p[I_MB] + p[I_MS])  # (10)
+    dy[V] = _piston_force(x, v, pa, pb, p) * p[D_INV_M]  # (10)
     dy[PA] = dpa
     dy[PB] = dpb
     dy[XV] = y[VV]

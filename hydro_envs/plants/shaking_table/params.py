@@ -12,6 +12,7 @@ import math
 from typing import Any, ClassVar
 
 from hydro_envs.laws.bulk_modulus import modified_ifas_shape_is_valid
+from hydro_envs.laws.bulk_modulus_fast import ifas_constants, modified_ifas_shape_constants
 from hydro_envs.params import ParameterError, PhysicalParams, physical
 from hydro_envs.plants.shaking_table.bounds import air_release_pressure, local_mode_rates, modulus_upper_bound
 
@@ -155,13 +156,23 @@ class ShakingTableParams(PhysicalParams):
                 f"{self.dead_volume} m^3"
             )
 
-    derived_names: ClassVar[tuple[str, ...]] = ("modulus_max", "local_rate", "air_release_pressure")
+    derived_names: ClassVar[tuple[str, ...]] = (
+        "modulus_max", "local_rate", "air_release_pressure", "inv_mass",
+        "ifas_m_over_e0", "ifas_inv_m", "ifas_inv_kappa", "ifas_ln_p0", "ifas_oil_over_e0", "ifas_alpha_over_kappa",
+        "notch_amplitude", "notch_c2", "notch_one_plus_c2",
+    )
 
     def derived_columns(self) -> list[float]:
         """Kernel quantities computed once per parameter set: the largest chamber modulus, the
         worst-case rate of the locally refined orifice modes and the air-release pressure
-        (:mod:`.bounds`)."""
-        return [modulus_upper_bound(self), max(local_mode_rates(self).values()), air_release_pressure(self)]
+        (:mod:`.bounds`), ``1/M``, and the parameter-only terms of the IFAS law (eq (13),
+        :func:`~hydro_envs.laws.bulk_modulus_fast.ifas_constants`) and of the notch's shape (eq
+        (19), :func:`~hydro_envs.laws.bulk_modulus_fast.modified_ifas_shape_constants`); the
+        laws' Python bodies, so that making a parameter set compiles nothing."""
+        ifas = ifas_constants.py_func(self.e0, self.p0, self.oil_exponent, self.air_content, self.polytropic_exponent)
+        notch = modified_ifas_shape_constants.py_func(self.lambda_2, self.mu, self.threshold_pressure)
+        return [modulus_upper_bound(self), max(local_mode_rates(self).values()), air_release_pressure(self),
+                1.0 / self.mass, *ifas, *notch]
 
     # ------------------------------------------------------------------ presets
     @property
@@ -222,5 +233,8 @@ assert ShakingTableParams.names()[I_VMIN] == "min_chamber_volume"
 assert ShakingTableParams.names()[I_MODEL] == "bulk_modulus_model"
 assert len(ShakingTableParams.names()) == N_FIELDS
 #: derived columns (:meth:`ShakingTableParams.derived_columns`)
-D_EMAX, D_LOCAL, D_PAIR = range(N_FIELDS, N_FIELDS + len(ShakingTableParams.derived_names))
+(
+    D_EMAX, D_LOCAL, D_PAIR, D_INV_M, D_IFAS_M_E0, D_IFAS_INV_M, D_IFAS_INV_KAPPA, D_IFAS_LN_P0, D_IFAS_OIL_E0,
+    D_IFAS_ALPHA_KAPPA, D_NOTCH_AMP, D_NOTCH_C2, D_NOTCH_ONE_C2,
+) = range(N_FIELDS, N_FIELDS + len(ShakingTableParams.derived_names))
 N_PARAMS = N_FIELDS + len(ShakingTableParams.derived_names)
