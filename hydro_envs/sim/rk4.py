@@ -115,11 +115,12 @@ def rk4_advance_lookahead(rhs, guard, refinement, y, u, p, h, n_sub, m, work):
     returns 1 where the plant's locally stiff modes let an RK4 step of ``h`` stay stable at both
     (and no stiff point lies between them, such as a sign change), else the count that makes
     them stable (:func:`local_substeps`), at most ``m``, or more where the plant's accuracy asks
-    for it (a fast mode refined for accuracy, not stability); ``m`` must make ``h / m`` stable everywhere (``m <=
-    1``: plain RK4 sub-steps, ``refinement`` is not called, so a plant that refines for accuracy
-    passes ``m >= 2``). ``k1`` is computed once for both uses. Returns guard clamps. Every step
-    is ``rk4_advance``'s arithmetic: ``m <= 1`` or a ``refinement`` that always returns 1 give
-    its numbers bit for bit, one that always returns ``m`` those of ``n_sub m`` sub-steps.
+    for it (a fast mode refined for accuracy, not stability); ``m`` must make ``h / m`` stable
+    everywhere (``m <= 1``: plain RK4 sub-steps, ``refinement`` is not called, so a plant that
+    refines for accuracy passes ``m >= 2``). ``k1`` is computed once for both uses. Returns guard
+    clamps. Every step is ``rk4_advance``'s arithmetic: ``m <= 1`` or a ``refinement`` that always
+    returns 1 give its numbers bit for bit, one that always returns ``m`` those of ``n_sub m``
+    sub-steps.
 
     No step is taken back: a stiff region entered within one step further than the Euler
     prediction reaches is refined from the next step on. Checking the three stage states and
