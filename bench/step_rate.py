@@ -22,12 +22,18 @@ Prints (no pass/fail; the targets in brackets):
   count ("set by") and the mean count the copies would need without it ("next"); above the
   table, what entering the kernel's parallel region costs under the OpenMP wait settings
 
-Usage: ``python bench/step_rate.py [--quick] [--profile] [--env ID ...]``. Timings are the best of ``--repeats`` runs.
+``--env-kwarg KEY=VALUE`` (repeatable) passes keyword arguments to every env made for the vector
+timings and the profile, e.g. ``--env hydro_envs/ShakingTable-v0 --env-kwarg preset=constant``
+(the shaking table's bulk-modulus law); values are read as JSON where they parse, else as text.
+
+Usage: ``python bench/step_rate.py [--quick] [--profile] [--env ID ...] [--env-kwarg KEY=VALUE ...]``.
+Timings are the best of ``--repeats`` runs.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import resource
 import subprocess
@@ -61,12 +67,27 @@ def single_env_rate(env_id: str, steps: int) -> float:
     return steps / (time.perf_counter() - t0)
 
 
-def vector_env_rate(env_id: str, n: int, steps: int) -> float:
+def parse_env_kwargs(items: list[str] | None) -> dict[str, object]:
+    """``KEY=VALUE`` strings as keyword arguments (VALUE as JSON where it parses, else text);
+    ``ValueError`` naming an item without ``=``."""
+    out: dict[str, object] = {}
+    for item in items or []:
+        key, sep, value = item.partition("=")
+        if not sep or not key:
+            raise ValueError(f"--env-kwarg must be KEY=VALUE, got {item!r}")
+        try:
+            out[key] = json.loads(value)
+        except json.JSONDecodeError:
+            out[key] = value
+    return out
+
+
+def vector_env_rate(env_id: str, n: int, steps: int, **env_kwargs: object) -> float:
     import gymnasium as gym
 
     import hydro_envs  # noqa: F401
 
-    venv = gym.make_vec(env_id, num_envs=n, vectorization_mode="vector_entry_point")
+    venv = gym.make_vec(env_id, num_envs=n, vectorization_mode="vector_entry_point", **env_kwargs)
     venv.reset(seed=0)
     rng = np.random.default_rng(0)
     space = venv.single_action_space
@@ -82,13 +103,13 @@ def vector_env_rate(env_id: str, n: int, steps: int) -> float:
     return steps * n / (time.perf_counter() - t0)
 
 
-def profile_split(env_id: str, n: int, steps: int) -> dict[str, float]:
+def profile_split(env_id: str, n: int, steps: int, **env_kwargs: object) -> dict[str, float]:
     """Time the phases of ``steps`` vector steps of ``n`` copies after a warm-up (seconds per step)."""
     import gymnasium as gym
 
     import hydro_envs  # noqa: F401
 
-    venv = gym.make_vec(env_id, num_envs=n, vectorization_mode="vector_entry_point")
+    venv = gym.make_vec(env_id, num_envs=n, vectorization_mode="vector_entry_point", **env_kwargs)
     venv.reset(seed=0)
     b = venv.unwrapped._batch
     rng = np.random.default_rng(0)
@@ -187,8 +208,9 @@ def parallel_call_times(gaps: list[float], calls: int = 300) -> list[float]:
     return result
 
 
-def print_profile(env_ids: list[str], n: int, steps: int, repeats: int) -> None:
-    print(f"profile of one {n}-copy vector step (best of {repeats}, {steps} steps after warm-up)")
+def print_profile(env_ids: list[str], n: int, steps: int, repeats: int, **env_kwargs: object) -> None:
+    made = f", env kwargs {env_kwargs}" if env_kwargs else ""
+    print(f"profile of one {n}-copy vector step (best of {repeats}, {steps} steps after warm-up{made})")
     near, far = parallel_call_times([50e-6, 200e-6])
     print(f"an empty parallel kernel call 50 / 200 us after the last: {near * 1e6:.1f} / {far * 1e6:.1f} us")
     head = (f"{'env id':<42} {'M steps/s':>9} {'sub-steps':>9} {'step us':>7} {'kernel':>6} {'obs+rew':>7} "
@@ -204,7 +226,7 @@ def print_profile(env_ids: list[str], n: int, steps: int, repeats: int) -> None:
         return (n / 2e6 - r["observe"] - r["python"]) / r["rhs"]
 
     for env_id in env_ids:
-        r = min((profile_split(env_id, n, steps) for _ in range(repeats)), key=lambda r: r["step"])
+        r = min((profile_split(env_id, n, steps, **env_kwargs) for _ in range(repeats)), key=lambda r: r["step"])
         print(f"{env_id:<42} {r['rate'] / 1e6:>9.2f} {r['n_sub']:>9.2f} {r['step'] * 1e6:>7.0f} "
               f"{r['kernel'] / r['step']:>6.0%} {r['observe'] / r['step']:>7.0%} {r['python'] / r['step']:>6.0%} "
               f"{r['rhs'] * cores / n * 1e9:>6.0f} {r['kernel'] / r['rhs']:>8.1f} {budget(r):>5.1f}  "
@@ -314,8 +336,14 @@ def main() -> None:
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--env", action="append", help="env id to time (repeatable; default: all hydro_envs ids)")
     ap.add_argument("--profile", action="store_true", help="print only the per-env profile table")
+    ap.add_argument("--env-kwarg", action="append", metavar="KEY=VALUE",
+                    help="keyword argument of the vector envs timed (repeatable), e.g. preset=constant")
     ap.add_argument("--memory-child", nargs=2, type=int, help=argparse.SUPPRESS)
     args = ap.parse_args()
+    try:
+        env_kwargs = parse_env_kwargs(args.env_kwarg)
+    except ValueError as exc:
+        ap.error(str(exc))
     if args.memory_child:
         _memory_child(*args.memory_child)
         return
@@ -335,21 +363,21 @@ def main() -> None:
     best = lambda f: max(f() for _ in range(args.repeats))  # noqa: E731
     env_ids = args.env or sorted(k for k in gym.registry if k.startswith("hydro_envs/"))
     if args.profile:
-        print_profile(env_ids, n, vec_steps, args.repeats)
+        print_profile(env_ids, n, vec_steps, args.repeats, **env_kwargs)
         return
     cart = best(lambda: single_env_rate("CartPole-v1", single_steps))
     vcart = best(lambda: vector_env_rate("CartPole-v1", n, vec_steps))
     print(f"CartPole-v1: single {cart:,.0f} steps/s, vector ({n} copies) {vcart / 1e6:.2f} M env-steps/s")
     for env_id in env_ids:
         single = best(lambda: single_env_rate(env_id, single_steps))
-        vec = best(lambda: vector_env_rate(env_id, n, vec_steps))
+        vec = best(lambda: vector_env_rate(env_id, n, vec_steps, **env_kwargs))
         sub = gym.make(env_id).unwrapped
         sub.reset(seed=0)
         print(f"{env_id}: single (gym.make, random actions) {single:,.0f} steps/s = {single / cart:.2f}x "
               f"CartPole [target >= 0.5]; vector ({n} copies) {vec / 1e6:.2f} M env-steps/s "
               f"[target >= 2 M/s]; {sub.n_substeps} RK4 sub-steps per {sub.dt * 1e3:g} ms step")
 
-    print_profile(env_ids, n, vec_steps, args.repeats)
+    print_profile(env_ids, n, vec_steps, args.repeats, **env_kwargs)
 
     ser, par = min((kernel_time_per_substep(n, 200 if not args.quick else 20) for _ in range(args.repeats)),
                    key=lambda t: t[1])
