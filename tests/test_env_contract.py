@@ -1,14 +1,19 @@
 """The contract every registered env keeps, checked once per env id from the registry.
 
 For every id in :func:`hydro_envs.registry.env_entries`: Gymnasium's ``check_env`` passes with
-no warning; ``reset(seed)`` fixes the whole trajectory and a different seed draws differently;
-observations stay inside ``observation_space``; copy ``i`` of the native vector env reset with
-seed ``s`` equals a single env reset with ``s + i``; a pickled or deep-copied env continues
-exactly as the original; NaN/inf actions raise ``ValueError`` naming the action. For one env
-per plant (:data:`hydro_envs.soak.SOAK_ENVS`) a short soak finds no energy created, and per
-plant the vector env's threaded step kernel advances uneven blocks of copies exactly as the
-serial loop does. A fresh process that makes, resets and steps every env id has imported
-neither ``scipy.signal`` nor ``scipy.stats``.
+no warning, and steps at either bound of the action space return a float reward and plain bool
+flags; the registered episode length is the registry entry's; ``reset(seed)`` fixes the whole
+trajectory (observations, rewards and ``info["state"]``, over a rollout long enough that the
+state moves) and a different seed draws other parameters and another start; observations stay
+inside ``observation_space``; copy ``i`` of the native vector env (the entry's vector class,
+``info`` keyed by the plant's state and parameter names) reset with seed ``s`` equals a single
+env reset with ``s + i``, observation, reward and state at every step; a pickled or deep-copied
+env continues exactly as the original; a NaN/inf action raises ``ValueError`` naming the action,
+in the single and the vector env, as an array, a list or a plain number. For one env per plant
+(:data:`hydro_envs.soak.SOAK_ENVS`) a short soak finds no energy created, and per plant the vector
+env's threaded step kernel advances uneven blocks of copies exactly as the serial loop does. A
+fresh process that makes, resets and steps every env id has imported neither ``scipy.signal`` nor
+``scipy.stats``. Action shapes, clipping and rejected actions leaving no trace: ``test_properties.py``.
 """
 
 from __future__ import annotations
@@ -29,9 +34,12 @@ from gymnasium.utils.env_checker import check_env
 import hydro_envs  # noqa: F401  (registers the envs)
 from hydro_envs import registry, soak
 
-ENV_IDS = [entry.id for _, entry in registry.env_entries()]
-STEPS = 40
-N_VEC = 4
+ENTRIES = {entry.id: (spec, entry) for spec, entry in registry.env_entries()}
+ENV_IDS = list(ENTRIES)
+#: single-env rollout for determinism and the observation bounds; vector-env rollout
+STEPS = 300
+VEC_STEPS = 150
+N_VEC = 3
 
 
 def _actions(space, steps, seed, batch=()):
@@ -44,16 +52,17 @@ def _actions(space, steps, seed, batch=()):
 
 
 def _rollout(env, seed, actions):
-    """Observations and rewards of ``actions`` from ``reset(seed)``, resetting (unseeded) at episode ends."""
-    obs, _ = env.reset(seed=seed)
-    O, R = [obs], []
+    """Observations, rewards and ``info["state"]`` rows of ``actions`` from ``reset(seed)``,
+    resetting (unseeded) at episode ends."""
+    obs, info = env.reset(seed=seed)
+    O, R, S = [obs], [], [list(info["state"].values())]
     for a in actions:
-        obs, r, term, trunc, _ = env.step(a)
-        O.append(obs), R.append(r)
+        obs, r, term, trunc, info = env.step(a)
+        O.append(obs), R.append(r), S.append(list(info["state"].values()))
         if term or trunc:
-            obs, _ = env.reset()
-            O.append(obs)
-    return np.array(O), np.array(R)
+            obs, info = env.reset()
+            O.append(obs), S.append(list(info["state"].values()))
+    return np.array(O), np.array(R), np.array(S)
 
 
 def test_stepping_every_env_leaves_the_slow_scipy_modules_unimported():
@@ -79,43 +88,58 @@ def test_registry_lists_every_registered_env():
 
 @pytest.mark.parametrize("env_id", ENV_IDS)
 def test_env_contract(env_id):
+    plant, entry = ENTRIES[env_id]
     env = gym.make(env_id)
     space = env.action_space
 
-    # Gymnasium's API checker: no error and no warning
+    # Gymnasium's API checker and steps at the action bounds: no error and no warning
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         check_env(gym.make(env_id).unwrapped)
+        env.reset(seed=0)
+        for a in (space.sample(), space.low, space.high):
+            _, reward, terminated, truncated, _ = env.step(a)
+            assert type(reward) is float and type(terminated) is bool and type(truncated) is bool
+    assert env.spec.max_episode_steps == entry.max_episode_steps
 
     # reset(seed) fixes the trajectory; another seed draws another episode
     acts = _actions(space, STEPS, seed=1)
-    O1, R1 = _rollout(env, 5, acts)
-    O2, R2 = _rollout(gym.make(env_id), 5, acts)
+    O1, R1, S1 = _rollout(env, 5, acts)
+    O2, R2, S2 = _rollout(gym.make(env_id), 5, acts)
     np.testing.assert_array_equal(O1, O2)
     np.testing.assert_array_equal(R1, R2)
-    O3, _ = _rollout(gym.make(env_id), 6, acts[:1])
-    assert not np.array_equal(O1[0], O3[0]), "seeds 5 and 6 gave the same initial observation"
+    np.testing.assert_array_equal(S1, S2)
+    assert np.ptp(S1, axis=0).max() > 0.0, f"{env_id}: the state did not move in {STEPS} random steps"
+    o5, i5 = gym.make(env_id).reset(seed=5)
+    o6, i6 = gym.make(env_id).reset(seed=6)
+    assert not np.array_equal(o5, o6), "seeds 5 and 6 gave the same initial observation"
+    assert i5["params"] != i6["params"], "seeds 5 and 6 drew the same parameters"
 
     # observations inside the observation space over a random rollout
     for k, obs in enumerate(O1):
         assert env.observation_space.contains(obs), f"{env_id}: observation {k} outside the space: {obs}"
-    assert np.all(np.isfinite(R1))
+    assert O1.dtype == np.float32 and np.all(np.isfinite(R1))
 
     # copy i of the native vector env == a single env reset with seed s + i
-    vacts = _actions(space, STEPS, seed=2, batch=(N_VEC,))
+    vacts = _actions(space, VEC_STEPS, seed=2, batch=(N_VEC,))
     venv = gym.make_vec(env_id, num_envs=N_VEC, vectorization_mode="vector_entry_point")
-    vobs, _ = venv.reset(seed=10)
-    VO, VR, VD = [vobs], [], []
+    module, name = entry.vector_entry_point.split(":")
+    assert type(venv.unwrapped).__module__ == module and type(venv.unwrapped).__name__ == name
+    vobs, info = venv.reset(seed=10)
+    assert list(info["state"]) == list(plant.state_names)
+    assert set(info["params"]) == set(plant.params_cls.names())
+    VO, VR, VS, VD = [vobs], [], [np.array(list(info["state"].values()))], []
     for a in vacts:
-        vobs, r, term, trunc, _ = venv.step(a)
+        vobs, r, term, trunc, info = venv.step(a)
         VO.append(vobs), VR.append(r), VD.append(term | trunc)
-    VO, VR = np.array(VO), np.array(VR)
+        VS.append(np.array(list(info["state"].values())))
+    VO, VR, VS = np.array(VO), np.array(VR), np.array(VS)
     assert not np.any(VD), "rollout too long for the row-by-row comparison (an episode ended)"
     for i in range(N_VEC):
-        single = gym.make(env_id)
-        Oi, Ri = _rollout(single, 10 + i, vacts[:, i])
+        Oi, Ri, Si = _rollout(gym.make(env_id), 10 + i, vacts[:, i])
         np.testing.assert_array_equal(Oi, VO[:, i], err_msg=f"{env_id}: vector copy {i}")
         np.testing.assert_array_equal(Ri, VR[:, i], err_msg=f"{env_id}: vector copy {i}")
+        np.testing.assert_array_equal(Si, VS[:, :, i], err_msg=f"{env_id}: vector copy {i} state")
 
     # pickle and deepcopy mid-episode continue identically
     env = gym.make(env_id)
@@ -130,12 +154,19 @@ def test_env_contract(env_id):
             np.testing.assert_array_equal(o, o2)
             assert r == r2
 
-    # non-finite actions raise ValueError naming the action
+    # non-finite actions raise ValueError naming the action, in the single and the vector env
     if isinstance(space, gym.spaces.Box):
         for bad in (np.nan, np.inf, -np.inf):
-            a = np.full(space.shape, bad, dtype=space.dtype)
-            with pytest.raises(ValueError, match="action"):
-                env.step(a)
+            forms = [np.full(space.shape, bad, dtype=space.dtype), np.full(space.shape, bad).tolist()]
+            if space.shape == (1,):
+                forms.append(float(bad))  # a plain number for a one-dimensional action
+            for a in forms:
+                with pytest.raises(ValueError, match="action must be finite"):
+                    env.step(a)
+        batch = np.zeros((N_VEC,) + space.shape, dtype=space.dtype)
+        batch[-1, -1] = np.nan
+        with pytest.raises(ValueError, match="finite"):
+            venv.step(batch)
 
 
 @pytest.mark.parametrize("env_id", soak.SOAK_ENVS)

@@ -240,50 +240,8 @@ def test_spaces_and_observation_bounds():
         assert env.observation_space.contains(o)
 
 
-def test_same_seed_is_bit_identical_and_seeds_differ():
-    acts = _random_actions(300, 2)
-    a = _rollout(gym.make(ENV_ID).unwrapped, 11, acts)
-    b = _rollout(gym.make(ENV_ID).unwrapped, 11, acts)
-    for x, y in zip(a, b):
-        np.testing.assert_array_equal(x, y)
-    assert np.ptp(a[2][:, cc.VA]) > 1e-3
-    _, i1 = gym.make(ENV_ID).reset(seed=1)
-    _, i2 = gym.make(ENV_ID).reset(seed=2)
-    assert i1["params"] != i2["params"]
-
-
 def _make_vec(n=3, **kw):
     return gym.make_vec(ENV_ID, num_envs=n, vectorization_mode="vector_entry_point", **kw)
-
-
-def test_vector_copy_i_equals_single_env_seeded_s_plus_i():
-    n, seed, steps = 3, 20, 150
-    acts = _random_actions(steps, 5, (n, 2))
-    venv = _make_vec(n)
-    obs, info = venv.reset(seed=seed)
-    VO = [obs]
-    for a in acts:
-        VO.append(venv.step(a)[0])
-    for i in range(n):
-        env = gym.make(ENV_ID)
-        o, _ = env.reset(seed=seed + i)
-        np.testing.assert_array_equal(o, VO[0][i])
-        for k in range(steps):
-            np.testing.assert_array_equal(env.step(acts[k, i])[0], VO[k + 1][i])
-    assert set(info["params"]) == set(LoadSensingParams.names())
-    assert info["state"]["p_s"].shape == (n,)
-
-
-@pytest.mark.parametrize("bad", [np.nan, np.inf, -np.inf])
-def test_non_finite_actions_raise(bad):
-    env = gym.make(ENV_ID)
-    env.reset(seed=0)
-    with pytest.raises(ValueError, match="finite"):
-        env.step(np.array([0.0, bad], dtype=np.float32))
-    venv = _make_vec(2)
-    venv.reset(seed=0)
-    with pytest.raises(ValueError):
-        venv.step(np.array([[0.0, 0.0], [bad, 0.0]], dtype=np.float32))
 
 
 def test_info_state_params_render_and_channels():
