@@ -1,7 +1,8 @@
 """Seed-001 force actuator (plant) and ``hydro_envs/ForceActuator-v0`` (env), checked against
 independent truths: eq (4) and Table 1, the orifice law solved independently, the ZOH
 discretisation of eqs (7)-(8), a Radau reference, the numerical Jacobian, hysteresis loop
-geometry, and the Gymnasium conventions of the servo-cylinder env."""
+geometry, and the env's spaces, info, autoreset and randomisation (the contract every env
+keeps: ``test_env_contract.py``)."""
 
 from __future__ import annotations
 

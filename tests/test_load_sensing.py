@@ -1,9 +1,10 @@
 """``hydro_envs/LoadSensing-v0`` and the LS circuit plant (seed 000 sec. 2, Fig. 1).
 
 Checks against independent truths: the compensator's force balance (the margin), the
-orifice law of the control valve, a stiff Radau reference, the numerical Jacobian, and the
-env conventions (seeding, vector/single equality, guards at the randomisation
-corners). The hydro-mechanical baseline (action 0) must be stable and keep the margin."""
+orifice law of the control valve, a stiff Radau reference, the numerical Jacobian, the env's
+info, channels and guards at the randomisation corners (the contract every env keeps, seeding
+and vector copies among it: ``test_env_contract.py``). The hydro-mechanical baseline (action 0)
+must be stable and keep the margin."""
 
 from __future__ import annotations
 

@@ -1,10 +1,11 @@
-"""``hydro_envs/RodlessCylinder-v0`` (seed 004): the Gymnasium and vector-env conventions, info
-and reset options, the reward, observation semantics and the env's step kernels.
+"""``hydro_envs/RodlessCylinder-v0`` (seed 004): spaces, actions, info and reset options, the
+reward, observation semantics and the env's step kernels.
 
-Every check compares against something independent of the code under test: gymnasium's
-``check_env``, a single env stepped alongside the vector env, the YAML ranges, the reward
-recomputed from ``info["state"]``, eq (1)'s friction at constant speed, and the general step
-kernel against the specialised ones. Plant physics and numerics: ``test_rodless_cylinder.py``.
+Every check compares against something independent of the code under test: the YAML ranges,
+the reward recomputed from ``info["state"]``, eq (1)'s friction at constant speed, and the
+general step kernel against the specialised ones. The contract every env keeps (``check_env``,
+seeding, vector copies, non-finite actions): ``test_env_contract.py``; plant physics and
+numerics: ``test_rodless_cylinder.py``.
 """
 
 from __future__ import annotations

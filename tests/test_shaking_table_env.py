@@ -1,10 +1,11 @@
-"""Shaking table env (seed 003): references, the Gymnasium and vector-env conventions, guards.
+"""Shaking table env (seed 003): references, spaces and channels, vector resets, info, reward, guards.
 
 Every check compares against something independent of the code under test: the reference
-generators' feasibility limits (stroke, flow, force), the Kanai-Tajimi spectrum, gymnasium's
-``check_env``, a single env stepped beside a vector env, the YAML ranges, the reward formula
-recomputed from ``info["state"]``, and long random rollouts at the randomisation corners.
-Plant physics and numerics: ``test_shaking_table.py``.
+generators' feasibility limits (stroke, flow, force), the Kanai-Tajimi spectrum, single envs
+beside a vector env after a masked reset, the YAML ranges, the reward formula recomputed from
+``info["state"]``, and long random rollouts at the randomisation corners. The contract every env
+keeps (``check_env``, seeding, vector copies, non-finite actions): ``test_env_contract.py``;
+plant physics and numerics: ``test_shaking_table.py``.
 """
 
 from __future__ import annotations
