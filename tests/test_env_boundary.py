@@ -260,7 +260,6 @@ def test_reference_array_shorter_than_the_episode_is_refused(env_id, value):
     import numpy as np
 
     env = gym.make(env_id, randomize=False)
-    n = env.unwrapped.max_episode_steps if hasattr(env.unwrapped, "max_episode_steps") else env.spec.max_episode_steps
     with pytest.raises(ValueError, match=r"options\['reference'\] has 10 samples"):
         env.reset(seed=0, options={"reference": np.full(10, value)})
     env.reset(seed=0, options={"reference": np.full(env.spec.max_episode_steps, value)})  # a full one is taken

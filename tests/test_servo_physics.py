@@ -5,7 +5,6 @@ the numerical Jacobian, and the guards' physical invariants."""
 from __future__ import annotations
 
 import dataclasses
-import math
 
 import numpy as np
 import pytest

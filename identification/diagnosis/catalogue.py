@@ -34,7 +34,6 @@ multiplied by <= 0.2 at any speed where it has not decayed; in simulated records
 from __future__ import annotations
 
 import dataclasses
-import math
 from collections.abc import Mapping
 from typing import Any
 
