@@ -31,6 +31,7 @@ from gymnasium import spaces
 
 from hydro_envs.envs.base import PlantBatch, check_nonnegative, fill_reference
 from hydro_envs.envs.render import render_cylinder
+from hydro_envs.jit import njit_noalloc
 
 __all__ = ["PREVIEW_STEPS", "OBS_DIM", "CylinderTrackingBatch", "observation_space", "check_reference_array"]
 
@@ -78,7 +79,7 @@ def _observe_copy(i, Y, P, REF, K, NOISE, last_a, prev_a, quant, e_scale, rate_p
     reward[i] = -(e * e) - rate_pen * da * da
 
 
-@nb.njit(cache=True, error_model="numpy")
+@njit_noalloc
 def _observe(Y, P, REF, K, NOISE, last_a, prev_a, quant, e_scale, rate_pen, preview,
                     obs_low, obs_high, ix, ip1, ip2, i_stroke, i_supply, obs, reward, meas):
     for i in range(Y.shape[0]):

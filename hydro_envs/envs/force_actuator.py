@@ -57,6 +57,7 @@ from gymnasium import spaces
 
 from hydro_envs.envs.base import BatchedEnv, BatchedVectorEnv, PlantBatch, check_nonnegative, fill_reference
 from hydro_envs.envs.render import render_cylinder
+from hydro_envs.jit import njit_noalloc
 from hydro_envs.plants.force_actuator import model as plant
 from hydro_envs.plants.force_actuator.params import ForceActuatorParams
 from hydro_envs.plants.force_actuator.spec import SPEC
@@ -142,13 +143,13 @@ def _observe_copy(i, Y, P, REF, K, NOISE, last_a, prev_a, e_scale, rate_pen, pre
     reward[i] = -(e * e) - rate_pen * da * da
 
 
-@nb.njit(cache=True, error_model="numpy")
+@njit_noalloc
 def _observe(Y, P, REF, K, NOISE, last_a, prev_a, e_scale, rate_pen, preview, obs, reward, meas):
     for i in range(Y.shape[0]):
         _observe_copy(i, Y, P, REF, K, NOISE, last_a, prev_a, e_scale, rate_pen, preview, obs, reward, meas)
 
 
-@nb.njit(cache=True, error_model="numpy")
+@njit_noalloc
 def _apply_delayed(last_a, P, pending, head, n_delay, U):
     """Action in [-1, 1] -> valve current [A] into the ring buffer ``pending`` at column ``head``;
     the current applied now, ``U[:, 0]``, is the one computed ``n_delay`` steps ago."""

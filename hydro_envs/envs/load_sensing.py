@@ -70,6 +70,7 @@ import numpy as np
 from gymnasium import spaces
 
 from hydro_envs.envs.base import VELOCITY_FACTOR, BatchedEnv, BatchedVectorEnv, PlantBatch, check_nonnegative, fill_reference
+from hydro_envs.jit import njit_noalloc
 from hydro_envs.plants.load_sensing import model as plant
 from hydro_envs.plants.load_sensing.params import LoadSensingParams
 from hydro_envs.plants.load_sensing.spec import SPEC
@@ -148,13 +149,13 @@ def _observe_copy(i, Y, P, REF, FF, K, NOISE, last_a, prev_a, dpm, m_weight, rat
     reward[i] = -(e * e) - m_weight * me * me - rate_pen * (d0 * d0 + d1 * d1)
 
 
-@nb.njit(cache=True, error_model="numpy")
+@njit_noalloc
 def _observe(Y, P, REF, FF, K, NOISE, last_a, prev_a, dpm, m_weight, rate_pen, preview, obs_low, obs_high, obs, reward, meas):
     for i in range(Y.shape[0]):
         _observe_copy(i, Y, P, REF, FF, K, NOISE, last_a, prev_a, dpm, m_weight, rate_pen, preview, obs_low, obs_high, obs, reward, meas)
 
 
-@nb.njit(cache=True, error_model="numpy")
+@njit_noalloc
 def _apply(last_a, FF, K, P, U):
     n_ref = FF.shape[1]
     for i in range(U.shape[0]):

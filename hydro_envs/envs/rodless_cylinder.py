@@ -60,7 +60,6 @@ from __future__ import annotations
 
 from typing import Any, Mapping
 
-import numba as nb
 import numpy as np
 
 from hydro_envs.envs.base import VELOCITY_FACTOR, BatchedEnv, BatchedVectorEnv
@@ -72,6 +71,7 @@ from hydro_envs.envs.cylinder_tracking import (
     observation_space,
 )
 from hydro_envs.envs.references import REFERENCE_KINDS, generate_reference
+from hydro_envs.jit import njit_noalloc
 from hydro_envs.plants.rodless_cylinder import model as plant
 from hydro_envs.plants.rodless_cylinder.params import RodlessCylinderParams
 from hydro_envs.plants.rodless_cylinder.spec import SPEC
@@ -94,7 +94,7 @@ TASKS = ("positioning", "tracking", "mixed")
 _TRACKING_KINDS = ("smooth", "sine", "chirp")
 
 
-@nb.njit(cache=True, error_model="numpy")
+@njit_noalloc
 def _apply_actions(last_a, P, U):
     """a in [-1, 1] -> U = centre + a (max - centre): 0..10 V with the 5 V closed centre."""
     for i in range(U.shape[0]):

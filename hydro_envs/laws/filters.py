@@ -20,6 +20,8 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from hydro_envs.jit import njit_noalloc
+
 __all__ = ["butterworth_lowpass_sos", "sos_filter_step", "lfilter_from_rest", "backward_difference"]
 
 #: ``scipy.signal.butter(8, 40.0, fs=1000.0, output="sos")`` (the 003 sec. 4 filter at the table's
@@ -60,7 +62,7 @@ def butterworth_lowpass_sos(order: int, cutoff_hz: float, sample_rate_hz: float)
     )
 
 
-@numba.njit(cache=True, error_model="numpy")
+@njit_noalloc
 def sos_filter_step(sos, zi, x):
     """Filter one sample ``x`` through the cascade ``sos`` with state ``zi`` (updated in place).
 

@@ -20,6 +20,7 @@ import math
 
 import numba as nb
 
+from hydro_envs.jit import njit_noalloc
 from hydro_envs.laws.contact import end_stop_force
 
 __all__ = ["stop_split", "stroke_check", "replay_step", "replay_step_lookahead"]
@@ -96,7 +97,7 @@ def _substep_with_energy(rhs, guard, mech, y, u, p, h, w):
     return dw, dq, dturn, contact, bad
 
 
-@nb.njit(cache=True, error_model="numpy")
+@njit_noalloc
 def _no_refinement(y0, y, p, h, m):
     return 1
 

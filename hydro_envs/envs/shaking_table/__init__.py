@@ -83,6 +83,7 @@ from hydro_envs.envs.shaking_table.references import (
     generate_table_reference,
     reference_limits,
 )
+from hydro_envs.jit import njit_noalloc
 from hydro_envs.laws.filters import butterworth_lowpass_sos, sos_filter_step
 from hydro_envs.plants.shaking_table import model as plant
 from hydro_envs.plants.shaking_table.model import table_acceleration
@@ -166,7 +167,7 @@ def _observe_copy(i, Y, P, REF, REFV, REFX, K, NOISE, last_a, prev_a, sos, ZI, X
     reward[i] = -(e * e) - rate_pen * da * da - pos_pen * xr * xr
 
 
-@nb.njit(cache=True, error_model="numpy")
+@njit_noalloc
 def _observe_serial(Y, P, REF, REFV, REFX, K, NOISE, last_a, prev_a, sos, ZI, XPREV, VF, KOBS, quant, dt, e_scale,
                     a_scale, v_scale, a_range, v_range, rate_pen, pos_pen, preview, obs_low, obs_high,
                     obs, reward, meas):

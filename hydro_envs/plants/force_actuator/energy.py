@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import numba as nb
 
+from hydro_envs.jit import njit_noalloc
 from hydro_envs.laws.friction import tanh_sign
 from hydro_envs.plants.force_actuator import model as fa
 from hydro_envs.plants.force_actuator.model import force_actuator_guard as guard
@@ -21,7 +22,7 @@ __all__ = ["mech_terms", "state_breaches", "energy_replay", "N_BODIES"]
 N_BODIES = 1
 
 
-@nb.njit(cache=True, error_model="numpy")
+@njit_noalloc
 def mech_terms(y, p):
     """Sensor mass on its spring (and, free, the piston with its load on the load spring):
     kinetic and spring energy, stop spring. Ports: the valve-driven fluid force minus the
@@ -51,7 +52,7 @@ def mech_terms(y, p):
     return e, p_in, d_sensor + d_f + d_st, d_sensor + abs(d_f) + abs(d_st), u_st
 
 
-@nb.njit(cache=True, error_model="numpy")
+@njit_noalloc
 def state_breaches(Y, P, RUN, flags):
     """``flags[i]`` = (0: no pressure states, the blocked force is a transfer function;
     extension ``x_p + x_s`` past the stroke beyond the penetration bound); updates ``RUN``."""

@@ -116,6 +116,7 @@ import math
 import numba as nb
 import numpy as np
 
+from hydro_envs.jit import njit_noalloc
 from hydro_envs.laws.contact import end_stop_force
 from hydro_envs.laws.elementary import tanh_one_exp
 from hydro_envs.laws.filters import lfilter_from_rest
@@ -309,7 +310,7 @@ def fluid_state_space() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
 _PHI0 = 0.1  # damping family floor at the valve null (module doc)
 
 
-@nb.njit(cache=True, error_model="numpy")
+@njit_noalloc
 def static_force(xi, ps, a1, a2):
     """Blocked (zero-flow) piston force [N] at normalised jet position ``xi`` (001 sec. 3.1).
 
@@ -323,7 +324,7 @@ def static_force(xi, ps, a1, a2):
     return ps * (a1 * (1.0 + xi) ** 2 - a2 * (1.0 - xi) ** 2) / (2.0 * (1.0 + xi * xi))
 
 
-@nb.njit(cache=True, error_model="numpy")
+@njit_noalloc
 def hydraulic_damping(xi, v, a_sat, v_max, kappa, c_lin):
     """Hydraulic damping force of 001 eq (5) [N] (before the 0.4 output gain).
 
@@ -334,7 +335,7 @@ def hydraulic_damping(xi, v, a_sat, v_max, kappa, c_lin):
     return hydraulic_damping_knee(xi, v, a_sat, v_max, kappa, tanh_one_exp(kappa), c_lin)
 
 
-@nb.njit(cache=True, error_model="numpy")
+@njit_noalloc
 def hydraulic_damping_knee(xi, v, a_sat, v_max, kappa, tanh_kappa, c_lin):
     """:func:`hydraulic_damping` with ``tanh(kappa)`` given (a parameter-only term, the
     ``D_TANHK`` column of the kernel parameter row)."""
@@ -350,7 +351,7 @@ def hydraulic_damping_knee(xi, v, a_sat, v_max, kappa, tanh_kappa, c_lin):
     return f + c_lin * v
 
 
-@nb.njit(cache=True, error_model="numpy")
+@njit_noalloc
 def stiction_level(v, f_c, fs_retract, fs_extend, v_s):
     """Friction level g(v) [N]: Stribeck curve from the direction's static level to F_c."""
     fs = fs_extend if v > 0.0 else fs_retract
@@ -358,7 +359,7 @@ def stiction_level(v, f_c, fs_retract, fs_extend, v_s):
     return f_c + (fs - f_c) * math.exp(-r * r)
 
 
-@nb.njit(cache=True, error_model="numpy")
+@njit_noalloc
 def valve_position(y, p):
     """Normalised valve position x_v from the coil current and the hysteresis memory."""
     ic = y[IC]
@@ -371,7 +372,7 @@ def valve_position(y, p):
     return xt, xv
 
 
-@nb.njit(cache=True, error_model="numpy")
+@njit_noalloc
 def measured_force(y, p):
     """The force the controller reads [N]: ``k_s x_s`` (eq (3)) through the feedback
     conditioning filter (state ``fm``) when ``feedback_filter_frequency`` > 0."""
@@ -380,7 +381,7 @@ def measured_force(y, p):
     return p[I_KS] * y[XS]
 
 
-@nb.njit(cache=True, error_model="numpy")
+@njit_noalloc
 def force_actuator_rhs(y, u, p, dy):
     """Time derivative ``dy`` of state ``y`` under valve current ``u[0]`` [A] (001 fig. 2)."""
     # valve: coil (fast pole of G), hysteresis, slow stage (eq (7))
@@ -439,7 +440,7 @@ def force_actuator_rhs(y, u, p, dy):
         dy[FMD] = 0.0
 
 
-@nb.njit(cache=True, error_model="numpy")
+@njit_noalloc
 def force_actuator_guard(y, p):
     """After a sub-step: update the play memories (exact for the monotone coil current) and
     project the friction force onto ``|F_f| <= max static level``; return #clamps."""
@@ -555,7 +556,7 @@ def dahl_relaxation_bound(params: ForceActuatorParams) -> float:
 #: h lambda at which an RK4 sub-step is taken stable (the sub-step safety of hydro_envs.sim.stiffness)
 
 
-@nb.njit(cache=True, error_model="numpy")
+@njit_noalloc
 def dahl_friction_shallow(y0, y, p, h):
     """True where an RK4 sub-step of ``h`` seconds keeps the Dahl state stable at state ``y``:
     ``h 4 sigma0 |v| / F_c`` inside RK4's real-axis bound (with the sub-step safety) at the
@@ -570,7 +571,7 @@ def dahl_friction_shallow(y0, y, p, h):
     return h * 4.0 * p[I_SIG] * abs(v) / p[I_FC] <= STABLE_H_LAMBDA
 
 
-@nb.njit(cache=True, error_model="numpy")
+@njit_noalloc
 def dahl_friction_substeps(y0, x, p, h, m):
     """RK4 steps of ``h / n`` that take a sub-step of ``h`` from ``y0`` (Euler prediction of its
     end ``x``) with the Dahl state stable (:func:`hydro_envs.sim.rk4.rk4_advance_lookahead`):
@@ -587,7 +588,7 @@ def dahl_friction_substeps(y0, x, p, h, m):
     return local_substeps(h * 4.0 * p[I_SIG] * max(abs(v0), abs(v1)) / p[I_FC], STABLE_H_LAMBDA, m)
 
 
-@nb.njit(cache=True, error_model="numpy")
+@njit_noalloc
 def dahl_friction_refinement(p, h):
     """Sub-steps per step of ``h`` seconds that keep the Dahl state stable up to the velocity
     bound (:func:`dahl_relaxation_bound`); 1 for the static curve and a frictionless set."""

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import numba as nb
 
+from hydro_envs.jit import njit_noalloc
 from hydro_envs.laws.friction import tanh_sign
 from hydro_envs.plants.load_sensing import model as ls
 from hydro_envs.plants.load_sensing.model import load_sensing_guard as guard
@@ -21,7 +22,7 @@ __all__ = ["mech_terms", "state_breaches", "energy_replay", "N_BODIES"]
 N_BODIES = 3
 
 
-@nb.njit(cache=True, error_model="numpy")
+@njit_noalloc
 def mech_terms(y, p):
     """Three bodies: the flow-compensator spool (000 eq (4)) on its spring and preload, the
     swash-plate control pistons on the bias spring, and the actuator with its load. Ports:
@@ -55,7 +56,7 @@ def mech_terms(y, p):
     return e, p_in, d, abs(d_spool) + abs(d_s) + abs(d_piston) + abs(d_y) + abs(d_act) + abs(d_a), u_s + u_y + u_a
 
 
-@nb.njit(cache=True, error_model="numpy")
+@njit_noalloc
 def state_breaches(Y, P, RUN, flags):
     """``flags[i]`` = (delivery, control, load or LS pressure below the cavitation floor; the
     actuator, the spool or the control pistons past their stops beyond the penetration

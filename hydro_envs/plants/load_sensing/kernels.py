@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import numba as nb
 
+from hydro_envs.jit import njit_noalloc
 from hydro_envs.plants.load_sensing.model import load_sensing_rhs as rhs
 from hydro_envs.plants.load_sensing.model import load_sensing_guard as guard
 from hydro_envs.plants.load_sensing.model import local_mode_refinement, local_mode_substeps
@@ -22,7 +23,7 @@ from hydro_envs.sim.rk4 import in_blocks, rhs_along, rk4_advance_lookahead, rk4_
 __all__ = ["step_serial", "step_parallel", "trajectories", "derivatives", "rhs", "guard"]
 
 
-@nb.njit(cache=True, error_model="numpy")
+@njit_noalloc
 def step_serial(Y, U, P, dt, NSUB, W, clamps):
     """Advance every copy by one step of ``dt`` seconds in ``NSUB[i]`` sub-steps (serial)."""
     for i in range(Y.shape[0]):

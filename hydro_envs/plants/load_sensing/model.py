@@ -59,6 +59,7 @@ import math
 import numba as nb
 import numpy as np
 
+from hydro_envs.jit import njit_noalloc
 from hydro_envs.laws.contact import end_stop_force
 from hydro_envs.laws.friction import tanh_sign
 from hydro_envs.laws.orifice import regularized_signed_sqrt, regularized_signed_sqrt_slope_bound
@@ -112,7 +113,7 @@ STANDBY_SETTLE_TIME = 0.1
 STANDBY_SETTLE_STEP = 1e-3
 
 
-@nb.njit(cache=True, error_model="numpy")
+@njit_noalloc
 def load_sensing_rhs(y, u, p, dy):
     """Time derivative of the LS circuit state (module docstring equations)."""
     x = y[X]
@@ -192,7 +193,7 @@ def load_sensing_rhs(y, u, p, dy):
     dy[FSOL] = (u[0] - fsol) * p[D_INV_TSOL]
 
 
-@nb.njit(cache=True, error_model="numpy")
+@njit_noalloc
 def load_sensing_guard(y, p):
     """Clamp the four pressures at the cavitation floor; return the number of clamps."""
     n = 0
@@ -252,7 +253,7 @@ def local_mode_rate(y, p):
     return max(control, max(delivery, load))
 
 
-@nb.njit(cache=True, error_model="numpy")
+@njit_noalloc
 def local_mode_substeps(y0, x, p, h, m):
     """RK4 steps of ``h / n`` that take a sub-step of ``h`` from ``y0`` (Euler prediction of its
     end ``x``) stably in the locally refined modes (:func:`hydro_envs.sim.rk4.rk4_advance_lookahead`):
@@ -349,7 +350,7 @@ def settled_standby_state(params: LoadSensingParams, xa: float) -> np.ndarray:
     return y
 
 
-@nb.njit(cache=True, error_model="numpy")
+@njit_noalloc
 def _settle(y, u, p, h, n_sub, work):
     """``n_sub`` RK4 steps of ``h`` under constant input ``u`` (the kernels' sub-step loop)."""
     return rk4_advance(load_sensing_rhs, load_sensing_guard, y, u, p, h, n_sub, work)

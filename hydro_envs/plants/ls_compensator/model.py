@@ -96,9 +96,9 @@ from __future__ import annotations
 import dataclasses
 import math
 
-import numba as nb
 import numpy as np
 
+from hydro_envs.jit import njit_noalloc
 from hydro_envs.laws.contact import end_stop_force
 from hydro_envs.laws.orifice import regularized_signed_sqrt
 from hydro_envs.plants.ls_compensator.params import (  # noqa: F401  (re-exported)
@@ -155,7 +155,7 @@ def n_states(params: LSCompensatorParams) -> int:
     return 5 if n == 0 else 4 + 2 * n
 
 
-@nb.njit(cache=True, error_model="numpy")
+@njit_noalloc
 def ls_compensator_rhs(y, u, p, dy):
     """Time derivative ``dy`` of ``y`` under the boundary ``p1 = u[0] + u[1] tau`` (000 eqs (4)-(6))."""
     ny = y.shape[0]
@@ -240,7 +240,7 @@ def ls_compensator_rhs(y, u, p, dy):
     dy[V] = force / p[D_M]
 
 
-@nb.njit(cache=True, error_model="numpy")
+@njit_noalloc
 def ls_compensator_guard(y, p):
     """Clamp pressures at the cavitation floor after a sub-step; return the number of clamps."""
     n = 0

@@ -11,6 +11,7 @@ import math
 
 import numba as nb
 
+from hydro_envs.jit import njit_noalloc
 from hydro_envs.laws.friction import stribeck_exponential
 from hydro_envs.laws.stribeck_lugre import lugre_exponential_rate
 from hydro_envs.plants.rodless_cylinder import model as rc
@@ -24,7 +25,7 @@ __all__ = ["mech_terms", "state_breaches", "energy_replay", "N_BODIES"]
 N_BODIES = 1
 
 
-@nb.njit(cache=True, error_model="numpy")
+@njit_noalloc
 def mech_terms(y, p):
     """Carriage: kinetic energy, load potential and stop spring; port A (p_a - p_b) v; the
     Stribeck friction (004 Table 2, memoryless) dissipates, while a LuGre bristle force (when
@@ -44,7 +45,7 @@ def mech_terms(y, p):
     return e, p_in, d_f + d_st, abs(d_f) + abs(d_st), u_st
 
 
-@nb.njit(cache=True, error_model="numpy")
+@njit_noalloc
 def state_breaches(Y, P, RUN, flags):
     """``flags[i]`` = (chamber pressure, air mass or temperature not positive or below its
     floor, carriage past its stops beyond the penetration bound); updates ``RUN``."""

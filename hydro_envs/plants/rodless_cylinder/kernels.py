@@ -25,6 +25,7 @@ import types
 import numba as nb
 import numpy as np
 
+from hydro_envs.jit import njit_noalloc
 from hydro_envs.plants.rodless_cylinder.model import I_RSUP, I_SIG0
 from hydro_envs.plants.rodless_cylinder.model import rodless_cylinder_rhs as rhs
 from hydro_envs.plants.rodless_cylinder.model import rodless_cylinder_rhs_stiff_supply as rhs_stiff
@@ -35,7 +36,7 @@ from hydro_envs.sim.rk4 import in_blocks, rhs_along, rk4_advance_lookahead, rk4_
 __all__ = ["step_serial", "step_parallel", "trajectories", "derivatives", "rhs", "guard", "for_params"]
 
 
-@nb.njit(cache=True, error_model="numpy")
+@njit_noalloc
 def step_serial(Y, U, P, dt, NSUB, W, clamps):
     """Advance every copy by one step of ``dt`` seconds in ``NSUB[i]`` sub-steps (serial)."""
     for i in range(Y.shape[0]):
@@ -66,7 +67,7 @@ def derivatives(X, U, P, OUT):
         rhs_along(rhs, X[i], U[i], P[i], OUT[i])
 
 
-@nb.njit(cache=True, error_model="numpy")
+@njit_noalloc
 def _step_serial_stiff(Y, U, P, dt, NSUB, W, clamps):
     for i in range(Y.shape[0]):
         h = dt / NSUB[i]
@@ -79,7 +80,7 @@ def _step_parallel_stiff(Y, U, P, dt, NSUB, W, clamps):
     in_blocks(_step_serial_stiff, Y, U, P, dt, NSUB, W, clamps)
 
 
-@nb.njit(cache=True, error_model="numpy")
+@njit_noalloc
 def _step_serial_lugre(Y, U, P, dt, NSUB, W, clamps):
     for i in range(Y.shape[0]):
         h = dt / NSUB[i]
@@ -92,7 +93,7 @@ def _step_parallel_lugre(Y, U, P, dt, NSUB, W, clamps):
     in_blocks(_step_serial_lugre, Y, U, P, dt, NSUB, W, clamps)
 
 
-@nb.njit(cache=True, error_model="numpy")
+@njit_noalloc
 def _step_serial_stiff_lugre(Y, U, P, dt, NSUB, W, clamps):
     for i in range(Y.shape[0]):
         h = dt / NSUB[i]

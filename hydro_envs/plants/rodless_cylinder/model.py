@@ -88,6 +88,7 @@ import math
 import numba as nb
 import numpy as np
 
+from hydro_envs.jit import njit_noalloc
 from hydro_envs.laws.contact import end_stop_force
 from hydro_envs.laws.friction import stribeck_exponential, stribeck_exponential_slope_bound
 from hydro_envs.laws.nozzle_fast import nozzle_mass_flow_fast, nozzle_mass_flow_slope_fast
@@ -153,7 +154,7 @@ DERIVATIVE_OUTPUTS: dict[str, int] = {}
 FIT_OUTPUTS = ("y", "pa", "pb")
 
 
-@nb.njit(cache=True, error_model="numpy")
+@njit_noalloc
 def _edge_flow(p, area, p_up, p_down, t_up, sqrt_rt_up):
     """Mass flow [kg/s] through one metering edge of uncovered area ``area`` (eqs (3)-(4) or ISO 6358).
 
@@ -197,14 +198,14 @@ def _vented_chamber_flows(p, m_in, s_out, pc, tc):
     return m_in - m_out, m_in * t_in - m_out * t_out
 
 
-@nb.njit(cache=True, error_model="numpy")
+@njit_noalloc
 def _port_draw(p, s_plus, s_minus, pa, ta, pb, tb, psv):
     """Net mass flow [kg/s] out of the valve's P port at ``psv`` through its two P edges
     (P->A over ``s_plus``, P->B over ``s_minus``); back-flow from a chamber counts negative."""
     return _supply_edge_flow(p, s_plus, psv, pa, ta) + _supply_edge_flow(p, s_minus, psv, pb, tb)
 
 
-@nb.njit(cache=True, error_model="numpy")
+@njit_noalloc
 def _port_edge_slopes(p, s_plus, s_minus, pa, ta, pb, tb, psv):
     """The two P-edge flows of :func:`_port_draw` and their derivatives with respect to the
     port pressure ``psv`` [kg/(s Pa)]: ``(m_a, dm_a, m_b, dm_b)``; the nozzle law's analytic
@@ -238,7 +239,7 @@ def _port_edge_slopes(p, s_plus, s_minus, pa, ta, pb, tb, psv):
 NEWTON_STOP = 1e-6
 
 
-@nb.njit(cache=True, error_model="numpy")
+@njit_noalloc
 def supply_port_pressure(p, s_plus, s_minus, pa, ta, pb, tb):
     """Pressure [Pa] at the valve's P port when the supply droops with the drawn mass flow.
 
@@ -278,7 +279,7 @@ def supply_port_flows(p, s_plus, s_minus, pa, ta, pb, tb):
     return _drooping_supply_flows(p, s_plus, s_minus, pa, ta, pb, tb)
 
 
-@nb.njit(cache=True, error_model="numpy")
+@njit_noalloc
 def _drooping_supply_flows(p, s_plus, s_minus, pa, ta, pb, tb):
     """:func:`supply_port_flows` with ``supply_line_resistance > 0``: the safeguarded Newton
     solve of :func:`supply_port_pressure`."""
@@ -320,13 +321,13 @@ def fixed_supply_flows(p, s_plus, s_minus, pa, ta, pb, tb):
     return ps, _supply_edge_flow(p, s_plus, ps, pa, ta), _supply_edge_flow(p, s_minus, ps, pb, tb)
 
 
-@nb.njit(cache=True, error_model="numpy")
+@njit_noalloc
 def rodless_cylinder_rhs(y, u, p, dy):
     """Time derivative ``dy`` of state ``y`` under valve command ``u[0]`` [V] (004 model)."""
     _rhs(supply_port_flows, y, u, p, dy)
 
 
-@nb.njit(cache=True, error_model="numpy")
+@njit_noalloc
 def rodless_cylinder_rhs_stiff_supply(y, u, p, dy):
     """:func:`rodless_cylinder_rhs` for parameter sets without supply droop
     (``supply_line_resistance = 0``, where :func:`supply_port_flows` is :func:`fixed_supply_flows`): the
@@ -401,14 +402,14 @@ def _rhs(supply, y, u, p, dy):
 # ------------------------------------------------------- sub-steps of the static friction curve
 
 
-@nb.njit(cache=True, error_model="numpy")
+@njit_noalloc
 def _stop_damping_at_full_thrust(p):
     """Hunt-Crossley stop damping [N s/m] at full thrust ``alpha A (1.5 p_s - p_floor)`` (as in
     :func:`stiffness_modes`)."""
     return p[I_ASTOP] * p[D_AREA] * (1.5 * p[I_PS] - p[I_PFLOOR])
 
 
-@nb.njit(cache=True, error_model="numpy")
+@njit_noalloc
 def static_friction_rate(v, p):
     """Upper bound [1/s] of ``|d vdot / d v|`` from eq (18) with the static curve (no bristle
     state) at velocity ``v``: the curve's slope (sign regularisation, Stribeck dip, viscous
@@ -484,13 +485,13 @@ def local_mode_rate(y, p):
     return max(orifice_rate(y, p), friction)
 
 
-@nb.njit(cache=True, error_model="numpy")
+@njit_noalloc
 def _lugre_local_rate(y, p):
     """The larger of :func:`orifice_rate` and the LuGre block's rate at state ``y`` [1/s]."""
     return max(orifice_rate(y, p), _lugre_rate(y, p))
 
 
-@nb.njit(cache=True, error_model="numpy")
+@njit_noalloc
 def lugre_local_shallow(y0, y, p, h):
     """:func:`local_mode_shallow` for parameter sets with a bristle state, compiled without the
     static curve's branch (the envs' kernels when every copy has one)."""
@@ -499,7 +500,7 @@ def lugre_local_shallow(y0, y, p, h):
     return h * _lugre_local_rate(y, p) <= STABLE_H_LAMBDA
 
 
-@nb.njit(cache=True, error_model="numpy")
+@njit_noalloc
 def local_mode_shallow(y0, y, p, h):
     """True where an RK4 sub-step of ``h`` seconds stays stable in the locally refined modes at
     state ``y`` (the step's start ``y0``, its Euler prediction ``y``;
@@ -514,7 +515,7 @@ def local_mode_shallow(y0, y, p, h):
     return h * local_mode_rate(y, p) <= STABLE_H_LAMBDA
 
 
-@nb.njit(cache=True, error_model="numpy")
+@njit_noalloc
 def lugre_local_substeps(y0, x, p, h, m):
     """:func:`local_mode_substeps` for parameter sets with a bristle state, compiled without the
     static curve's branch (the envs' kernels when every copy has one). 1 exactly where
@@ -524,7 +525,7 @@ def lugre_local_substeps(y0, x, p, h, m):
     return local_substeps(h * max(_lugre_local_rate(y0, p), _lugre_local_rate(x, p)), STABLE_H_LAMBDA, m)
 
 
-@nb.njit(cache=True, error_model="numpy")
+@njit_noalloc
 def local_mode_substeps(y0, x, p, h, m):
     """RK4 steps of ``h / n`` that take a sub-step of ``h`` from ``y0`` (Euler prediction of its
     end ``x``) stably in the locally refined modes (:func:`hydro_envs.sim.rk4.rk4_advance_lookahead`):
@@ -549,7 +550,7 @@ def local_mode_refinement(p, h):
     return worst_case_substeps(h * p[D_LOCAL])
 
 
-@nb.njit(cache=True, error_model="numpy")
+@njit_noalloc
 def rodless_cylinder_guard(y, p):
     """Project the state back onto the physical set after a sub-step; return #clamps."""
     n = 0

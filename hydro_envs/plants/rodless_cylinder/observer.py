@@ -22,10 +22,10 @@ from __future__ import annotations
 
 import functools
 
-import numba as nb
 import numpy as np
 from scipy.linalg import expm
 
+from hydro_envs.jit import njit_noalloc
 from hydro_envs.laws.orifice import circular_orifice_area
 from hydro_envs.plants.rodless_cylinder.model import _vented_chamber_flows, supply_port_flows
 from hydro_envs.plants.rodless_cylinder.params import (
@@ -35,7 +35,7 @@ from hydro_envs.plants.rodless_cylinder.params import (
 __all__ = ["chamber_temperature_track"]
 
 
-@nb.njit(cache=True, error_model="numpy")
+@njit_noalloc
 def _track(p, y, pa, pb, u, dt, ad, bd, ta, tb):
     n = y.shape[0]
     r_gas = p[I_R]

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import numba as nb
 
+from hydro_envs.jit import njit_noalloc
 from hydro_envs.laws.friction import stribeck_exponential, tanh_sign
 from hydro_envs.plants.servo_cylinder import model as sc
 from hydro_envs.plants.servo_cylinder.model import servo_cylinder_guard as guard
@@ -21,7 +22,7 @@ __all__ = ["mech_terms", "state_breaches", "energy_replay", "N_BODIES"]
 N_BODIES = 1
 
 
-@nb.njit(cache=True, error_model="numpy")
+@njit_noalloc
 def mech_terms(y, p):
     """Piston: kinetic energy, load potential and stop spring; port A (p1 - p2) v; friction
     (002 eq (1), memoryless: passive) and stop damping dissipate."""
@@ -38,7 +39,7 @@ def mech_terms(y, p):
     return e, p[sc.I_A] * dp * v, ff * v + d_st, abs(ff * v) + abs(d_st), u_st
 
 
-@nb.njit(cache=True, error_model="numpy")
+@njit_noalloc
 def state_breaches(Y, P, RUN, flags):
     """``flags[i]`` = (chamber pressures below the cavitation floor, piston past its stops
     beyond the penetration bound); updates the running maxima ``RUN``."""

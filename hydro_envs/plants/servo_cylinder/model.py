@@ -66,9 +66,9 @@ from __future__ import annotations
 
 import math
 
-import numba as nb
 import numpy as np
 
+from hydro_envs.jit import njit_noalloc
 from hydro_envs.laws.contact import end_stop_force
 from hydro_envs.laws.friction import stribeck_exponential, tanh_sign
 from hydro_envs.laws.orifice import orifice_flow, spool_edge_opening, supply_pressure_at_flow
@@ -103,7 +103,7 @@ DERIVATIVE_OUTPUTS: dict[str, int] = {}
 FIT_OUTPUTS = ("x", "p1", "p2")
 
 
-@nb.njit(cache=True, error_model="numpy")
+@njit_noalloc
 def servo_cylinder_rhs(y, u, p, dy):
     """Time derivative ``dy`` of state ``y`` under command ``u[0]`` [V] (002 eq (8))."""
     x = y[X]
@@ -178,7 +178,7 @@ def servo_cylinder_rhs(y, u, p, dy):
     dy[VV] = second_order_valve_acceleration(xv, vv, u[0], p[I_KV], p[I_WV], p[I_ZV])  # (2), (8.6)
 
 
-@nb.njit(cache=True, error_model="numpy")
+@njit_noalloc
 def servo_cylinder_guard(y, p):
     """Project the state back onto the physical set after a sub-step; return #clamps."""
     n = 0

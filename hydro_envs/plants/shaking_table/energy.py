@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import numba as nb
 
+from hydro_envs.jit import njit_noalloc
 from hydro_envs.laws.friction import stribeck_gaussian
 from hydro_envs.plants.shaking_table import model as st
 from hydro_envs.plants.shaking_table.model import shaking_table_guard as guard
@@ -21,7 +22,7 @@ __all__ = ["mech_terms", "state_breaches", "energy_replay", "N_BODIES"]
 N_BODIES = 1
 
 
-@nb.njit(cache=True, error_model="numpy")
+@njit_noalloc
 def mech_terms(y, p):
     """Table and specimen: kinetic energy and stop spring; port A (p_a - p_b) v; friction
     (003 eqs (11)-(12), memoryless: passive) and stop damping dissipate."""
@@ -34,7 +35,7 @@ def mech_terms(y, p):
     return e, p[st.I_A] * (y[st.PA] - y[st.PB]) * v, ff * v + d_st, abs(ff * v) + abs(d_st), u_st
 
 
-@nb.njit(cache=True, error_model="numpy")
+@njit_noalloc
 def state_breaches(Y, P, RUN, flags):
     """``flags[i]`` = (chamber pressures below the cavitation floor, table past its end-strokes
     beyond the penetration bound); updates the running maxima ``RUN``."""

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import numba as nb
 
+from hydro_envs.jit import njit_noalloc
 from hydro_envs.plants.shaking_table.model import local_mode_refinement, local_mode_substeps
 from hydro_envs.plants.shaking_table.model import shaking_table_guard as guard
 from hydro_envs.plants.shaking_table.model import shaking_table_rhs as rhs
@@ -23,7 +24,7 @@ from hydro_envs.sim.rk4 import in_blocks, rhs_along, rk4_advance_lookahead, rk4_
 __all__ = ["step_serial", "step_parallel", "trajectories", "derivatives", "rhs", "guard"]
 
 
-@nb.njit(cache=True, error_model="numpy")
+@njit_noalloc
 def step_serial(Y, U, P, dt, NSUB, W, clamps):
     """Advance every copy by one step of ``dt`` seconds in ``NSUB[i]`` sub-steps (serial)."""
     for i in range(Y.shape[0]):

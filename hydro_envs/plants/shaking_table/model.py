@@ -79,6 +79,7 @@ from typing import Any
 import numba as nb
 import numpy as np
 
+from hydro_envs.jit import njit_noalloc
 from hydro_envs.laws.bulk_modulus_fast import ifas_bulk_modulus_scaled, modified_ifas_shape_fast
 from hydro_envs.laws.contact import end_stop_force
 from hydro_envs.laws.friction import stribeck_gaussian
@@ -163,7 +164,7 @@ def chamber_moduli(pa, pb, p):
     return ea, eb
 
 
-@nb.njit(cache=True, error_model="numpy")
+@njit_noalloc
 def _volumes(x, p):
     """Chamber volumes (V_a, V_b) [m^3] at piston position ``x`` in the kernels: those of
     :func:`chamber_volumes`, floored at the guard ``min_chamber_volume``."""
@@ -202,13 +203,13 @@ def _piston_force(x, v, pa, pb, p):
     return p[I_A] * (pa - pb) - f_fric + f_stop
 
 
-@nb.njit(cache=True, error_model="numpy")
+@njit_noalloc
 def table_acceleration(y, p):
     """Table acceleration dv/dt [m/s^2] of state ``y`` -- what the accelerometer reads."""
     return _piston_force(y[X], y[V], y[PA], y[PB], p) * p[D_INV_M]
 
 
-@nb.njit(cache=True, error_model="numpy")
+@njit_noalloc
 def shaking_table_rhs(y, u, p, dy):
     """Time derivative ``dy`` of state ``y`` under command ``u[0]`` [V] (003 eqs (1)-(19))."""
     x = y[X]
@@ -234,7 +235,7 @@ def shaking_table_rhs(y, u, p, dy):
     dy[VV] = second_order_valve_acceleration(y[XV], y[VV], u[0], p[I_KU], p[I_W0], p[I_ZETA])  # (5)
 
 
-@nb.njit(cache=True, error_model="numpy")
+@njit_noalloc
 def shaking_table_guard(y, p):
     """Project the state back onto the physical set after a sub-step; return #clamps."""
     n = 0
@@ -247,7 +248,7 @@ def shaking_table_guard(y, p):
     return n
 
 
-@nb.njit(cache=True, error_model="numpy")
+@njit_noalloc
 def _moduli_array(pa, pb, p, out):
     for k in range(pa.shape[0]):
         ea, eb = chamber_moduli(pa[k], pb[k], p)
@@ -256,7 +257,7 @@ def _moduli_array(pa, pb, p, out):
 
 
 # ------------------------------------------------------- local refinement (look-ahead kernels)
-@nb.njit(cache=True, error_model="numpy")
+@njit_noalloc
 def local_mode_rate(y, p):
     """Upper estimate [1/s] of the orifice modes at state ``y`` (:func:`.bounds.local_mode_rates`
     with the openings, drops and volumes of ``y`` and the largest modulus ``D_EMAX``): per
@@ -302,7 +303,7 @@ def air_band_substeps(y0, x, p):
     return min(AIR_BAND_MAX_SUBSTEPS, max(1, int(math.ceil(g / ACCURATE_H_LAMBDA))))
 
 
-@nb.njit(cache=True, error_model="numpy")
+@njit_noalloc
 def _smallest_metering_drop(y, p):
     """Smallest magnitude [Pa] of the drops across the metering edges at ``y``: ``P_s - P`` and
     ``P - P_T`` of both chambers."""
@@ -311,7 +312,7 @@ def _smallest_metering_drop(y, p):
     return min(min(abs(ps - y[PA]), abs(y[PA] - pt)), min(abs(ps - y[PB]), abs(y[PB] - pt)))
 
 
-@nb.njit(cache=True, error_model="numpy")
+@njit_noalloc
 def _crossed(a0, a1, level):
     """Whether ``a0`` and ``a1`` lie on different sides of ``level``."""
     return (a0 - level) * (a1 - level) < 0.0
@@ -344,7 +345,7 @@ def _orifice_modes_surely_stable(y0, x, p, h):
 NOTCH_EDGE_WIDTHS = 3.0
 
 
-@nb.njit(cache=True, error_model="numpy")
+@njit_noalloc
 def local_mode_substeps(y0, x, p, h, m):
     """RK4 steps of ``h / n`` that take a sub-step of ``h`` from ``y0`` (Euler prediction of its
     end ``x``) in the locally refined modes (:func:`hydro_envs.sim.rk4.rk4_advance_lookahead`):

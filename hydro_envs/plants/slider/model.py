@@ -62,6 +62,7 @@ from collections.abc import Sequence
 import numba as nb
 import numpy as np
 
+from hydro_envs.jit import njit_noalloc
 from hydro_envs.laws.contact import CONTACT_DAMPING_RAMP, backlash_force, end_stop_force
 from hydro_envs.laws.friction import stribeck_exponential
 from hydro_envs.plants.slider.params import (  # noqa: F401  (re-exported)
@@ -112,7 +113,7 @@ DERIVATIVE_OUTPUTS: dict[str, int] = {}
 ACCURATE_SAFETY = 0.2
 
 
-@nb.njit(cache=True, error_model="numpy")
+@njit_noalloc
 def slider_rhs(y, u, p, dy):
     """Time derivative ``dy`` of ``y = (x, v, x_d, v_d)`` under applied force ``u[0]`` [N]."""
     x = y[X]
@@ -148,7 +149,7 @@ def drive_acceleration(p, vd, f, f_c):
     return (f - md * p[I_F0] - f_drive - f_c) / (md * p[I_M])
 
 
-@nb.njit(cache=True, error_model="numpy")
+@njit_noalloc
 def slider_guard(y, p):
     """Nothing to project (the stops are a continuous force); returns 0 clamps."""
     return 0

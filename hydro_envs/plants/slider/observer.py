@@ -22,6 +22,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
+from hydro_envs.jit import njit_noalloc
 from hydro_envs.laws.contact import backlash_force
 from hydro_envs.plants.slider.model import backlash_contact_rate, drive_acceleration, stiffness_modes
 from hydro_envs.plants.slider.params import I_AC, I_GAP, I_KC, SliderParams
@@ -36,7 +37,7 @@ def _drive_accel(p, xd, vd, xl, vl, f):
     return drive_acceleration(p, vd, f, backlash_force(xd - xl, vd - vl, p[I_GAP], p[I_KC], p[I_AC]))
 
 
-@nb.njit(cache=True, error_model="numpy")
+@njit_noalloc
 def _track(p, x, v, f, dt, n_sub, xd_out, vd_out):
     n = x.shape[0]
     h = dt / n_sub
