@@ -251,10 +251,35 @@ def test_one_exp_notch_shape_equals_reference_shape():
         pa, pb = rng.uniform(0.0, 3e7, 2)
         if rng.random() < 0.3:  # at an edge: |P_a - P_b| within 0.1 % of P_Lt
             pb = pa - rng.choice([-1.0, 1.0]) * abs(p_lt) * (1.0 + rng.normal(0.0, 1e-3))
-        got = modified_ifas_shape_fast(pa, pb, l1, mu, p_lt, *modified_ifas_shape_constants(l2, mu, p_lt))
+        got = modified_ifas_shape_fast(pa, pb, l1, mu, p_lt, *modified_ifas_shape_constants(l1, l2, mu, p_lt))
         assert math.isfinite(got)
         worst = max(worst, abs(got - modified_ifas_shape(pa, pb, l1, l2, mu, p_lt)) / (l1 + abs(l2)))
     assert worst < 1e-15
+
+
+def test_notch_shape_beyond_x_far_is_lambda_1_to_the_bit():
+    """Beyond ``x_far`` the one-exp notch returns lambda_1 without evaluating its term: that is
+    the number the term would round to. Over random shapes (either sign of lambda_2 and P_Lt,
+    mu P_Lt from 1e-3 to 1e3) and distances from x_far to x_far + 4 (units of 1/mu), the outside
+    form evaluated in full equals lambda_1 exactly, and just inside x_far it does not always."""
+    rng = np.random.default_rng(3)
+    full = modified_ifas_shape_fast.py_func
+    differs = 0
+    for _ in range(20000):
+        l1, l2 = rng.uniform(0.05, 5.0), rng.uniform(-2.0, 2.0)
+        mu = 10 ** rng.uniform(-7, -4)
+        p_lt = rng.choice([-1.0, 1.0]) * 10 ** rng.uniform(-3, 3) / mu
+        amp, c2, one_c2, x_far = modified_ifas_shape_constants(l1, l2, mu, p_lt)
+        pa = rng.uniform(0.0, 4e7)
+        for x in (x_far * (1.0 + 1e-12) + 1e-9, x_far + rng.uniform(0.0, 4.0)):
+            pb = pa - rng.choice([-1.0, 1.0]) * (abs(p_lt) + x / mu)
+            got = full(pa, pb, l1, mu, p_lt, amp, c2, one_c2, math.inf)  # the term evaluated
+            assert got == l1, (l1, l2, mu, p_lt, x, x_far, got)
+            assert modified_ifas_shape_fast(pa, pb, l1, mu, p_lt, amp, c2, one_c2, x_far) == l1
+        x_in = max(0.0, x_far - 4.0)
+        pb = pa - (abs(p_lt) + x_in / mu)
+        differs += full(pa, pb, l1, mu, p_lt, amp, c2, one_c2, math.inf) != l1
+    assert differs > 10000  # four 1/mu inside x_far the term still counts for most shapes
 
 
 def test_modified_modulus_minimum_at_equal_pressures_and_positive(spec):

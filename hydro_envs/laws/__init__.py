@@ -69,7 +69,7 @@ bulk_modulus_fast (:mod:`hydro_envs.laws.bulk_modulus_fast`)
     ifas_bulk_modulus_fast(p, e0, p0, m, alpha, kappa, p_floor)          003 eq (13), exp + 2 log
     ifas_constants(e0, p0, m, alpha, kappa)           003 eq (13), parameter-only terms
     ifas_bulk_modulus_scaled(p, p0, p_floor, alpha, *constants)          same law, one division
-    modified_ifas_shape_constants(lambda_2, mu, p_lt)                    003 eq (19), parameter-only terms
+    modified_ifas_shape_constants(lambda_1, lambda_2, mu, p_lt)          003 eq (19), parameter-only terms
     modified_ifas_shape_fast(p_a, p_b, lambda_1, mu, p_lt, *constants)   same shape, one exp
 
 filters (:mod:`hydro_envs.laws.filters`)

@@ -73,16 +73,26 @@ def ifas_bulk_modulus_fast(p, e0, p0, m, alpha, kappa, p_floor):
 
 
 @numba.njit(cache=True, error_model="numpy", inline="always")
-def modified_ifas_shape_constants(lambda_2, mu, p_lt):
+def modified_ifas_shape_constants(lambda_1, lambda_2, mu, p_lt):
     """Parameter-only terms of :func:`modified_ifas_shape_fast`: with ``C = exp(-2 mu |P_Lt|)``,
-    ``(2 lambda_2 sign(P_Lt) (1 - C^2), C^2, 1 + C^2)``."""
+    ``(2 lambda_2 sign(P_Lt) (1 - C^2), C^2, 1 + C^2, x_far)``. ``x_far`` (>= 0; inf for
+    ``lambda_1 <= 0``) is the distance from the notch's edge, in units of ``1/mu``, beyond which
+    the shape rounds to ``lambda_1`` exactly: ``x_far = ln(|amp| 2^56 / lambda_1) / 2``, where the
+    notch term, at most ``|amp| exp(-2 x)``, is below ``lambda_1 2^-55``, under a quarter of the
+    spacing of float64 numbers at ``lambda_1``, with room for the term's own rounding."""
     c = math.exp(-2.0 * mu * abs(p_lt))
     amp = 2.0 * lambda_2 * (1.0 - c * c)
-    return (amp if p_lt >= 0.0 else -amp), c * c, 1.0 + c * c
+    if lambda_1 <= 0.0:
+        x_far = math.inf
+    elif amp == 0.0:
+        x_far = 0.0
+    else:
+        x_far = max(0.0, 0.5 * math.log(abs(amp) * 2.0**56 / lambda_1))
+    return (amp if p_lt >= 0.0 else -amp), c * c, 1.0 + c * c, x_far
 
 
 @numba.njit(cache=True, error_model="numpy", inline="always")
-def modified_ifas_shape_fast(p_a, p_b, lambda_1, mu, p_lt, amp, c2, one_plus_c2):
+def modified_ifas_shape_fast(p_a, p_b, lambda_1, mu, p_lt, amp, c2, one_plus_c2, x_far):
     """Load-pressure shape h(P_a, P_b) of 003 eq (19) with one ``exp``, from the terms of
     :func:`modified_ifas_shape_constants` (``mu >= 0``).
 
@@ -91,12 +101,15 @@ def modified_ifas_shape_fast(p_a, p_b, lambda_1, mu, p_lt, amp, c2, one_plus_c2)
     ``R = exp(-2 |x|)`` of the distance ``x = |a| - k`` from the notch's edge it is
     ``2 R (1 - C^2) / (1 + R (1 + C^2) + R^2 C^2)`` outside the notch (``x >= 0``) and
     ``2 (1 - C^2) / (1 + C^2 + R + C^2 / R)`` inside (``C <= R`` there): every term in [0, 1] or
-    at least 1, so no overflow or lost precision for any argument.
-    Units: p_a, p_b [Pa], lambda_1 [-], mu [1/Pa], p_lt [Pa]; amp, c2, one_plus_c2 [-] -> [-].
+    at least 1, so no overflow or lost precision for any argument. Beyond ``x_far`` the outside
+    form rounds to ``lambda_1`` and is not evaluated (the same number, without its ``exp``).
+    Units: p_a, p_b [Pa], lambda_1 [-], mu [1/Pa], p_lt [Pa]; amp, c2, one_plus_c2, x_far [-] -> [-].
     Source: ``003_54985feb8193da53.txt`` eq (19) (reference:
     :func:`hydro_envs.laws.bulk_modulus.modified_ifas_shape`).
     """
     x = mu * (abs(p_a - p_b) - abs(p_lt))
+    if x > x_far:
+        return lambda_1
     r = math.exp(-2.0 * abs(x))
     if x >= 0.0:
         return lambda_1 - amp * r / (1.0 + r * (one_plus_c2 + r * c2))
