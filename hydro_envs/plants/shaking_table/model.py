@@ -79,7 +79,7 @@ from typing import Any
 import numba as nb
 import numpy as np
 
-from hydro_envs.jit import njit_noalloc
+from hydro_envs.jit import NOALLOC_OPTIONS, njit_noalloc
 from hydro_envs.laws.bulk_modulus_fast import ifas_bulk_modulus_scaled, modified_ifas_shape_fast
 from hydro_envs.laws.contact import end_stop_force
 from hydro_envs.laws.friction import stribeck_gaussian
@@ -209,7 +209,7 @@ def table_acceleration(y, p):
     return _piston_force(y[X], y[V], y[PA], y[PB], p) * p[D_INV_M]
 
 
-@njit_noalloc
+@nb.njit(**NOALLOC_OPTIONS, inline="always")  # inlined into the step kernel: 4-5 % faster, +0.1 s to compile
 def shaking_table_rhs(y, u, p, dy):
     """Time derivative ``dy`` of state ``y`` under command ``u[0]`` [V] (003 eqs (1)-(19))."""
     x = y[X]
