@@ -74,6 +74,30 @@ def test_references_are_feasible_and_start_from_rest(kind, specimen):
         assert abs(a[0]) < 0.2 * np.abs(a).max()  # starts gently
 
 
+def test_pulse_reference_equals_its_moves_summed_over_the_whole_record():
+    """The pulse reference evaluates each move's raised-cosine ramp only on the move's samples
+    (one more on either side) and adds the step after it: the same numbers, to the bit, as the
+    ramp ``tau - sin(2 pi tau) / (2 pi)`` of ``tau = clip((t - start) / dur, 0, 1)`` summed over
+    the whole record for every move, with the same draws."""
+    from hydro_envs.envs.shaking_table.references import _pulse_shape
+
+    def whole_record(rng, t):
+        d = np.zeros_like(t)
+        level, start = 0.0, rng.uniform(0.05, 0.4)
+        while start < t[-1]:
+            dur, new = rng.uniform(0.1, 0.5), rng.uniform(-1.0, 1.0)
+            tau = np.clip((t - start) / dur, 0.0, 1.0)
+            d += (new - level) * (tau - np.sin(2.0 * math.pi * tau) / (2.0 * math.pi))
+            level = new
+            start += dur + rng.uniform(0.2, 0.8)
+        return d
+
+    for seed in range(40):
+        t = DT * np.arange(-1, 6051 + 1)
+        np.testing.assert_array_equal(_pulse_shape(np.random.default_rng(seed), t),
+                                      whole_record(np.random.default_rng(seed), t))
+
+
 def test_reference_limits_follow_stroke_flow_and_force():
     lim = reference_limits(NOMINAL)
     assert lim.displacement == pytest.approx(0.4 * HALF)

@@ -134,9 +134,14 @@ def _pulse_shape(rng: np.random.Generator, t: np.ndarray) -> np.ndarray:
     while start < t_end:
         dur = rng.uniform(0.1, 0.5)
         new = rng.uniform(-1.0, 1.0)
-        tau = np.clip((t - start) / dur, 0.0, 1.0)
-        # raised-cosine velocity: displacement tau - sin(2 pi tau) / (2 pi)
-        d += (new - level) * (tau - np.sin(2.0 * math.pi * tau) / (2.0 * math.pi))
+        # raised-cosine velocity: displacement tau - sin(2 pi tau) / (2 pi), tau = (t - start) / dur
+        # clipped to [0, 1]: exactly 0 before the move and exactly 1 after it (sin(2 pi) / (2 pi)
+        # rounds away against 1), so only the move's samples, one more on either side, need it
+        lo = max(int(np.searchsorted(t, start)) - 1, 0)
+        hi = int(np.searchsorted(t, start + dur)) + 1
+        tau = np.clip((t[lo:hi] - start) / dur, 0.0, 1.0)
+        d[lo:hi] += (new - level) * (tau - np.sin(2.0 * math.pi * tau) / (2.0 * math.pi))
+        d[hi:] += new - level
         level = new
         start += dur + rng.uniform(0.2, 0.8)
     return d
