@@ -132,14 +132,19 @@ class PhysicalParams:
         return ()
 
     def to_array(self) -> np.ndarray:
-        """The kernel parameter row: the fields in declaration order, then the derived columns."""
+        """The kernel parameter row: the fields in declaration order, then the derived columns.
+        A parameter set is immutable, so its derived columns (some need a root find) are computed
+        once; every call returns a new array."""
         fields = np.array([getattr(self, n) for n in self.names()], dtype=np.float64)
         if not self.derived_names:
             return fields
-        extra = np.asarray(self.derived_columns(), dtype=np.float64)
-        if extra.shape != (len(self.derived_names),):
-            raise ParameterError(f"{type(self).__name__}.derived_columns gave {extra.shape[0]} values for "
-                                 f"{len(self.derived_names)} derived_names")
+        extra = self.__dict__.get("_derived_row")
+        if extra is None:
+            extra = np.asarray(self.derived_columns(), dtype=np.float64)
+            if extra.shape != (len(self.derived_names),):
+                raise ParameterError(f"{type(self).__name__}.derived_columns gave {extra.shape[0]} values for "
+                                     f"{len(self.derived_names)} derived_names")
+            object.__setattr__(self, "_derived_row", extra)
         return np.concatenate([fields, extra])
 
     @classmethod
