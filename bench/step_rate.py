@@ -19,7 +19,9 @@ Prints (no pass/fail; the targets in brackets):
   kernel's time in such evaluations ("rhs/step": four per RK4 sub-step, plus refinement and
   the kernel's own arithmetic), how many of them fit a 2 M steps/s step beside its
   observation and Python time ("at 2M"); the stiffness mode that sets most copies' sub-step
-  count ("set by") and the mean count the copies would need without it ("next"); above the
+  count ("set by") and the mean count the copies would need without it ("next"); the time of one
+  copy's reset ("reset us", a reset of all copies divided by their number) and the M env-steps/s
+  over whole episodes, each copy reset once per registered episode length ("episodes"); above the
   table, what entering the kernel's parallel region costs under the OpenMP wait settings
 
 ``--env-kwarg KEY=VALUE`` (repeatable) passes keyword arguments to every env made for the vector
@@ -133,8 +135,14 @@ def profile_split(env_id: str, n: int, steps: int, **env_kwargs: object) -> dict
     for k in range(steps):
         venv.step(actions[k])
     total = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    venv.reset(seed=1)  # every copy once, as each is once per episode
+    reset = time.perf_counter() - t0
+    episode = venv.unwrapped.max_episode_steps
     return {
         "rate": steps * n / total,
+        "reset": reset / n,
+        "episode_rate": n / (total / steps + reset / episode),
         "step": total / steps,
         "kernel": spent["kernel"] / steps,
         "observe": spent["observe"] / steps,
@@ -214,7 +222,8 @@ def print_profile(env_ids: list[str], n: int, steps: int, repeats: int, **env_kw
     near, far = parallel_call_times([50e-6, 200e-6])
     print(f"an empty parallel kernel call 50 / 200 us after the last: {near * 1e6:.1f} / {far * 1e6:.1f} us")
     head = (f"{'env id':<42} {'M steps/s':>9} {'sub-steps':>9} {'step us':>7} {'kernel':>6} {'obs+rew':>7} "
-            f"{'python':>6} {'rhs ns':>6} {'rhs/step':>8} {'at 2M':>5}  {'set by':<12} {'next':>4}")
+            f"{'python':>6} {'rhs ns':>6} {'rhs/step':>8} {'at 2M':>5}  {'set by':<12} {'next':>4} "
+            f"{'reset us':>8} {'episodes':>8}")
     print(head)
     import numba
 
@@ -230,7 +239,7 @@ def print_profile(env_ids: list[str], n: int, steps: int, repeats: int, **env_kw
         print(f"{env_id:<42} {r['rate'] / 1e6:>9.2f} {r['n_sub']:>9.2f} {r['step'] * 1e6:>7.0f} "
               f"{r['kernel'] / r['step']:>6.0%} {r['observe'] / r['step']:>7.0%} {r['python'] / r['step']:>6.0%} "
               f"{r['rhs'] * cores / n * 1e9:>6.0f} {r['kernel'] / r['rhs']:>8.1f} {budget(r):>5.1f}  "
-              f"{r['set_by']:<12} {r['n_sub_next']:>4.1f}")
+              f"{r['set_by']:<12} {r['n_sub_next']:>4.1f} {r['reset'] * 1e6:>8.0f} {r['episode_rate'] / 1e6:>8.2f}")
 
 
 def kernel_time_per_substep(n: int, steps: int) -> tuple[float, float]:
