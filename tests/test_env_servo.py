@@ -23,6 +23,9 @@ from hydro_envs.params import ParameterError
 from hydro_envs.plants.servo_cylinder.params import ServoCylinderParams
 from hydro_envs.plants.servo_cylinder.model import no_load_velocity
 from hydro_envs.randomization import load_randomization
+from env_helpers import action as _a
+from env_helpers import random_actions as _random_actions
+from env_helpers import rollout as _rollout
 
 
 def _padded(ref):
@@ -39,27 +42,6 @@ HALF = 0.5 * L
 STATE_KEYS = ("x", "v", "p1", "p2", "xv", "vv")
 PARAM_NAMES = ServoCylinderParams.names()
 OBS_DIM = 11
-
-
-def _a(value: float) -> np.ndarray:
-    return np.array([value], dtype=np.float32)
-
-
-def _rollout(env, seed, actions, options=None):
-    """Reset with ``seed`` and apply ``actions``; stack observations, rewards and states."""
-    obs, info = env.reset(seed=seed, options=options)
-    observations, rewards, states = [obs], [], [info["state"]]
-    for a in actions:
-        obs, reward, terminated, truncated, info = env.step(a)
-        observations.append(obs)
-        rewards.append(reward)
-        states.append(info["state"])
-    state_arr = np.array([[s[k] for k in STATE_KEYS] for s in states])
-    return np.array(observations), np.array(rewards), state_arr
-
-
-def _random_actions(n, seed=123, shape=(1,)):
-    return np.random.default_rng(seed).uniform(-1.0, 1.0, (n, *shape)).astype(np.float32)
 
 
 def _bang_bang(n, rng):

@@ -26,6 +26,8 @@ from hydro_envs.plants.force_actuator.params import ForceActuatorParams
 from hydro_envs.randomization import load_randomization
 from hydro_envs import registry
 from hydro_envs.sim.stiffness import substeps_from_stiffness
+from env_helpers import action as _a
+from env_helpers import rollout as _rollout
 
 ENV_ID = "hydro_envs/ForceActuator-v0"
 NOMINAL = ForceActuatorParams()
@@ -504,19 +506,6 @@ def test_free_piston_extends_to_the_stop_at_a_damping_limited_speed():
 
 
 # ============================================================================== env
-def _a(v):
-    return np.array([v], dtype=np.float32)
-
-
-def _rollout(env, seed, actions, options=None):
-    obs, info = env.reset(seed=seed, options=options)
-    O, R, S = [obs], [], [list(info["state"].values())]
-    for a in actions:
-        obs, r, term, trunc, info = env.step(a)
-        O.append(obs), R.append(r), S.append(list(info["state"].values()))
-    return np.array(O), np.array(R), np.array(S)
-
-
 def _actions(n, seed=1):
     return np.random.default_rng(seed).uniform(-1, 1, (n, 1)).astype(np.float32)
 

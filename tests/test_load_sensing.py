@@ -24,6 +24,7 @@ from hydro_envs import registry
 from hydro_envs.sim.reference import reference_rollout
 from hydro_envs.sim.rk4 import local_substeps
 from hydro_envs.sim.stiffness import DEFAULT_SAFETY, RK4_REAL_STABILITY_LIMIT, substeps_from_stiffness
+from env_helpers import rollout as _rollout
 
 ENV_ID = "hydro_envs/LoadSensing-v0"
 NOMINAL = LoadSensingParams()
@@ -39,15 +40,6 @@ def spec():
 def _ramp(v=0.1, n=2100, t_start=0.2, t_ramp=0.1):
     t = np.arange(n) * 1e-3
     return np.clip((t - t_start) / t_ramp, 0.0, 1.0) * v
-
-
-def _rollout(env, seed, actions, options=None):
-    obs, info = env.reset(seed=seed, options=options)
-    O, R, S = [obs], [], [list(info["state"].values())]
-    for a in actions:
-        obs, r, term, trunc, info = env.step(a)
-        O.append(obs), R.append(r), S.append(list(info["state"].values()))
-    return np.array(O), np.array(R), np.array(S)
 
 
 def _random_actions(n, seed=0, shape=(2,)):

@@ -20,6 +20,9 @@ from hydro_envs.params import ParameterError
 from hydro_envs.plants.rodless_cylinder import model as rc
 from hydro_envs.plants.rodless_cylinder.params import RodlessCylinderParams
 from hydro_envs.randomization import load_randomization
+from env_helpers import action as _a
+from env_helpers import random_actions as _random_actions
+from env_helpers import rollout as _rollout
 
 
 def _padded(ref):
@@ -46,23 +49,6 @@ def spec():
 
 
 # ============================================================================ env: API
-def _a(value: float) -> np.ndarray:
-    return np.array([value], dtype=np.float32)
-
-
-def _random_actions(n, seed=123, shape=(1,)):
-    return np.random.default_rng(seed).uniform(-1.0, 1.0, (n, *shape)).astype(np.float32)
-
-
-def _rollout(env, seed, actions, options=None):
-    obs, info = env.reset(seed=seed, options=options)
-    O, R, S = [obs], [], [info["state"]]
-    for a in actions:
-        obs, reward, _, _, info = env.step(a)
-        O.append(obs), R.append(reward), S.append(info["state"])
-    return np.array(O), np.array(R), np.array([[s[k] for k in STATE_KEYS] for s in S])
-
-
 def test_spaces_and_observation_bounds():
     assert gym.make(ENV_ID).spec.max_episode_steps == 2000
     env = gym.make(ENV_ID).unwrapped

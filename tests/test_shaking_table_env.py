@@ -31,6 +31,9 @@ from hydro_envs.params import ParameterError
 from hydro_envs.plants.shaking_table import model as st
 from hydro_envs.plants.shaking_table.params import ShakingTableParams
 from hydro_envs.randomization import load_randomization
+from env_helpers import action as _a
+from env_helpers import random_actions as _random_actions
+from env_helpers import rollout as _rollout
 
 
 def _padded(ref):
@@ -129,23 +132,6 @@ def test_earthquake_spectrum_peaks_near_the_kanai_tajimi_frequency():
 
 
 # =========================================================================== env API
-def _a(value: float) -> np.ndarray:
-    return np.array([value], dtype=np.float32)
-
-
-def _random_actions(n, seed=123, shape=(1,)):
-    return np.random.default_rng(seed).uniform(-1.0, 1.0, (n, *shape)).astype(np.float32)
-
-
-def _rollout(env, seed, actions, options=None):
-    obs, info = env.reset(seed=seed, options=options)
-    O, R, S = [obs], [], [info["state"]]
-    for a in actions:
-        obs, r, _, _, info = env.step(a)
-        O.append(obs), R.append(r), S.append(info["state"])
-    return np.array(O), np.array(R), np.array([[s[k] for k in STATE_KEYS] for s in S])
-
-
 def test_spaces_and_channels():
     env = gym.make(ENV_ID)
     assert env.action_space.shape == (1,) and env.action_space.dtype == np.float32
