@@ -1,4 +1,5 @@
-"""Helpers the env tests share: one action, seeded random actions, and a rollout of a single env.
+"""Helpers the env tests share: one action, seeded random actions, a rollout of a single env and a
+padded test reference.
 
 Imported by the test modules as ``from env_helpers import ...`` (pytest puts ``tests/`` on the
 import path)."""
@@ -33,3 +34,10 @@ def rollout(env: Any, seed: int, actions: Iterable[np.ndarray], options: Mapping
         rewards.append(reward)
         states.append(list(info["state"].values()))
     return np.array(observations), np.array(rewards), np.array(states)
+
+
+def padded(ref: Any, length: int = 10_000) -> np.ndarray:
+    """A short test reference held at its last value to ``length`` samples, to cover any episode
+    (an env refuses a reference shorter than its episode)."""
+    ref = np.asarray(ref, dtype=float)
+    return np.pad(ref, (0, max(0, length - ref.size)), mode="edge")

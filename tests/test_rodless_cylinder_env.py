@@ -21,15 +21,9 @@ from hydro_envs.plants.rodless_cylinder import model as rc
 from hydro_envs.plants.rodless_cylinder.params import RodlessCylinderParams
 from hydro_envs.randomization import load_randomization
 from env_helpers import action as _a
+from env_helpers import padded as _padded
 from env_helpers import random_actions as _random_actions
 from env_helpers import rollout as _rollout
-
-
-def _padded(ref):
-    """A short test reference held at its last value to cover any episode (an env refuses a
-    reference shorter than its episode)."""
-    ref = np.asarray(ref, dtype=float)
-    return np.pad(ref, (0, max(0, 10_000 - ref.size)), mode="edge")
 
 
 ENV_ID = "hydro_envs/RodlessCylinder-v0"
