@@ -12,13 +12,14 @@ Prints (no pass/fail; the targets in brackets):
 * peak resident memory of a process running the 1024-copy servo env  [< 1 GiB]
 * per env id, a profile split of one 1024-copy vector step (``--profile`` prints only this table):
   M env-steps/s, RK4 sub-steps per step (mean over copies), and the share of the step spent in
-  the compiled integration call, in ``apply_actions`` + ``observe`` (inputs, observation and
-  reward), and in the remaining Python (action checks, info dicts, autoreset), each timed with
-  ``time.perf_counter`` around that phase; the core time of one right-hand-side evaluation
-  per copy ("rhs ns", the plant's compiled ``derivatives`` at the batch's last states), the
-  kernel's time in such evaluations ("rhs/step": four per RK4 sub-step, plus refinement and
-  the kernel's own arithmetic), how many of them fit a 2 M steps/s step beside its
-  observation and Python time ("at 2M"); the stiffness mode that sets most copies' sub-step
+  the compiled step-and-observe call ("kernel": integration, observation and reward of every
+  copy in one parallel region), in ``apply_actions`` ("inputs"), and in the remaining Python
+  (action checks, info dicts, autoreset), each timed with ``time.perf_counter`` around that
+  phase; the core time of one right-hand-side evaluation per copy ("rhs ns", the plant's
+  compiled ``derivatives`` at the batch's last states), the kernel's time in such evaluations
+  ("rhs/step": four per RK4 sub-step, plus refinement, the kernel's own arithmetic and the
+  observation), how many of them fit a 2 M steps/s step beside its inputs and Python time
+  ("at 2M"); the stiffness mode that sets most copies' sub-step
   count ("set by") and the mean count the copies would need without it ("next"); the time of one
   copy's reset ("reset us", a reset of all copies divided by their number) and the M env-steps/s
   over whole episodes, each copy reset once per registered episode length ("episodes"); above the
@@ -119,7 +120,7 @@ def profile_split(env_id: str, n: int, steps: int, **env_kwargs: object) -> dict
     actions = rng.uniform(space.low, space.high, (steps,) + (n,) + space.shape).astype(space.dtype)
     for k in range(20):
         venv.step(actions[k])
-    spent = {"kernel": 0.0, "observe": 0.0}
+    spent = {"kernel": 0.0, "inputs": 0.0}
 
     def timed(fn, key):
         def wrapper(*args):
@@ -128,9 +129,9 @@ def profile_split(env_id: str, n: int, steps: int, **env_kwargs: object) -> dict
             spent[key] += time.perf_counter() - t
         return wrapper
 
-    b.step_kernel = timed(b.step_kernel, "kernel")
-    b.apply_actions = timed(b.apply_actions, "observe")
-    b.observe = timed(b.observe, "observe")
+    b.step_and_observe = timed(b.step_and_observe, "kernel")
+    b.observe = timed(b.observe, "kernel")  # after autoresets
+    b.apply_actions = timed(b.apply_actions, "inputs")
     t0 = time.perf_counter()
     for k in range(steps):
         venv.step(actions[k])
@@ -145,8 +146,8 @@ def profile_split(env_id: str, n: int, steps: int, **env_kwargs: object) -> dict
         "episode_rate": n / (total / steps + reset / episode),
         "step": total / steps,
         "kernel": spent["kernel"] / steps,
-        "observe": spent["observe"] / steps,
-        "python": (total - spent["kernel"] - spent["observe"]) / steps,
+        "inputs": spent["inputs"] / steps,
+        "python": (total - spent["kernel"] - spent["inputs"]) / steps,
         "n_sub": float(np.mean(b.NSUB)),
         "rhs": rhs_time(b),
         **_substep_modes(b),
@@ -221,7 +222,7 @@ def print_profile(env_ids: list[str], n: int, steps: int, repeats: int, **env_kw
     print(f"profile of one {n}-copy vector step (best of {repeats}, {steps} steps after warm-up{made})")
     near, far = parallel_call_times([50e-6, 200e-6])
     print(f"an empty parallel kernel call 50 / 200 us after the last: {near * 1e6:.1f} / {far * 1e6:.1f} us")
-    head = (f"{'env id':<42} {'M steps/s':>9} {'sub-steps':>9} {'step us':>7} {'kernel':>6} {'obs+rew':>7} "
+    head = (f"{'env id':<42} {'M steps/s':>9} {'sub-steps':>9} {'step us':>7} {'kernel':>6} {'inputs':>7} "
             f"{'python':>6} {'rhs ns':>6} {'rhs/step':>8} {'at 2M':>5}  {'set by':<12} {'next':>4} "
             f"{'reset us':>8} {'episodes':>8}")
     print(head)
@@ -231,13 +232,13 @@ def print_profile(env_ids: list[str], n: int, steps: int, repeats: int, **env_kw
 
     def budget(r: dict[str, float]) -> float:
         """Right-hand-side evaluations per step that fit a 2 M steps/s step beside the step's
-        observation, reward and Python time."""
-        return (n / 2e6 - r["observe"] - r["python"]) / r["rhs"]
+        inputs and Python time."""
+        return (n / 2e6 - r["inputs"] - r["python"]) / r["rhs"]
 
     for env_id in env_ids:
         r = min((profile_split(env_id, n, steps, **env_kwargs) for _ in range(repeats)), key=lambda r: r["step"])
         print(f"{env_id:<42} {r['rate'] / 1e6:>9.2f} {r['n_sub']:>9.2f} {r['step'] * 1e6:>7.0f} "
-              f"{r['kernel'] / r['step']:>6.0%} {r['observe'] / r['step']:>7.0%} {r['python'] / r['step']:>6.0%} "
+              f"{r['kernel'] / r['step']:>6.0%} {r['inputs'] / r['step']:>7.0%} {r['python'] / r['step']:>6.0%} "
               f"{r['rhs'] * cores / n * 1e9:>6.0f} {r['kernel'] / r['rhs']:>8.1f} {budget(r):>5.1f}  "
               f"{r['set_by']:<12} {r['n_sub_next']:>4.1f} {r['reset'] * 1e6:>8.0f} {r['episode_rate'] / 1e6:>8.2f}")
 

@@ -200,3 +200,37 @@ def test_vector_step_kernel_equals_the_serial_one_on_uneven_blocks(env_id, n):
     assert np.all(np.isfinite(out[0][0]))
     assert not np.array_equal(out[0][0], b.Y)
     assert np.array_equal(out[0][0], out[1][0]) and np.array_equal(out[0][1], out[1][1])
+
+
+@pytest.mark.parametrize("n", [3, 131])
+@pytest.mark.parametrize("env_id", [entry.id for _, entry in {s.name: (s, e) for s, e in registry.env_entries()}.values()])
+def test_vector_step_and_observe_in_one_kernel_equals_stepping_then_observing(env_id, n):
+    """The vector env steps and observes every copy in one parallel kernel (it never calls the
+    step kernel or the observation kernel on their own), with the states, observations and
+    rewards of stepping all copies and then observing them (``PlantBatch.step_and_observe``),
+    also on uneven blocks and with fewer copies than blocks."""
+    from hydro_envs.envs.base import PlantBatch
+
+    env = gym.make_vec(env_id, num_envs=n)
+    b = env.unwrapped._batch
+    actions = _actions(env.single_action_space, 60, 2, (n,))
+
+    def refuse(*args):
+        raise AssertionError("the vector step called the step or the observation kernel on its own")
+
+    runs = []
+    for fused in (True, False):
+        env.reset(seed=5)
+        if fused:
+            b.step_kernel = b.observe = refuse
+        else:
+            b.step_and_observe = lambda: PlantBatch.step_and_observe(b)
+        for k in range(60):
+            obs, reward, *_ = env.step(actions[k])
+        if fused:
+            del b.observe
+            b.select_step_kernel()
+        runs.append((b.Y.copy(), obs, reward, b.K.copy()))
+    assert np.all(runs[1][3] == 60) and not np.array_equal(runs[1][0], runs[0][0] * 0.0)
+    for got, want in zip(runs[0], runs[1]):
+        assert np.array_equal(got, want)

@@ -242,7 +242,8 @@ class PlantBatch:
         self.select_step_kernel()
 
     def select_step_kernel(self) -> None:
-        """Bind ``step_kernel`` to the plant's serial or parallel step; a plant whose kernels
+        """Bind ``step_kernel`` to the plant's serial or parallel step (and ``step_serial`` to the
+        serial one, which a step-and-observe kernel runs on each block); a plant whose kernels
         module has ``for_params(P)`` picks them for the current parameter rows (called after
         the rows change: resets, restores)."""
         kernels = self.plant_spec.kernels
@@ -250,6 +251,7 @@ class PlantBatch:
         if pick is not None:
             kernels = pick(self.P)
         self.step_kernel = kernels.step_parallel if self.parallel else kernels.step_serial
+        self.step_serial = kernels.step_serial
         self._kernel_stale = False
 
     # ------------------------------------------------------------------ task hooks
@@ -262,12 +264,10 @@ class PlantBatch:
         raise NotImplementedError
 
     def observe(self) -> None:
-        """Fill ``obs`` and ``reward`` of every copy (a compiled kernel). A serial loop over the
-        copies unless the per-copy work is heavy: for a light observation a prange loop over
-        1024 copies gains nothing (servo and force actuator vector envs, swapped in and out in
-        one process: the step rates within the VM's noise; with ``OMP_WAIT_POLICY=PASSIVE``
-        the parallel one cost 72-74 us per step against 35-38 serial), while the shaking
-        table's filters keep theirs (84 us parallel against 147 us serial)."""
+        """Fill ``obs`` and ``reward`` of every copy (a compiled kernel; after resets, and every
+        step of the single env). A serial loop over the copies unless the per-copy work is
+        heavy (the shaking table's filters); a vector env's step observes in its
+        step-and-observe kernel (:meth:`step_and_observe`)."""
         raise NotImplementedError
 
     def observation_space(self) -> spaces.Box:
@@ -484,6 +484,13 @@ class PlantBatch:
         self.prev_a[:] = self.last_a
         self.last_a[:] = actions
         self.apply_actions()
+        self.step_and_observe()
+
+    def step_and_observe(self) -> None:
+        """Step every copy (``step_kernel``), count the step in ``K`` and :meth:`observe`. An env
+        overrides it for the parallel batch with one kernel that steps and observes each block
+        of copies in a single parallel region (:func:`hydro_envs.sim.rk4.block_bounds`): the
+        observation then runs on every thread, and the threads are woken once per env step."""
         self.step_kernel(self.Y, self.U, self.P, self.dt, self.NSUB, self.W, self.clamps)
         self.K += 1
         self.observe()

@@ -33,7 +33,8 @@ from hydro_envs.envs.base import PlantBatch, check_nonnegative, fill_reference
 from hydro_envs.envs.render import render_cylinder
 from hydro_envs.jit import njit_noalloc
 
-__all__ = ["PREVIEW_STEPS", "OBS_DIM", "CylinderTrackingBatch", "observation_space", "check_reference_array"]
+__all__ = ["PREVIEW_STEPS", "OBS_DIM", "CylinderTrackingBatch", "observation_space", "check_reference_array",
+           "observe_block"]
 
 PREVIEW_STEPS = (10, 20, 30, 40, 50)
 OBS_DIM = 6 + len(PREVIEW_STEPS)
@@ -83,6 +84,17 @@ def _observe_copy(i, Y, P, REF, K, NOISE, last_a, prev_a, quant, e_scale, rate_p
 def _observe(Y, P, REF, K, NOISE, last_a, prev_a, quant, e_scale, rate_pen, preview,
                     obs_low, obs_high, ix, ip1, ip2, i_stroke, i_supply, obs, reward, meas):
     for i in range(Y.shape[0]):
+        _observe_copy(i, Y, P, REF, K, NOISE, last_a, prev_a, quant, e_scale, rate_pen, preview,
+                      obs_low, obs_high, ix, ip1, ip2, i_stroke, i_supply, obs, reward, meas)
+
+
+@nb.njit(cache=True, error_model="numpy", inline="always")
+def observe_block(lo, hi, Y, P, REF, K, NOISE, last_a, prev_a, quant, e_scale, rate_pen, preview, obs_low, obs_high, ix,
+                  ip1, ip2, i_stroke, i_supply, obs, reward, meas):
+    """Advance the step counts of copies ``lo:hi`` and observe them (the part of a
+    step-and-observe kernel after a block's step)."""
+    for i in range(lo, hi):
+        K[i] += 1
         _observe_copy(i, Y, P, REF, K, NOISE, last_a, prev_a, quant, e_scale, rate_pen, preview,
                       obs_low, obs_high, ix, ip1, ip2, i_stroke, i_supply, obs, reward, meas)
 
@@ -187,6 +199,22 @@ class CylinderTrackingBatch(PlantBatch):
         """Pre-draw copy ``i``'s sensor noise for the whole episode (same seed, same noise)."""
         if self.NOISE.shape[1] > 1:
             self.NOISE[i] = rng.standard_normal((self.NOISE.shape[1], 3)) * self.noise_std
+
+    #: the env's step-and-observe kernels by the plant's serial step they run on each block
+    #: (:meth:`step_and_observe`); a serial step without one steps and observes in two calls
+    step_observe_kernels: ClassVar[dict[Any, Any]] = {}
+
+    def step_and_observe(self) -> None:
+        kernel = self.step_observe_kernels.get(self.step_serial) if self.parallel else None
+        if kernel is None:
+            super().step_and_observe()
+            return
+        ip1, ip2 = self.pressure_indices
+        kernel(
+            self.Y, self.U, self.P, self.dt, self.NSUB, self.W, self.clamps, self.REF, self.K, self.NOISE, self.last_a,
+            self.prev_a, self.quant, self.error_scale, self.rate_pen, self.preview, self.obs_low, self.obs_high,
+            self.position_index, ip1, ip2, self.stroke_index, self.supply_index, self.obs, self.reward, self.meas,
+        )
 
     def observe(self) -> None:
         ip1, ip2 = self.pressure_indices

@@ -72,8 +72,10 @@ from gymnasium import spaces
 from hydro_envs.envs.base import VELOCITY_FACTOR, BatchedEnv, BatchedVectorEnv, PlantBatch, check_nonnegative, fill_reference
 from hydro_envs.jit import njit_noalloc
 from hydro_envs.plants.load_sensing import model as plant
+from hydro_envs.plants.load_sensing.kernels import step_serial
 from hydro_envs.plants.load_sensing.params import LoadSensingParams
 from hydro_envs.plants.load_sensing.spec import SPEC
+from hydro_envs.sim.rk4 import block_bounds, n_blocks
 
 __all__ = ["LoadSensingEnv", "LoadSensingVectorEnv", "LoadSensingBatch", "REFERENCE_KINDS", "generate_demand"]
 
@@ -153,6 +155,21 @@ def _observe_copy(i, Y, P, REF, FF, K, NOISE, last_a, prev_a, dpm, m_weight, rat
 def _observe(Y, P, REF, FF, K, NOISE, last_a, prev_a, dpm, m_weight, rate_pen, preview, obs_low, obs_high, obs, reward, meas):
     for i in range(Y.shape[0]):
         _observe_copy(i, Y, P, REF, FF, K, NOISE, last_a, prev_a, dpm, m_weight, rate_pen, preview, obs_low, obs_high, obs, reward, meas)
+
+
+@nb.njit(cache=True, error_model="numpy", parallel=True)
+def _step_observe_parallel(Y, U, P, dt, NSUB, W, clamps, REF, FF, K, NOISE, last_a, prev_a, dpm, m_weight, rate_pen,
+                           preview, obs_low, obs_high, obs, reward, meas):
+    """One env step of every copy in one parallel region: each block of copies is stepped by the
+    plant's serial step, its step counts advanced, and observed."""
+    n = Y.shape[0]
+    for c in nb.prange(n_blocks(n)):
+        lo, hi = block_bounds(c, n)
+        step_serial(Y[lo:hi], U[lo:hi], P[lo:hi], dt, NSUB[lo:hi], W[lo:hi], clamps[lo:hi])
+        for i in range(lo, hi):
+            K[i] += 1
+            _observe_copy(i, Y, P, REF, FF, K, NOISE, last_a, prev_a, dpm, m_weight, rate_pen, preview, obs_low,
+                          obs_high, obs, reward, meas)
 
 
 @njit_noalloc
@@ -273,6 +290,16 @@ class LoadSensingBatch(PlantBatch):
 
     def apply_actions(self) -> None:
         _apply(self.last_a, self.FF, self.K, self.P, self.U)
+
+    def step_and_observe(self) -> None:
+        if not self.parallel:
+            super().step_and_observe()
+            return
+        _step_observe_parallel(
+            self.Y, self.U, self.P, self.dt, self.NSUB, self.W, self.clamps, self.REF, self.FF, self.K, self.NOISE,
+            self.last_a, self.prev_a, self.dpm, self.margin_weight, self.rate_pen, self.preview, self.obs_low,
+            self.obs_high, self.obs, self.reward, self.meas,
+        )
 
     def observe(self) -> None:
         _observe(

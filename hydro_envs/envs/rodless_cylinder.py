@@ -60,6 +60,7 @@ from __future__ import annotations
 
 from typing import Any, Mapping
 
+import numba as nb
 import numpy as np
 
 from hydro_envs.envs.base import VELOCITY_FACTOR, BatchedEnv, BatchedVectorEnv
@@ -69,12 +70,15 @@ from hydro_envs.envs.cylinder_tracking import (
     PREVIEW_STEPS,
     CylinderTrackingBatch,
     observation_space,
+    observe_block,
 )
 from hydro_envs.envs.references import REFERENCE_KINDS, generate_reference
 from hydro_envs.jit import njit_noalloc
+from hydro_envs.plants.rodless_cylinder import kernels
 from hydro_envs.plants.rodless_cylinder import model as plant
 from hydro_envs.plants.rodless_cylinder.params import RodlessCylinderParams
 from hydro_envs.plants.rodless_cylinder.spec import SPEC
+from hydro_envs.sim.rk4 import block_bounds, n_blocks
 
 __all__ = [
     "RodlessCylinderEnv",
@@ -102,6 +106,62 @@ def _apply_actions(last_a, P, U):
         U[i, 0] = uc + last_a[i, 0] * (P[i, plant.I_UMAX] - uc)
 
 
+@nb.njit(cache=True, error_model="numpy", parallel=True)
+def _step_observe_parallel(Y, U, P, dt, NSUB, W, clamps, REF, K, NOISE, last_a, prev_a, quant, e_scale, rate_pen,
+                           preview, obs_low, obs_high, ix, ip1, ip2, i_stroke, i_supply, obs, reward, meas):
+    """One env step of every copy in one parallel region: each block of copies is stepped by
+    :func:`~hydro_envs.plants.rodless_cylinder.kernels.step_serial`
+    and observed (:func:`~hydro_envs.envs.cylinder_tracking.observe_block`)."""
+    n = Y.shape[0]
+    for c in nb.prange(n_blocks(n)):
+        lo, hi = block_bounds(c, n)
+        kernels.step_serial(Y[lo:hi], U[lo:hi], P[lo:hi], dt, NSUB[lo:hi], W[lo:hi], clamps[lo:hi])
+        observe_block(lo, hi, Y, P, REF, K, NOISE, last_a, prev_a, quant, e_scale, rate_pen, preview, obs_low, obs_high,
+                      ix, ip1, ip2, i_stroke, i_supply, obs, reward, meas)
+
+
+@nb.njit(cache=True, error_model="numpy", parallel=True)
+def _step_observe_parallel_stiff_supply(Y, U, P, dt, NSUB, W, clamps, REF, K, NOISE, last_a, prev_a, quant, e_scale, rate_pen,
+                                        preview, obs_low, obs_high, ix, ip1, ip2, i_stroke, i_supply, obs, reward, meas):
+    """One env step of every copy in one parallel region: each block of copies is stepped by
+    :func:`~hydro_envs.plants.rodless_cylinder.kernels.step_serial_stiff_supply`
+    and observed (:func:`~hydro_envs.envs.cylinder_tracking.observe_block`)."""
+    n = Y.shape[0]
+    for c in nb.prange(n_blocks(n)):
+        lo, hi = block_bounds(c, n)
+        kernels.step_serial_stiff_supply(Y[lo:hi], U[lo:hi], P[lo:hi], dt, NSUB[lo:hi], W[lo:hi], clamps[lo:hi])
+        observe_block(lo, hi, Y, P, REF, K, NOISE, last_a, prev_a, quant, e_scale, rate_pen, preview, obs_low, obs_high,
+                      ix, ip1, ip2, i_stroke, i_supply, obs, reward, meas)
+
+
+@nb.njit(cache=True, error_model="numpy", parallel=True)
+def _step_observe_parallel_lugre(Y, U, P, dt, NSUB, W, clamps, REF, K, NOISE, last_a, prev_a, quant, e_scale, rate_pen,
+                                 preview, obs_low, obs_high, ix, ip1, ip2, i_stroke, i_supply, obs, reward, meas):
+    """One env step of every copy in one parallel region: each block of copies is stepped by
+    :func:`~hydro_envs.plants.rodless_cylinder.kernels.step_serial_lugre`
+    and observed (:func:`~hydro_envs.envs.cylinder_tracking.observe_block`)."""
+    n = Y.shape[0]
+    for c in nb.prange(n_blocks(n)):
+        lo, hi = block_bounds(c, n)
+        kernels.step_serial_lugre(Y[lo:hi], U[lo:hi], P[lo:hi], dt, NSUB[lo:hi], W[lo:hi], clamps[lo:hi])
+        observe_block(lo, hi, Y, P, REF, K, NOISE, last_a, prev_a, quant, e_scale, rate_pen, preview, obs_low, obs_high,
+                      ix, ip1, ip2, i_stroke, i_supply, obs, reward, meas)
+
+
+@nb.njit(cache=True, error_model="numpy", parallel=True)
+def _step_observe_parallel_stiff_supply_lugre(Y, U, P, dt, NSUB, W, clamps, REF, K, NOISE, last_a, prev_a, quant, e_scale, rate_pen,
+                                              preview, obs_low, obs_high, ix, ip1, ip2, i_stroke, i_supply, obs, reward, meas):
+    """One env step of every copy in one parallel region: each block of copies is stepped by
+    :func:`~hydro_envs.plants.rodless_cylinder.kernels.step_serial_stiff_supply_lugre`
+    and observed (:func:`~hydro_envs.envs.cylinder_tracking.observe_block`)."""
+    n = Y.shape[0]
+    for c in nb.prange(n_blocks(n)):
+        lo, hi = block_bounds(c, n)
+        kernels.step_serial_stiff_supply_lugre(Y[lo:hi], U[lo:hi], P[lo:hi], dt, NSUB[lo:hi], W[lo:hi], clamps[lo:hi])
+        observe_block(lo, hi, Y, P, REF, K, NOISE, last_a, prev_a, quant, e_scale, rate_pen, preview, obs_low, obs_high,
+                      ix, ip1, ip2, i_stroke, i_supply, obs, reward, meas)
+
+
 class RodlessCylinderBatch(CylinderTrackingBatch):
     """Rodless-cylinder positioning / tracking episodes (see the module docstring)."""
 
@@ -110,6 +170,12 @@ class RodlessCylinderBatch(CylinderTrackingBatch):
     params_cls = RodlessCylinderParams
     dt = DT
     episode_steps_default = EPISODE_STEPS
+    step_observe_kernels = {
+        kernels.step_serial: _step_observe_parallel,
+        kernels.step_serial_stiff_supply: _step_observe_parallel_stiff_supply,
+        kernels.step_serial_lugre: _step_observe_parallel_lugre,
+        kernels.step_serial_stiff_supply_lugre: _step_observe_parallel_stiff_supply_lugre,
+    }
     position_index = plant.Y
     pressure_indices = (plant.PA, plant.PB)
     stroke_index = plant.I_L

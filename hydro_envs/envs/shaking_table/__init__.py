@@ -86,9 +86,11 @@ from hydro_envs.envs.shaking_table.references import (
 from hydro_envs.jit import njit_noalloc
 from hydro_envs.laws.filters import butterworth_lowpass_sos, sos_filter_step
 from hydro_envs.plants.shaking_table import model as plant
+from hydro_envs.plants.shaking_table.kernels import step_serial
 from hydro_envs.plants.shaking_table.model import table_acceleration
 from hydro_envs.plants.shaking_table.params import SPECIMENS, ShakingTableParams
 from hydro_envs.plants.shaking_table.spec import SPEC
+from hydro_envs.sim.rk4 import block_bounds, n_blocks
 
 __all__ = [
     "ShakingTableEnv",
@@ -185,6 +187,23 @@ def _observe_parallel(Y, P, REF, REFV, REFX, K, NOISE, last_a, prev_a, sos, ZI, 
         _observe_copy(i, Y, P, REF, REFV, REFX, K, NOISE, last_a, prev_a, sos, ZI, XPREV, VF, KOBS, quant, dt,
                       e_scale, a_scale, v_scale, a_range, v_range, rate_pen, pos_pen, preview, obs_low,
                       obs_high, obs, reward, meas)
+
+
+@nb.njit(cache=True, error_model="numpy", parallel=True)
+def _step_observe_parallel(Y, U, P, dt, NSUB, W, clamps, REF, REFV, REFX, K, NOISE, last_a, prev_a, sos, ZI, XPREV, VF,
+                           KOBS, quant, e_scale, a_scale, v_scale, a_range, v_range, rate_pen, pos_pen, preview,
+                           obs_low, obs_high, obs, reward, meas):
+    """One env step of every copy in one parallel region: each block of copies is stepped by the
+    plant's serial step, its step counts advanced, and observed."""
+    n = Y.shape[0]
+    for c in nb.prange(n_blocks(n)):
+        lo, hi = block_bounds(c, n)
+        step_serial(Y[lo:hi], U[lo:hi], P[lo:hi], dt, NSUB[lo:hi], W[lo:hi], clamps[lo:hi])
+        for i in range(lo, hi):
+            K[i] += 1
+            _observe_copy(i, Y, P, REF, REFV, REFX, K, NOISE, last_a, prev_a, sos, ZI, XPREV, VF, KOBS, quant, dt,
+                          e_scale, a_scale, v_scale, a_range, v_range, rate_pen, pos_pen, preview, obs_low,
+                          obs_high, obs, reward, meas)
 
 
 def observation_space(error_scale: float, accel_scale: float, velocity_scale: float) -> spaces.Box:
@@ -356,6 +375,17 @@ class ShakingTableBatch(PlantBatch):
 
     def apply_actions(self) -> None:
         np.multiply(self.last_a[:, 0], self.P[:, plant.I_UMAX], out=self.U[:, 0])
+
+    def step_and_observe(self) -> None:
+        if not self.parallel:
+            super().step_and_observe()
+            return
+        _step_observe_parallel(
+            self.Y, self.U, self.P, self.dt, self.NSUB, self.W, self.clamps, self.REF, self.REFV, self.REFX, self.K,
+            self.NOISE, self.last_a, self.prev_a, self.sos, self.ZI, self.XPREV, self.VF, self.KOBS, self.quant,
+            self.error_scale, self.accel_scale, self.velocity_scale, ACCELEROMETER_RANGE, VELOCITY_RANGE,
+            self.rate_pen, self.pos_pen, self.preview, self.obs_low, self.obs_high, self.obs, self.reward, self.meas,
+        )
 
     def observe(self) -> None:
         (_observe_parallel if self.parallel else _observe_serial)(

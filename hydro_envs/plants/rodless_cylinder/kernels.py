@@ -33,7 +33,8 @@ from hydro_envs.plants.rodless_cylinder.model import rodless_cylinder_guard as g
 from hydro_envs.plants.rodless_cylinder.model import local_mode_refinement, local_mode_substeps, lugre_local_substeps
 from hydro_envs.sim.rk4 import in_blocks, rhs_along, rk4_advance_lookahead, rk4_trajectory_lookahead
 
-__all__ = ["step_serial", "step_parallel", "trajectories", "derivatives", "rhs", "guard", "for_params"]
+__all__ = ["step_serial", "step_parallel", "trajectories", "derivatives", "rhs", "guard", "for_params",
+           "step_serial_stiff_supply", "step_serial_lugre", "step_serial_stiff_supply_lugre"]
 
 
 @njit_noalloc
@@ -68,7 +69,8 @@ def derivatives(X, U, P, OUT):
 
 
 @njit_noalloc
-def _step_serial_stiff(Y, U, P, dt, NSUB, W, clamps):
+def step_serial_stiff_supply(Y, U, P, dt, NSUB, W, clamps):
+    """``step_serial`` for rows without supply droop."""
     for i in range(Y.shape[0]):
         h = dt / NSUB[i]
         clamps[i] += rk4_advance_lookahead(rhs_stiff, guard, local_mode_substeps, Y[i], U[i], P[i], h, NSUB[i],
@@ -77,11 +79,12 @@ def _step_serial_stiff(Y, U, P, dt, NSUB, W, clamps):
 
 @nb.njit(cache=True, error_model="numpy", parallel=True)
 def _step_parallel_stiff(Y, U, P, dt, NSUB, W, clamps):
-    in_blocks(_step_serial_stiff, Y, U, P, dt, NSUB, W, clamps)
+    in_blocks(step_serial_stiff_supply, Y, U, P, dt, NSUB, W, clamps)
 
 
 @njit_noalloc
-def _step_serial_lugre(Y, U, P, dt, NSUB, W, clamps):
+def step_serial_lugre(Y, U, P, dt, NSUB, W, clamps):
+    """``step_serial`` for rows that all have a bristle state."""
     for i in range(Y.shape[0]):
         h = dt / NSUB[i]
         clamps[i] += rk4_advance_lookahead(rhs, guard, lugre_local_substeps, Y[i], U[i], P[i], h, NSUB[i],
@@ -90,11 +93,12 @@ def _step_serial_lugre(Y, U, P, dt, NSUB, W, clamps):
 
 @nb.njit(cache=True, error_model="numpy", parallel=True)
 def _step_parallel_lugre(Y, U, P, dt, NSUB, W, clamps):
-    in_blocks(_step_serial_lugre, Y, U, P, dt, NSUB, W, clamps)
+    in_blocks(step_serial_lugre, Y, U, P, dt, NSUB, W, clamps)
 
 
 @njit_noalloc
-def _step_serial_stiff_lugre(Y, U, P, dt, NSUB, W, clamps):
+def step_serial_stiff_supply_lugre(Y, U, P, dt, NSUB, W, clamps):
+    """``step_serial`` for rows without supply droop that all have a bristle state (every default set)."""
     for i in range(Y.shape[0]):
         h = dt / NSUB[i]
         clamps[i] += rk4_advance_lookahead(rhs_stiff, guard, lugre_local_substeps, Y[i], U[i], P[i], h, NSUB[i],
@@ -103,15 +107,15 @@ def _step_serial_stiff_lugre(Y, U, P, dt, NSUB, W, clamps):
 
 @nb.njit(cache=True, error_model="numpy", parallel=True)
 def _step_parallel_stiff_lugre(Y, U, P, dt, NSUB, W, clamps):
-    in_blocks(_step_serial_stiff_lugre, Y, U, P, dt, NSUB, W, clamps)
+    in_blocks(step_serial_stiff_supply_lugre, Y, U, P, dt, NSUB, W, clamps)
 
 
 # (supply droop in some row, static curve in some row) -> step kernels
 _KERNELS = {
     (True, True): types.SimpleNamespace(step_serial=step_serial, step_parallel=step_parallel),
-    (True, False): types.SimpleNamespace(step_serial=_step_serial_lugre, step_parallel=_step_parallel_lugre),
-    (False, True): types.SimpleNamespace(step_serial=_step_serial_stiff, step_parallel=_step_parallel_stiff),
-    (False, False): types.SimpleNamespace(step_serial=_step_serial_stiff_lugre,
+    (True, False): types.SimpleNamespace(step_serial=step_serial_lugre, step_parallel=_step_parallel_lugre),
+    (False, True): types.SimpleNamespace(step_serial=step_serial_stiff_supply, step_parallel=_step_parallel_stiff),
+    (False, False): types.SimpleNamespace(step_serial=step_serial_stiff_supply_lugre,
                                           step_parallel=_step_parallel_stiff_lugre),
 }
 
