@@ -361,6 +361,9 @@ def main() -> None:
     import gymnasium as gym
 
     import hydro_envs  # noqa: F401
+    from hydro_envs._openmp import set_spin_time
+
+    set_spin_time()  # as the first vector env made does; before numba starts its threads below
     import numba
 
     single_steps = 5_000 if args.quick else 30_000

@@ -1,4 +1,4 @@
-"""The package's OpenMP wait default: workers spin briefly after a parallel region, then sleep.
+"""The package's OpenMP wait default: workers spin about 75 us after a parallel region, then sleep.
 
 The vector envs step every copy in a numba parallel kernel (OpenMP layer, libgomp), and torch
 runs its operators on its own libgomp. How long an idle libgomp worker spins before it sleeps
@@ -7,11 +7,12 @@ is ``GOMP_SPINCOUNT``: libgomp's default is 300 000 spins (milliseconds), and
 
 * workers that spin for milliseconds keep their cores from whatever else runs;
 * workers that sleep at once must be woken for every parallel region. On the 2-core
-  development VM (KVM) that costs about 50 us per call of an empty parallel kernel, against
-  1.5-2 us for a worker still spinning (``bench/step_rate.py --profile`` prints it), and it
-  slows torch as much.
+  development VMs that costs 40-90 us per call of an empty parallel kernel, against 2-4 us
+  for a worker still spinning (``bench/step_rate.py --profile`` prints it), and it slows
+  torch as much.
 
-``SPIN_COUNT`` spins last about 75 us there. Measured with interleaved runs on that VM
+A short spin keeps most of what a worker that never sleeps gains and gives its core back soon.
+Measured on the first development VM (AMD EPYC, a spin about 25 ns), with interleaved runs
 (medians of three; ``PASSIVE`` / 3 000 spins / 10 000 spins):
 
 * 1024-copy vector envs, M steps/s: force actuator 1.24 / 1.24 / 1.30, load sensing
@@ -23,10 +24,14 @@ is ``GOMP_SPINCOUNT``: libgomp's default is 300 000 spins (milliseconds), and
 * ``python -m agents.train --algo sac --timesteps 2000 --torch-threads 2`` (servo), wall time
   of the whole command: 14.2-15.1 s / 9.0-11.0 s / 9.2-10.7 s.
 
-So a short spin keeps most of what a worker that never sleeps gains and gives its core back
-soon; a user's own ``OMP_WAIT_POLICY`` or ``GOMP_SPINCOUNT`` is left as it is. libgomp reads
-the variables once, when it is loaded (by the first parallel kernel or by torch), so
-:func:`set_wait_default` runs when the package is imported, before either.
+A spin is one ``pause`` instruction, whose latency differs between CPUs (about 9 ns on the
+Sapphire Rapids-class Xeon of a later VM, where 3 000 spins lasted 30 us and a worker slept
+through the Python part of every env step). So the count is set for a time,
+:data:`SPIN_TIME_US`: importing the package sets :data:`SPIN_COUNT` (:func:`set_wait_default`,
+before numba or torch can load libgomp), and the first vector env made replaces it with the
+count that spins that long on this CPU (:func:`set_spin_time`, which times ``pause``), if
+numba's OpenMP pool has not started yet (libgomp reads the variable once, when it is loaded).
+A user's own ``OMP_WAIT_POLICY`` or ``GOMP_SPINCOUNT`` is left as it is.
 """
 
 from __future__ import annotations
@@ -34,15 +39,52 @@ from __future__ import annotations
 import os
 from collections.abc import MutableMapping
 
-__all__ = ["SPIN_COUNT", "set_wait_default"]
+__all__ = ["SPIN_COUNT", "SPIN_TIME_US", "set_wait_default", "set_spin_time", "spin_count_for"]
 
-#: spins of an idle libgomp worker before it sleeps (about 75 us on the development VM)
+#: spins of an idle libgomp worker before it sleeps, until :func:`set_spin_time` has timed a spin
+#: (75 us at 25 ns per spin)
 SPIN_COUNT = "3000"
+#: how long an idle libgomp worker spins before it sleeps [us]
+SPIN_TIME_US = 75.0
+
+_set_here = False
 
 
 def set_wait_default(environ: MutableMapping[str, str] = os.environ) -> None:
     """Set ``GOMP_SPINCOUNT`` to :data:`SPIN_COUNT` unless ``OMP_WAIT_POLICY`` or
     ``GOMP_SPINCOUNT`` is already set."""
+    global _set_here
     if "OMP_WAIT_POLICY" in environ or "GOMP_SPINCOUNT" in environ:
         return
     environ["GOMP_SPINCOUNT"] = SPIN_COUNT
+    if environ is os.environ:
+        _set_here = True
+
+
+def spin_count_for(pause_ns: float, spin_time_us: float = SPIN_TIME_US) -> int:
+    """Spins that last ``spin_time_us`` at ``pause_ns`` per spin (at least 1)."""
+    if not pause_ns > 0.0:
+        raise ValueError(f"pause_ns must be > 0, got {pause_ns}")
+    return max(1, round(spin_time_us * 1e3 / pause_ns))
+
+
+def set_spin_time() -> int | None:
+    """Replace the package's ``GOMP_SPINCOUNT`` default by the count that spins
+    :data:`SPIN_TIME_US` on this CPU, while numba's OpenMP pool has not started; returns the count
+    set, or None (a user's setting, a pool already running, a CPU other than x86-64)."""
+    global _set_here
+    if not _set_here or os.environ.get("GOMP_SPINCOUNT") != SPIN_COUNT:
+        return None
+    _set_here = False  # once per process
+    import numba.np.ufunc.parallel as numba_parallel
+
+    if numba_parallel._is_initialized:
+        return None
+    from hydro_envs._spin import pause_ns
+
+    ns = pause_ns()
+    if ns is None:
+        return None
+    count = spin_count_for(ns)
+    os.environ["GOMP_SPINCOUNT"] = str(count)
+    return count

@@ -168,3 +168,36 @@ def test_benchmark_configs_list_existing_baselines_of_their_env():
         for rel in cfg["policies"]:
             pol = load_trained(root / rel)
             assert pol.env_id == cfg["env"], (f, rel)
+
+
+def test_the_first_vector_env_sets_the_openmp_spin_for_a_time_unless_the_user_chose():
+    """The package's spin count is replaced, when the first vector env is made, by the count that
+    spins ``SPIN_TIME_US`` at this CPU's ``pause`` latency (x86-64); a user's setting stays."""
+    import platform
+    import subprocess
+    import sys
+
+    from hydro_envs._openmp import SPIN_TIME_US, spin_count_for
+
+    if platform.machine().lower() not in ("x86_64", "amd64"):
+        pytest.skip("the spin is timed with the x86 pause instruction")
+    code = ("import os, gymnasium as gym, hydro_envs; from hydro_envs._spin import pause_ns; "
+            "before = os.environ.get('GOMP_SPINCOUNT'); "
+            "gym.make_vec('hydro_envs/ServoCylinderPosition-v0', num_envs=2, vectorization_mode='vector_entry_point'); "
+            "print(before, os.environ.get('GOMP_SPINCOUNT'), pause_ns())")
+    env = {k: v for k, v in os.environ.items() if k not in ("OMP_WAIT_POLICY", "GOMP_SPINCOUNT")}
+    root = str(Path(__file__).resolve().parents[1])
+    env["PYTHONPATH"] = root + os.pathsep + env.get("PYTHONPATH", "")
+
+    def run(**extra: str) -> list[str]:
+        out = subprocess.run([sys.executable, "-c", code], env={**env, **extra}, capture_output=True, text=True,
+                             check=True)
+        return out.stdout.split()
+
+    before, after, ns = run()
+    assert before == "3000" and after != before
+    assert 0.5 < int(after) * float(ns) / (SPIN_TIME_US * 1e3) < 2.0  # about 75 us of pauses
+    assert run(GOMP_SPINCOUNT="0")[:2] == ["0", "0"]
+    assert spin_count_for(10.0) == 7500 and spin_count_for(1e9) == 1
+    with pytest.raises(ValueError, match="pause_ns must be > 0"):
+        spin_count_for(0.0)

@@ -42,6 +42,7 @@ from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
+from hydro_envs._openmp import set_spin_time
 from hydro_envs.params import PhysicalParams
 from hydro_envs.randomization import RandomizationSpec, load_randomization
 from hydro_envs.sim.stiffness import DEFAULT_SAFETY, substeps_from_stiffness
@@ -635,6 +636,7 @@ class BatchedVectorEnv(VectorEnv):
             max_episode_steps = self.batch_cls.episode_steps_default
         self.max_episode_steps = check_positive_int("max_episode_steps", max_episode_steps)
         kwargs.setdefault("episode_steps", self.max_episode_steps)
+        set_spin_time()  # before the first parallel kernel loads libgomp (hydro_envs/_openmp.py)
         self._batch = self.batch_cls(self.num_envs, parallel=True, **kwargs)
         self._batch.hold_params(given_param_names(kwargs.get("params"), self._batch.params_cls))
         self.single_action_space = self._batch.action_space()
