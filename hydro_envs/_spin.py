@@ -15,31 +15,18 @@ import platform
 import time
 
 import numba
-from llvmlite import ir
-from numba.core import cgutils, types
-from numba.extending import intrinsic
+
+from hydro_envs.intrinsics import cpu_pause
 
 __all__ = ["pause_ns"]
 
 X86_64 = platform.machine().lower() in ("x86_64", "amd64")
 
 
-@intrinsic
-def _cpu_pause(typingctx):
-    """The x86 ``pause`` instruction (``llvm.x86.sse2.pause``)."""
-
-    def codegen(context, builder, signature, args):
-        fn = cgutils.get_or_insert_function(builder.module, ir.FunctionType(ir.VoidType(), []), "llvm.x86.sse2.pause")
-        builder.call(fn, [])
-        return context.get_dummy_value()
-
-    return types.none(), codegen
-
-
 @numba.njit(cache=True)
 def _pause_loop(n):
     for _ in range(n):
-        _cpu_pause()
+        cpu_pause()
 
 
 def pause_ns(pauses: int = 20_000, repeats: int = 5) -> float | None:

@@ -83,6 +83,7 @@ from hydro_envs.envs.shaking_table.references import (
     generate_table_reference,
     reference_limits,
 )
+from hydro_envs.intrinsics import prefetch_row_element
 from hydro_envs.jit import njit_noalloc
 from hydro_envs.laws.filters import butterworth_lowpass_sos, sos_filter_step
 from hydro_envs.plants.shaking_table import model as plant
@@ -113,6 +114,9 @@ VELOCITY_FILTER = {"order": 8, "cutoff_hz": 40.0}
 #: Gefran PC-M-300 potentiometer read by an assumed 16-bit ADC over 300 mm: 4.6 um steps.
 POSITION_QUANTIZATION = 0.3 / 2**16
 INITIAL_POSITION_BAND = 0.1  # fraction of the half stroke
+#: how far ahead [samples] the observation prefetches each reference stream: one 64-byte cache
+#: line of float64 (each copy's reference is a row of its own; :mod:`hydro_envs.intrinsics`)
+PREFETCH_SAMPLES = 8
 
 
 @nb.njit(cache=True, error_model="numpy", inline="always")
@@ -127,6 +131,12 @@ def _observe_copy(i, Y, P, REF, REFV, REFX, K, NOISE, last_a, prev_a, sos, ZI, X
     n_ref = REF.shape[1]
     n_noise = NOISE.shape[1]
     k = K[i]
+    ahead = min(k + PREFETCH_SAMPLES, n_ref - 1)  # load the lines the reference streams enter next
+    prefetch_row_element(REF, i, ahead)
+    for m in range(preview.shape[0]):
+        prefetch_row_element(REF, i, min(ahead + preview[m], n_ref - 1))
+    prefetch_row_element(REFV, i, ahead)
+    prefetch_row_element(REFX, i, ahead)
     half = 0.5 * P[i, plant.I_L]
     r = REF[i, min(k, n_ref - 1)]
     j = k % n_noise
