@@ -43,6 +43,7 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from hydro_envs._openmp import set_spin_time
+from hydro_envs.jit import njit_noalloc
 from hydro_envs.params import PhysicalParams
 from hydro_envs.randomization import RandomizationSpec, load_randomization
 from hydro_envs.sim.stiffness import DEFAULT_SAFETY, substeps_from_stiffness
@@ -52,7 +53,9 @@ __all__ = [
     "PlantBatch",
     "BatchedEnv",
     "BatchedVectorEnv",
+    "action_array",
     "check_actions",
+    "take_actions",
     "check_nonnegative",
     "check_positive_int",
     "PRESSURE_FACTOR",
@@ -134,11 +137,10 @@ def check_nonnegative(**values: float) -> None:
             raise ValueError(f"{name} must be finite and >= 0, got {value}")
 
 
-def check_actions(action: Any, n: int, dim: int) -> np.ndarray:
-    """Validate actions for ``n`` copies of a ``dim``-dimensional Box(-1, 1); clip; return
-    ``(n, dim)`` float64. Real numbers (float or integer arrays, lists, scalars) are
-    accepted; NaN/inf, a wrong shape or anything that is not real numbers (strings, None,
-    booleans, complex, objects, ragged lists) raise ``ValueError``."""
+def action_array(action: Any, n: int, dim: int) -> np.ndarray:
+    """``action`` for ``n`` copies of a ``dim``-dimensional Box(-1, 1) as an ``(n, dim)`` array of
+    real numbers (float or integer; not yet checked for finiteness, not clipped). Strings, None,
+    booleans, complex, objects, ragged lists or a wrong shape raise ``ValueError``."""
     try:
         raw = np.asarray(action)
     except (ValueError, TypeError) as exc:  # e.g. a ragged nested list
@@ -148,19 +150,54 @@ def check_actions(action: Any, n: int, dim: int) -> np.ndarray:
             f"action must be real numbers (float or integer) in [-1, 1], got dtype {raw.dtype} "
             f"({type(action).__name__}: {action!r})"
         )
-    arr = raw.astype(np.float64, copy=False)
-    ok_shapes = {(n, dim)} | ({(n,)} if dim == 1 else set()) | ({(dim,)} if n == 1 else set())
-    if n == 1 and dim == 1:
-        ok_shapes.add(())  # a plain number for a one-dimensional single env
-    if arr.shape not in ok_shapes:
-        raise ValueError(
-            f"action must have shape {(n, dim) if n > 1 else (dim,)} with values in [-1, 1], "
-            f"got shape {arr.shape}"
-        )
-    arr = arr.reshape(n, dim)
+    if raw.shape != (n, dim):
+        ok_shapes = {(n, dim)} | ({(n,)} if dim == 1 else set()) | ({(dim,)} if n == 1 else set())
+        if n == 1 and dim == 1:
+            ok_shapes.add(())  # a plain number for a one-dimensional single env
+        if raw.shape not in ok_shapes:
+            raise ValueError(
+                f"action must have shape {(n, dim) if n > 1 else (dim,)} with values in [-1, 1], "
+                f"got shape {raw.shape}"
+            )
+        raw = raw.reshape(n, dim)
+    return raw
+
+
+def not_finite_error(arr: np.ndarray) -> ValueError:
+    """The error for actions ``arr`` that hold NaN or inf (names up to four of them)."""
+    arr = np.asarray(arr, dtype=np.float64)
+    return ValueError(f"action must be finite (allowed range [-1, 1]), got {arr[~np.isfinite(arr)][:4]}")
+
+
+def check_actions(action: Any, n: int, dim: int) -> np.ndarray:
+    """Validate actions for ``n`` copies of a ``dim``-dimensional Box(-1, 1); clip; return
+    ``(n, dim)`` float64. Real numbers (float or integer arrays, lists, scalars) are
+    accepted; NaN/inf, a wrong shape or anything that is not real numbers (strings, None,
+    booleans, complex, objects, ragged lists) raise ``ValueError``."""
+    arr = action_array(action, n, dim).astype(np.float64, copy=False)
     if not np.all(np.isfinite(arr)):
-        raise ValueError(f"action must be finite (allowed range [-1, 1]), got {arr[~np.isfinite(arr)][:4]}")
+        raise not_finite_error(arr)
     return np.clip(arr, -1.0, 1.0)
+
+
+@njit_noalloc
+def take_actions(raw, prev_a, last_a):
+    """If every entry of ``raw`` ``(n, dim)`` is finite: ``prev_a = last_a`` and ``last_a`` = ``raw``
+    clipped to [-1, 1], and return 0; else change nothing and return how many are not finite
+    (the vector env's step: :func:`check_actions` and the shift of the last actions in one pass)."""
+    n, dim = raw.shape
+    bad = 0
+    for i in range(n):
+        for j in range(dim):
+            if not math.isfinite(raw[i, j]):
+                bad += 1
+    if bad:
+        return bad
+    for i in range(n):
+        for j in range(dim):
+            prev_a[i, j] = last_a[i, j]
+            last_a[i, j] = min(max(float(raw[i, j]), -1.0), 1.0)
+    return 0
 
 
 class PlantBatch:
@@ -480,10 +517,14 @@ class PlantBatch:
 
     def advance(self, actions: np.ndarray) -> None:
         """Apply checked, clipped ``actions`` ``(n, action_dim)`` for one env step."""
-        if self._kernel_stale:
-            self.select_step_kernel()
         self.prev_a[:] = self.last_a
         self.last_a[:] = actions
+        self.advance_taken()
+
+    def advance_taken(self) -> None:
+        """One env step under the actions already in ``last_a`` (``prev_a`` holds the step's before)."""
+        if self._kernel_stale:
+            self.select_step_kernel()
         self.apply_actions()
         self.step_and_observe()
 
@@ -728,14 +769,17 @@ class BatchedVectorEnv(VectorEnv):
         if not self._reset_done:
             raise gym.error.ResetNeeded("call reset() before step()")
         b = self._batch
-        b.advance(check_actions(actions, self.num_envs, b.action_dim))
+        raw = action_array(actions, self.num_envs, b.action_dim)
+        if take_actions(raw, b.prev_a, b.last_a):
+            raise not_finite_error(raw)
+        b.advance_taken()
         terminated = np.zeros(self.num_envs, dtype=bool)
         truncated = b.K >= self.max_episode_steps
         reward = b.reward.copy()
         info: dict[str, Any] = {}
         if self.autoreset_mode == AutoresetMode.NEXT_STEP:
-            redo = np.flatnonzero(self._needs_reset)
-            if redo.size:
+            if self._needs_reset.any():
+                redo = np.flatnonzero(self._needs_reset)
                 for i in redo:
                     b.reset_copy(i, b.rngs[i], None)
                 b.observe()
