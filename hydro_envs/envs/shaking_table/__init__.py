@@ -62,7 +62,7 @@ each taken as finer ones (2, up to 4 at the randomisation corners) where a valve
 laminar core, a kink of the metering openings or an edge of the modified-IFAS notch needs them,
 and as many as keep RK4 accurate where a chamber empties into or refills from the air-release
 band (:func:`hydro_envs.plants.shaking_table.model.local_mode_substeps`). The modulus law sets
-the cost: a 1024-copy vector env steps about 1.2x faster with ``preset="ifas"`` and 1.3-1.5x with
+the cost: a 1024-copy vector env steps about 1.2x faster with ``preset="ifas"`` and 1.3-1.75x with
 ``preset="constant"`` than with the default modified IFAS (``docs/speed.md``).
 """
 
