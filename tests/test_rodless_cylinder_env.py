@@ -236,9 +236,12 @@ def test_env_step_kernels_follow_the_supply_droop_and_agree_bit_for_bit():
     """Without droop the envs step with the stiff-supply kernels (no droop solve to compile), with
     a bristle state in every copy with the refinement test compiled without the static curve: the
     same numbers as the general kernels; a copy with droop or with the static curve switches every
-    copy over."""
+    copy over. The vector env steps and observes in one kernel bound to the stiff-supply LuGre step
+    for the default sets and to the general step otherwise: compared with the general parallel step
+    and a separate observation."""
     import gymnasium as gym
 
+    from hydro_envs.envs.base import PlantBatch
     from hydro_envs.plants.rodless_cylinder import kernels as K
 
     def run(force_full: bool, **params) -> tuple[np.ndarray, object]:
@@ -250,6 +253,11 @@ def test_env_step_kernels_follow_the_supply_droop_and_agree_bit_for_bit():
         chosen = b.step_kernel
         if force_full:
             b.step_kernel = K.step_parallel
+            b.step_and_observe = lambda: PlantBatch.step_and_observe(b)
+        else:
+            fused = b.step_observe_kernels.get(b.step_serial, b.step_observe_general)
+            assert fused.py_func.__name__ == ("_step_observe_parallel_default" if not params
+                                              else "_step_observe_parallel")
         for a in acts[1:]:
             venv.step(a)
         return b.Y.copy(), chosen

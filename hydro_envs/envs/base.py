@@ -526,16 +526,23 @@ class PlantBatch:
         if self._kernel_stale:
             self.select_step_kernel()
         self.apply_actions()
-        self.step_and_observe()
+        if self.parallel:
+            self.step_and_observe()
+        else:
+            self.step_then_observe()
 
-    def step_and_observe(self) -> None:
-        """Step every copy (``step_kernel``), count the step in ``K`` and :meth:`observe`. An env
-        overrides it for the parallel batch with one kernel that steps and observes each block
-        of copies in a single parallel region (:func:`hydro_envs.sim.rk4.block_bounds`): the
-        observation then runs on every thread, and the threads are woken once per env step."""
+    def step_then_observe(self) -> None:
+        """Step every copy (``step_kernel``), count the step in ``K`` and :meth:`observe`."""
         self.step_kernel(self.Y, self.U, self.P, self.dt, self.NSUB, self.W, self.clamps)
         self.K += 1
         self.observe()
+
+    def step_and_observe(self) -> None:
+        """The parallel batch's step: :meth:`step_then_observe`, which an env overrides with one
+        kernel that steps and observes each block of copies in a single parallel region
+        (:func:`hydro_envs.sim.rk4.step_block`): the observation then runs on every thread, and
+        the threads are woken once per env step."""
+        self.step_then_observe()
 
     def state_dict(self, i: int) -> dict[str, float]:
         return dict(zip(self.plant.STATE_NAMES, self.Y[i].tolist()))
@@ -623,9 +630,7 @@ class BatchedEnv(gym.Env):
         b.apply_actions()
         if b._kernel_stale:
             b.select_step_kernel()
-        b.step_kernel(b.Y, b.U, b.P, b.dt, b.NSUB, b.W, b.clamps)
-        b.K[0] += 1
-        b.observe()
+        b.step_then_observe()
         if self.render_mode is not None:
             self._history.append(b.render_sample(0))
         info = {"state": dict(zip(b.plant.STATE_NAMES, b.Y[0].tolist())), "params": dict(self._params_info)}

@@ -32,9 +32,10 @@ from gymnasium import spaces
 from hydro_envs.envs.base import PlantBatch, check_nonnegative, fill_reference
 from hydro_envs.envs.render import render_cylinder
 from hydro_envs.jit import njit_noalloc
+from hydro_envs.sim.rk4 import n_blocks, step_block
 
 __all__ = ["PREVIEW_STEPS", "OBS_DIM", "CylinderTrackingBatch", "observation_space", "check_reference_array",
-           "observe_block"]
+           "step_observe_blocks"]
 
 PREVIEW_STEPS = (10, 20, 30, 40, 50)
 OBS_DIM = 6 + len(PREVIEW_STEPS)
@@ -89,14 +90,17 @@ def _observe(Y, P, REF, K, NOISE, last_a, prev_a, quant, e_scale, rate_pen, prev
 
 
 @nb.njit(cache=True, error_model="numpy", inline="always")
-def observe_block(lo, hi, Y, P, REF, K, NOISE, last_a, prev_a, quant, e_scale, rate_pen, preview, obs_low, obs_high, ix,
-                  ip1, ip2, i_stroke, i_supply, obs, reward, meas):
-    """Advance the step counts of copies ``lo:hi`` and observe them (the part of a
-    step-and-observe kernel after a block's step)."""
-    for i in range(lo, hi):
-        K[i] += 1
-        _observe_copy(i, Y, P, REF, K, NOISE, last_a, prev_a, quant, e_scale, rate_pen, preview,
-                      obs_low, obs_high, ix, ip1, ip2, i_stroke, i_supply, obs, reward, meas)
+def step_observe_blocks(step, Y, U, P, dt, NSUB, W, clamps, REF, K, NOISE, last_a, prev_a, quant, e_scale, rate_pen,
+                        preview, obs_low, obs_high, ix, ip1, ip2, i_stroke, i_supply, obs, reward, meas):
+    """One env step of every copy: each block of copies (:func:`hydro_envs.sim.rk4.step_block`)
+    is stepped by the plant's serial step ``step``, its step counts advanced, and observed. Inline
+    it into a ``parallel=True`` kernel that names the step (an env's ``_step_observe_parallel``)."""
+    for c in nb.prange(n_blocks(Y.shape[0])):
+        lo, hi = step_block(step, c, Y, U, P, dt, NSUB, W, clamps)
+        for i in range(lo, hi):
+            K[i] += 1
+            _observe_copy(i, Y, P, REF, K, NOISE, last_a, prev_a, quant, e_scale, rate_pen, preview,
+                          obs_low, obs_high, ix, ip1, ip2, i_stroke, i_supply, obs, reward, meas)
 
 
 def observation_space(stroke: float, error_scale: float) -> spaces.Box:
@@ -201,11 +205,14 @@ class CylinderTrackingBatch(PlantBatch):
             self.NOISE[i] = rng.standard_normal((self.NOISE.shape[1], 3)) * self.noise_std
 
     #: the env's step-and-observe kernels by the plant's serial step they run on each block
-    #: (:meth:`step_and_observe`); a serial step without one steps and observes in two calls
+    #: (:meth:`step_and_observe`), and the one for any other serial step (a ``staticmethod`` of one
+    #: that runs the plant's general step, bit-identical to its variants); without one, the batch
+    #: steps and observes in two calls
     step_observe_kernels: ClassVar[dict[Any, Any]] = {}
+    step_observe_general: ClassVar[Any] = None
 
     def step_and_observe(self) -> None:
-        kernel = self.step_observe_kernels.get(self.step_serial) if self.parallel else None
+        kernel = self.step_observe_kernels.get(self.step_serial, self.step_observe_general)
         if kernel is None:
             super().step_and_observe()
             return

@@ -62,7 +62,7 @@ from hydro_envs.plants.force_actuator import model as plant
 from hydro_envs.plants.force_actuator.kernels import step_serial
 from hydro_envs.plants.force_actuator.params import ForceActuatorParams
 from hydro_envs.plants.force_actuator.spec import SPEC
-from hydro_envs.sim.rk4 import block_bounds, n_blocks
+from hydro_envs.sim.rk4 import n_blocks, step_block
 
 __all__ = [
     "ForceActuatorEnv",
@@ -156,10 +156,8 @@ def _step_observe_parallel(Y, U, P, dt, NSUB, W, clamps, REF, K, NOISE, last_a, 
                            reward, meas):
     """One env step of every copy in one parallel region: each block of copies is stepped by the
     plant's serial step, its step counts advanced, and observed."""
-    n = Y.shape[0]
-    for c in nb.prange(n_blocks(n)):
-        lo, hi = block_bounds(c, n)
-        step_serial(Y[lo:hi], U[lo:hi], P[lo:hi], dt, NSUB[lo:hi], W[lo:hi], clamps[lo:hi])
+    for c in nb.prange(n_blocks(Y.shape[0])):
+        lo, hi = step_block(step_serial, c, Y, U, P, dt, NSUB, W, clamps)
         for i in range(lo, hi):
             K[i] += 1
             _observe_copy(i, Y, P, REF, K, NOISE, last_a, prev_a, e_scale, rate_pen, preview, obs, reward, meas)
@@ -280,9 +278,6 @@ class ForceActuatorBatch(PlantBatch):
         _apply_delayed(self.last_a, self.P, self.pending, self.head, self.n_delay, self.U)
 
     def step_and_observe(self) -> None:
-        if not self.parallel:
-            super().step_and_observe()
-            return
         _step_observe_parallel(
             self.Y, self.U, self.P, self.dt, self.NSUB, self.W, self.clamps, self.REF, self.K, self.NOISE, self.last_a,
             self.prev_a, self.error_scale, self.rate_pen, self.preview, self.obs, self.reward, self.meas,

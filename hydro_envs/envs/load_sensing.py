@@ -75,7 +75,7 @@ from hydro_envs.plants.load_sensing import model as plant
 from hydro_envs.plants.load_sensing.kernels import step_serial
 from hydro_envs.plants.load_sensing.params import LoadSensingParams
 from hydro_envs.plants.load_sensing.spec import SPEC
-from hydro_envs.sim.rk4 import block_bounds, n_blocks
+from hydro_envs.sim.rk4 import n_blocks, step_block
 
 __all__ = ["LoadSensingEnv", "LoadSensingVectorEnv", "LoadSensingBatch", "REFERENCE_KINDS", "generate_demand"]
 
@@ -162,10 +162,8 @@ def _step_observe_parallel(Y, U, P, dt, NSUB, W, clamps, REF, FF, K, NOISE, last
                            preview, obs_low, obs_high, obs, reward, meas):
     """One env step of every copy in one parallel region: each block of copies is stepped by the
     plant's serial step, its step counts advanced, and observed."""
-    n = Y.shape[0]
-    for c in nb.prange(n_blocks(n)):
-        lo, hi = block_bounds(c, n)
-        step_serial(Y[lo:hi], U[lo:hi], P[lo:hi], dt, NSUB[lo:hi], W[lo:hi], clamps[lo:hi])
+    for c in nb.prange(n_blocks(Y.shape[0])):
+        lo, hi = step_block(step_serial, c, Y, U, P, dt, NSUB, W, clamps)
         for i in range(lo, hi):
             K[i] += 1
             _observe_copy(i, Y, P, REF, FF, K, NOISE, last_a, prev_a, dpm, m_weight, rate_pen, preview, obs_low,
@@ -292,9 +290,6 @@ class LoadSensingBatch(PlantBatch):
         _apply(self.last_a, self.FF, self.K, self.P, self.U)
 
     def step_and_observe(self) -> None:
-        if not self.parallel:
-            super().step_and_observe()
-            return
         _step_observe_parallel(
             self.Y, self.U, self.P, self.dt, self.NSUB, self.W, self.clamps, self.REF, self.FF, self.K, self.NOISE,
             self.last_a, self.prev_a, self.dpm, self.margin_weight, self.rate_pen, self.preview, self.obs_low,

@@ -70,7 +70,7 @@ from hydro_envs.envs.cylinder_tracking import (
     PREVIEW_STEPS,
     CylinderTrackingBatch,
     observation_space,
-    observe_block,
+    step_observe_blocks,
 )
 from hydro_envs.envs.references import REFERENCE_KINDS, generate_reference
 from hydro_envs.jit import njit_noalloc
@@ -78,7 +78,6 @@ from hydro_envs.plants.rodless_cylinder import kernels
 from hydro_envs.plants.rodless_cylinder import model as plant
 from hydro_envs.plants.rodless_cylinder.params import RodlessCylinderParams
 from hydro_envs.plants.rodless_cylinder.spec import SPEC
-from hydro_envs.sim.rk4 import block_bounds, n_blocks
 
 __all__ = [
     "RodlessCylinderEnv",
@@ -107,59 +106,28 @@ def _apply_actions(last_a, P, U):
 
 
 @nb.njit(cache=True, error_model="numpy", parallel=True)
-def _step_observe_parallel(Y, U, P, dt, NSUB, W, clamps, REF, K, NOISE, last_a, prev_a, quant, e_scale, rate_pen,
-                           preview, obs_low, obs_high, ix, ip1, ip2, i_stroke, i_supply, obs, reward, meas):
-    """One env step of every copy in one parallel region: each block of copies is stepped by
-    :func:`~hydro_envs.plants.rodless_cylinder.kernels.step_serial`
-    and observed (:func:`~hydro_envs.envs.cylinder_tracking.observe_block`)."""
-    n = Y.shape[0]
-    for c in nb.prange(n_blocks(n)):
-        lo, hi = block_bounds(c, n)
-        kernels.step_serial(Y[lo:hi], U[lo:hi], P[lo:hi], dt, NSUB[lo:hi], W[lo:hi], clamps[lo:hi])
-        observe_block(lo, hi, Y, P, REF, K, NOISE, last_a, prev_a, quant, e_scale, rate_pen, preview, obs_low, obs_high,
-                      ix, ip1, ip2, i_stroke, i_supply, obs, reward, meas)
+def _step_observe_parallel(Y, U, P, dt, NSUB, W, clamps, REF, K, NOISE, last_a, prev_a, quant, e_scale,
+                           rate_pen, preview, obs_low, obs_high, ix, ip1, ip2, i_stroke, i_supply, obs, reward,
+                           meas):
+    """One env step of every copy in one parallel region, stepped by the plant's
+    general :func:`~hydro_envs.plants.rodless_cylinder.kernels.step_serial`
+    (:func:`~hydro_envs.envs.cylinder_tracking.step_observe_blocks`)."""
+    step_observe_blocks(kernels.step_serial, Y, U, P, dt, NSUB, W, clamps, REF, K, NOISE, last_a, prev_a,
+                        quant, e_scale, rate_pen, preview, obs_low, obs_high, ix, ip1, ip2, i_stroke,
+                        i_supply, obs, reward, meas)
 
 
 @nb.njit(cache=True, error_model="numpy", parallel=True)
-def _step_observe_parallel_stiff_supply(Y, U, P, dt, NSUB, W, clamps, REF, K, NOISE, last_a, prev_a, quant, e_scale, rate_pen,
-                                        preview, obs_low, obs_high, ix, ip1, ip2, i_stroke, i_supply, obs, reward, meas):
-    """One env step of every copy in one parallel region: each block of copies is stepped by
-    :func:`~hydro_envs.plants.rodless_cylinder.kernels.step_serial_stiff_supply`
-    and observed (:func:`~hydro_envs.envs.cylinder_tracking.observe_block`)."""
-    n = Y.shape[0]
-    for c in nb.prange(n_blocks(n)):
-        lo, hi = block_bounds(c, n)
-        kernels.step_serial_stiff_supply(Y[lo:hi], U[lo:hi], P[lo:hi], dt, NSUB[lo:hi], W[lo:hi], clamps[lo:hi])
-        observe_block(lo, hi, Y, P, REF, K, NOISE, last_a, prev_a, quant, e_scale, rate_pen, preview, obs_low, obs_high,
-                      ix, ip1, ip2, i_stroke, i_supply, obs, reward, meas)
-
-
-@nb.njit(cache=True, error_model="numpy", parallel=True)
-def _step_observe_parallel_lugre(Y, U, P, dt, NSUB, W, clamps, REF, K, NOISE, last_a, prev_a, quant, e_scale, rate_pen,
-                                 preview, obs_low, obs_high, ix, ip1, ip2, i_stroke, i_supply, obs, reward, meas):
-    """One env step of every copy in one parallel region: each block of copies is stepped by
-    :func:`~hydro_envs.plants.rodless_cylinder.kernels.step_serial_lugre`
-    and observed (:func:`~hydro_envs.envs.cylinder_tracking.observe_block`)."""
-    n = Y.shape[0]
-    for c in nb.prange(n_blocks(n)):
-        lo, hi = block_bounds(c, n)
-        kernels.step_serial_lugre(Y[lo:hi], U[lo:hi], P[lo:hi], dt, NSUB[lo:hi], W[lo:hi], clamps[lo:hi])
-        observe_block(lo, hi, Y, P, REF, K, NOISE, last_a, prev_a, quant, e_scale, rate_pen, preview, obs_low, obs_high,
-                      ix, ip1, ip2, i_stroke, i_supply, obs, reward, meas)
-
-
-@nb.njit(cache=True, error_model="numpy", parallel=True)
-def _step_observe_parallel_stiff_supply_lugre(Y, U, P, dt, NSUB, W, clamps, REF, K, NOISE, last_a, prev_a, quant, e_scale, rate_pen,
-                                              preview, obs_low, obs_high, ix, ip1, ip2, i_stroke, i_supply, obs, reward, meas):
-    """One env step of every copy in one parallel region: each block of copies is stepped by
-    :func:`~hydro_envs.plants.rodless_cylinder.kernels.step_serial_stiff_supply_lugre`
-    and observed (:func:`~hydro_envs.envs.cylinder_tracking.observe_block`)."""
-    n = Y.shape[0]
-    for c in nb.prange(n_blocks(n)):
-        lo, hi = block_bounds(c, n)
-        kernels.step_serial_stiff_supply_lugre(Y[lo:hi], U[lo:hi], P[lo:hi], dt, NSUB[lo:hi], W[lo:hi], clamps[lo:hi])
-        observe_block(lo, hi, Y, P, REF, K, NOISE, last_a, prev_a, quant, e_scale, rate_pen, preview, obs_low, obs_high,
-                      ix, ip1, ip2, i_stroke, i_supply, obs, reward, meas)
+def _step_observe_parallel_default(Y, U, P, dt, NSUB, W, clamps, REF, K, NOISE, last_a, prev_a, quant, e_scale,
+                                   rate_pen, preview, obs_low, obs_high, ix, ip1, ip2, i_stroke, i_supply, obs, reward,
+                                   meas):
+    """One env step of every copy in one parallel region, stepped by the plant's
+    step for a stiff supply and LuGre bristles in every row (every default set,
+    :func:`~hydro_envs.plants.rodless_cylinder.kernels.step_serial_stiff_supply_lugre`)
+    (:func:`~hydro_envs.envs.cylinder_tracking.step_observe_blocks`)."""
+    step_observe_blocks(kernels.step_serial_stiff_supply_lugre, Y, U, P, dt, NSUB, W, clamps, REF, K, NOISE, last_a, prev_a,
+                        quant, e_scale, rate_pen, preview, obs_low, obs_high, ix, ip1, ip2, i_stroke,
+                        i_supply, obs, reward, meas)
 
 
 class RodlessCylinderBatch(CylinderTrackingBatch):
@@ -170,12 +138,8 @@ class RodlessCylinderBatch(CylinderTrackingBatch):
     params_cls = RodlessCylinderParams
     dt = DT
     episode_steps_default = EPISODE_STEPS
-    step_observe_kernels = {
-        kernels.step_serial: _step_observe_parallel,
-        kernels.step_serial_stiff_supply: _step_observe_parallel_stiff_supply,
-        kernels.step_serial_lugre: _step_observe_parallel_lugre,
-        kernels.step_serial_stiff_supply_lugre: _step_observe_parallel_stiff_supply_lugre,
-    }
+    step_observe_kernels = {kernels.step_serial_stiff_supply_lugre: _step_observe_parallel_default}
+    step_observe_general = staticmethod(_step_observe_parallel)
     position_index = plant.Y
     pressure_indices = (plant.PA, plant.PB)
     stroke_index = plant.I_L

@@ -53,14 +53,13 @@ from hydro_envs.envs.cylinder_tracking import (
     PREVIEW_STEPS,
     CylinderTrackingBatch,
     observation_space,
-    observe_block,
+    step_observe_blocks,
 )
 from hydro_envs.envs.references import REFERENCE_KINDS, generate_reference
 from hydro_envs.plants.servo_cylinder import kernels
 from hydro_envs.plants.servo_cylinder import model as plant
 from hydro_envs.plants.servo_cylinder.params import ServoCylinderParams
 from hydro_envs.plants.servo_cylinder.spec import SPEC
-from hydro_envs.sim.rk4 import block_bounds, n_blocks
 
 __all__ = ["ServoCylinderPositionEnv", "ServoCylinderPositionVectorEnv", "ServoCylinderBatch", "observation_space",
            "OBS_DIM", "PREVIEW_STEPS"]
@@ -74,17 +73,15 @@ REF_RATE_FRACTION = 0.6
 
 
 @nb.njit(cache=True, error_model="numpy", parallel=True)
-def _step_observe_parallel(Y, U, P, dt, NSUB, W, clamps, REF, K, NOISE, last_a, prev_a, quant, e_scale, rate_pen,
-                           preview, obs_low, obs_high, ix, ip1, ip2, i_stroke, i_supply, obs, reward, meas):
-    """One env step of every copy in one parallel region: each block of copies is stepped by
+def _step_observe_parallel(Y, U, P, dt, NSUB, W, clamps, REF, K, NOISE, last_a, prev_a, quant, e_scale,
+                           rate_pen, preview, obs_low, obs_high, ix, ip1, ip2, i_stroke, i_supply, obs, reward,
+                           meas):
+    """One env step of every copy in one parallel region, stepped by the plant's
     :func:`~hydro_envs.plants.servo_cylinder.kernels.step_serial`
-    and observed (:func:`~hydro_envs.envs.cylinder_tracking.observe_block`)."""
-    n = Y.shape[0]
-    for c in nb.prange(n_blocks(n)):
-        lo, hi = block_bounds(c, n)
-        kernels.step_serial(Y[lo:hi], U[lo:hi], P[lo:hi], dt, NSUB[lo:hi], W[lo:hi], clamps[lo:hi])
-        observe_block(lo, hi, Y, P, REF, K, NOISE, last_a, prev_a, quant, e_scale, rate_pen, preview, obs_low, obs_high,
-                      ix, ip1, ip2, i_stroke, i_supply, obs, reward, meas)
+    (:func:`~hydro_envs.envs.cylinder_tracking.step_observe_blocks`)."""
+    step_observe_blocks(kernels.step_serial, Y, U, P, dt, NSUB, W, clamps, REF, K, NOISE, last_a, prev_a,
+                        quant, e_scale, rate_pen, preview, obs_low, obs_high, ix, ip1, ip2, i_stroke,
+                        i_supply, obs, reward, meas)
 
 
 class ServoCylinderBatch(CylinderTrackingBatch):

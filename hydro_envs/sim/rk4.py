@@ -12,7 +12,7 @@ right-hand side (``step_serial``, ``step_parallel``, ``trajectories``, ``derivat
 loops exist once, each plant compiles only its own model, and every binding is cached on disk.
 ``rhs_along`` evaluates the right-hand side along a recorded trajectory (derivative outputs
 such as an acceleration). ``in_blocks`` spreads a batch step over threads in contiguous
-blocks of copies (``n_blocks``, ``block_bounds``), each advanced by the plant's serial step (an
+blocks of copies (``n_blocks``, ``block_bounds``, ``step_block``), each advanced by the plant's serial step (an
 env's step-and-observe kernel does the same and observes each block after stepping it): the separately compiled serial
 loop runs 3-25 % faster than the same RK4 sub-steps as the body of a ``prange`` over single
 copies (1024-copy envs of every plant, bit-identical states). ``rk4_advance_lookahead`` is
@@ -39,7 +39,7 @@ from hydro_envs.sim.stiffness import DEFAULT_SAFETY, RK4_REAL_STABILITY_LIMIT
 
 __all__ = ["rk4_advance", "rk4_advance_lookahead", "local_substeps", "worst_case_substeps", "STABLE_H_LAMBDA",
            "LOCAL_RATE_MARGIN", "rk4_trajectory",
-           "rk4_trajectory_lookahead", "rhs_along", "in_blocks", "n_blocks", "block_bounds"]
+           "rk4_trajectory_lookahead", "rhs_along", "in_blocks", "n_blocks", "block_bounds", "step_block"]
 
 #: most blocks of copies :func:`in_blocks` makes of a batch (copies differ in sub-step count;
 #: a fixed number, since the thread count read inside a kernel would keep it out of the cache)
@@ -226,11 +226,18 @@ def block_bounds(c, n):
 
 
 @nb.njit(cache=True, error_model="numpy", inline="always")
+def step_block(step, c, Y, U, P, dt, NSUB, W, clamps):
+    """Advance block ``c`` of the batch (:func:`block_bounds`) by ``step`` (a plant's serial batch
+    step) on its rows; return the block's ``lo, hi``."""
+    lo, hi = block_bounds(c, Y.shape[0])
+    step(Y[lo:hi], U[lo:hi], P[lo:hi], dt, NSUB[lo:hi], W[lo:hi], clamps[lo:hi])
+    return lo, hi
+
+
+@nb.njit(cache=True, error_model="numpy", inline="always")
 def in_blocks(step, Y, U, P, dt, NSUB, W, clamps):
     """``step(Y, U, P, dt, NSUB, W, clamps)`` (a plant's serial batch step) over contiguous
     blocks of the batch, one ``prange`` iteration per block; inline it into a
     ``parallel=True`` kernel. Every copy's arithmetic is that of ``step``."""
-    n = Y.shape[0]
-    for c in nb.prange(n_blocks(n)):
-        lo, hi = block_bounds(c, n)
-        step(Y[lo:hi], U[lo:hi], P[lo:hi], dt, NSUB[lo:hi], W[lo:hi], clamps[lo:hi])
+    for c in nb.prange(n_blocks(Y.shape[0])):
+        step_block(step, c, Y, U, P, dt, NSUB, W, clamps)

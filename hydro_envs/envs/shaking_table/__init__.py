@@ -91,7 +91,7 @@ from hydro_envs.plants.shaking_table.kernels import step_serial
 from hydro_envs.plants.shaking_table.model import table_acceleration
 from hydro_envs.plants.shaking_table.params import SPECIMENS, ShakingTableParams
 from hydro_envs.plants.shaking_table.spec import SPEC
-from hydro_envs.sim.rk4 import block_bounds, n_blocks
+from hydro_envs.sim.rk4 import n_blocks, step_block
 
 __all__ = [
     "ShakingTableEnv",
@@ -205,10 +205,8 @@ def _step_observe_parallel(Y, U, P, dt, NSUB, W, clamps, REF, REFV, REFX, K, NOI
                            obs_low, obs_high, obs, reward, meas):
     """One env step of every copy in one parallel region: each block of copies is stepped by the
     plant's serial step, its step counts advanced, and observed."""
-    n = Y.shape[0]
-    for c in nb.prange(n_blocks(n)):
-        lo, hi = block_bounds(c, n)
-        step_serial(Y[lo:hi], U[lo:hi], P[lo:hi], dt, NSUB[lo:hi], W[lo:hi], clamps[lo:hi])
+    for c in nb.prange(n_blocks(Y.shape[0])):
+        lo, hi = step_block(step_serial, c, Y, U, P, dt, NSUB, W, clamps)
         for i in range(lo, hi):
             K[i] += 1
             _observe_copy(i, Y, P, REF, REFV, REFX, K, NOISE, last_a, prev_a, sos, ZI, XPREV, VF, KOBS, quant, dt,
@@ -387,9 +385,6 @@ class ShakingTableBatch(PlantBatch):
         np.multiply(self.last_a[:, 0], self.P[:, plant.I_UMAX], out=self.U[:, 0])
 
     def step_and_observe(self) -> None:
-        if not self.parallel:
-            super().step_and_observe()
-            return
         _step_observe_parallel(
             self.Y, self.U, self.P, self.dt, self.NSUB, self.W, self.clamps, self.REF, self.REFV, self.REFX, self.K,
             self.NOISE, self.last_a, self.prev_a, self.sos, self.ZI, self.XPREV, self.VF, self.KOBS, self.quant,
