@@ -515,14 +515,9 @@ class PlantBatch:
         self.rngs[i] = rng
         self._kernel_stale = True
 
-    def advance(self, actions: np.ndarray) -> None:
-        """Apply checked, clipped ``actions`` ``(n, action_dim)`` for one env step."""
-        self.prev_a[:] = self.last_a
-        self.last_a[:] = actions
-        self.advance_taken()
-
-    def advance_taken(self) -> None:
-        """One env step under the actions already in ``last_a`` (``prev_a`` holds the step's before)."""
+    def advance(self) -> None:
+        """One env step of every copy under the checked, clipped actions in ``last_a`` (``prev_a``
+        holds the step's before)."""
         if self._kernel_stale:
             self.select_step_kernel()
         self.apply_actions()
@@ -627,10 +622,7 @@ class BatchedEnv(gym.Env):
             except ValueError:
                 b.last_a[0] = b.prev_a[0]
                 raise
-        b.apply_actions()
-        if b._kernel_stale:
-            b.select_step_kernel()
-        b.step_then_observe()
+        b.advance()
         if self.render_mode is not None:
             self._history.append(b.render_sample(0))
         info = {"state": dict(zip(b.plant.STATE_NAMES, b.Y[0].tolist())), "params": dict(self._params_info)}
@@ -777,7 +769,7 @@ class BatchedVectorEnv(VectorEnv):
         raw = action_array(actions, self.num_envs, b.action_dim)
         if take_actions(raw, b.prev_a, b.last_a):
             raise not_finite_error(raw)
-        b.advance_taken()
+        b.advance()
         terminated = np.zeros(self.num_envs, dtype=bool)
         truncated = b.K >= self.max_episode_steps
         reward = b.reward.copy()
