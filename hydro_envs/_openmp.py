@@ -24,8 +24,8 @@ Measured on the first development VM (AMD EPYC, a spin about 25 ns), with interl
 * ``python -m agents.train --algo sac --timesteps 2000 --torch-threads 2`` (servo), wall time
   of the whole command: 14.2-15.1 s / 9.0-11.0 s / 9.2-10.7 s.
 
-A spin is one ``pause`` instruction, whose latency differs between CPUs (about 9 ns on the
-Sapphire Rapids-class Xeon of a later VM, where 3 000 spins lasted 30 us and a worker slept
+A spin is one ``pause`` instruction, whose latency differs between CPUs (about 9-10 ns on the
+Intel Xeon of a later VM, where 3 000 spins lasted 30 us and a worker slept
 through the Python part of every env step). So the count is set for a time,
 :data:`SPIN_TIME_US`: importing the package sets :data:`SPIN_COUNT` (:func:`set_wait_default`,
 before numba or torch can load libgomp), and the first vector env made replaces it with the

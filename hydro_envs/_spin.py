@@ -2,8 +2,8 @@
 
 libgomp's idle worker polls its work flag and executes the CPU's ``pause`` between polls
 (``cpu_relax`` in ``libgomp/config/linux/wait.h``), ``GOMP_SPINCOUNT`` times before it sleeps,
-so one spin lasts about one ``pause``. Its latency differs several-fold between CPUs (about
-9 ns on a Sapphire Rapids-class Xeon, 25 ns on the EPYC the package was first timed on), and a
+so one spin lasts about one ``pause``. Its latency differs 2-3x between CPUs (about
+9-10 ns on an Intel Xeon with AVX-512, 25 ns on the EPYC the package was first timed on), and a
 fixed count is a different time on each. :func:`pause_ns` times a compiled loop of ``pause``
 instructions (x86-64 only); :func:`hydro_envs._openmp.set_spin_time` turns it into a count for
 a spin time. Imports numba: loaded only when a vector env is first made.

@@ -12,10 +12,10 @@ right-hand side (``step_serial``, ``step_parallel``, ``trajectories``, ``derivat
 loops exist once, each plant compiles only its own model, and every binding is cached on disk.
 ``rhs_along`` evaluates the right-hand side along a recorded trajectory (derivative outputs
 such as an acceleration). ``in_blocks`` spreads a batch step over threads in contiguous
-blocks of copies (``n_blocks``, ``block_bounds``, ``step_block``), each advanced by the plant's serial step (an
-env's step-and-observe kernel does the same and observes each block after stepping it): the separately compiled serial
-loop runs 3-25 % faster than the same RK4 sub-steps as the body of a ``prange`` over single
-copies (1024-copy envs of every plant, bit-identical states). ``rk4_advance_lookahead`` is
+blocks of copies (``n_blocks``, ``block_bounds``, ``step_block``), each advanced by the plant's
+serial step (an env's step-and-observe kernel does the same and observes each block after
+stepping it): the separately compiled serial loop runs 3-25 % faster than the same RK4
+sub-steps as the body of a ``prange`` over single copies (1024-copy envs of every plant, bit-identical states). ``rk4_advance_lookahead`` is
 ``rk4_advance`` for a plant with a mode that is stiff only in a small region of the state
 space (a friction state at speed, a regularised friction sign near zero velocity, a flow
 law's laminar tail, a stop in contact): sub-steps sized for the other modes, each taken as
