@@ -37,6 +37,7 @@ A user's own ``OMP_WAIT_POLICY`` or ``GOMP_SPINCOUNT`` is left as it is.
 from __future__ import annotations
 
 import os
+import warnings
 from collections.abc import MutableMapping
 
 __all__ = ["SPIN_COUNT", "SPIN_TIME_US", "set_wait_default", "set_spin_time", "spin_count_for"]
@@ -71,18 +72,24 @@ def spin_count_for(pause_ns: float, spin_time_us: float = SPIN_TIME_US) -> int:
 def set_spin_time() -> int | None:
     """Replace the package's ``GOMP_SPINCOUNT`` default by the count that spins
     :data:`SPIN_TIME_US` on this CPU, while numba's OpenMP pool has not started; returns the count
-    set, or None (a user's setting, a pool already running, a CPU other than x86-64)."""
+    set, or None (a user's setting, a pool already running, a CPU other than x86-64, or a
+    ``pause`` that could not be timed: a ``RuntimeWarning`` says why)."""
     global _set_here
     if not _set_here or os.environ.get("GOMP_SPINCOUNT") != SPIN_COUNT:
         return None
     _set_here = False  # once per process
     import numba.np.ufunc.parallel as numba_parallel
 
-    if numba_parallel._is_initialized:
+    if getattr(numba_parallel, "_is_initialized", True):  # started (or a numba that does not say)
         return None
-    from hydro_envs._spin import pause_ns
+    try:
+        from hydro_envs._spin import pause_ns
 
-    ns = pause_ns()
+        ns = pause_ns()
+    except Exception as exc:  # a numba or LLVM without the intrinsic: the count stays
+        warnings.warn(f"hydro_envs: could not time the CPU's pause instruction ({exc!r}); "
+                      f"GOMP_SPINCOUNT stays {SPIN_COUNT}", RuntimeWarning, stacklevel=2)
+        return None
     if ns is None:
         return None
     count = spin_count_for(ns)

@@ -201,3 +201,21 @@ def test_the_first_vector_env_sets_the_openmp_spin_for_a_time_unless_the_user_ch
     assert spin_count_for(10.0) == 7500 and spin_count_for(1e9) == 1
     with pytest.raises(ValueError, match="pause_ns must be > 0"):
         spin_count_for(0.0)
+
+
+def test_a_pause_that_cannot_be_timed_keeps_the_spin_count_and_warns(monkeypatch):
+    import numba.np.ufunc.parallel as numba_parallel
+
+    from hydro_envs import _openmp, _spin
+
+    def broken(*args, **kwargs):
+        raise RuntimeError("no pause intrinsic")
+
+    monkeypatch.setattr(numba_parallel, "_is_initialized", False)
+    monkeypatch.setattr(_openmp, "_set_here", True)
+    monkeypatch.setenv("GOMP_SPINCOUNT", _openmp.SPIN_COUNT)
+    monkeypatch.setattr(_spin, "pause_ns", broken)
+    with pytest.warns(RuntimeWarning, match="could not time the CPU's pause instruction"):
+        assert _openmp.set_spin_time() is None
+    assert os.environ["GOMP_SPINCOUNT"] == _openmp.SPIN_COUNT
+    assert _openmp.set_spin_time() is None  # once per process
