@@ -207,7 +207,7 @@ def test_vector_step_kernel_equals_the_serial_one_on_uneven_blocks(env_id, n):
 def test_vector_step_and_observe_in_one_kernel_equals_stepping_then_observing(env_id, n):
     """The vector env steps and observes every copy in one parallel kernel (it never calls the
     step kernel or the observation kernel on their own), with the states, observations and
-    rewards of stepping all copies and then observing them (``PlantBatch.step_and_observe``),
+    rewards of stepping all copies and then observing them (``PlantBatch.step_then_observe``),
     also on uneven blocks and with fewer copies than blocks."""
     from hydro_envs.envs.base import PlantBatch
 
@@ -224,7 +224,7 @@ def test_vector_step_and_observe_in_one_kernel_equals_stepping_then_observing(en
         if fused:
             b.step_kernel = b.observe = refuse
         else:
-            b.step_and_observe = lambda: PlantBatch.step_and_observe(b)
+            b.step_and_observe = lambda: PlantBatch.step_then_observe(b)
         for k in range(60):
             obs, reward, *_ = env.step(actions[k])
         if fused:

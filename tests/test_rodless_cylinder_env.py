@@ -253,7 +253,7 @@ def test_env_step_kernels_follow_the_supply_droop_and_agree_bit_for_bit():
         chosen = b.step_kernel
         if force_full:
             b.step_kernel = K.step_parallel
-            b.step_and_observe = lambda: PlantBatch.step_and_observe(b)
+            b.step_and_observe = lambda: PlantBatch.step_then_observe(b)
         else:
             fused = b.step_observe_kernels.get(b.step_serial, b.step_observe_general)
             assert fused.py_func.__name__ == ("_step_observe_parallel_default" if not params

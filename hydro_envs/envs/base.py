@@ -532,12 +532,28 @@ class PlantBatch:
         self.K += 1
         self.observe()
 
+    #: the env's step-and-observe kernels by the plant's serial step they run on each block, and
+    #: the one for any other serial step (a ``staticmethod`` of one that runs the plant's general
+    #: step, bit-identical to its variants); see :meth:`step_and_observe`
+    step_observe_kernels: ClassVar[dict[Any, Any]] = {}
+    step_observe_general: ClassVar[Any] = None
+
+    def observe_args(self) -> tuple[Any, ...]:
+        """The arguments of the env's observation kernels (``Y``, ``P``, references, ..., ``obs``,
+        ``reward``, ``meas``): :meth:`observe` and the step-and-observe kernel take them."""
+        raise NotImplementedError
+
     def step_and_observe(self) -> None:
-        """The parallel batch's step: :meth:`step_then_observe`, which an env overrides with one
-        kernel that steps and observes each block of copies in a single parallel region
-        (:func:`hydro_envs.sim.rk4.step_block`): the observation then runs on every thread, and
-        the threads are woken once per env step."""
-        self.step_then_observe()
+        """The parallel batch's step: one kernel that steps and observes each block of copies in
+        a single parallel region (:func:`hydro_envs.sim.rk4.step_block`), called as
+        ``kernel(U, dt, NSUB, W, clamps, *observe_args())``, so that the observation runs on every
+        thread and the threads are woken once per env step; :meth:`step_then_observe` for a
+        serial step without one (:attr:`step_observe_kernels`)."""
+        kernel = self.step_observe_kernels.get(self.step_serial, self.step_observe_general)
+        if kernel is None:
+            self.step_then_observe()
+            return
+        kernel(self.U, self.dt, self.NSUB, self.W, self.clamps, *self.observe_args())
 
     def state_dict(self, i: int) -> dict[str, float]:
         return dict(zip(self.plant.STATE_NAMES, self.Y[i].tolist()))

@@ -90,11 +90,12 @@ def _observe(Y, P, REF, K, NOISE, last_a, prev_a, quant, e_scale, rate_pen, prev
 
 
 @nb.njit(cache=True, error_model="numpy", inline="always")
-def step_observe_blocks(step, Y, U, P, dt, NSUB, W, clamps, REF, K, NOISE, last_a, prev_a, quant, e_scale, rate_pen,
+def step_observe_blocks(step, U, dt, NSUB, W, clamps, Y, P, REF, K, NOISE, last_a, prev_a, quant, e_scale, rate_pen,
                         preview, obs_low, obs_high, ix, ip1, ip2, i_stroke, i_supply, obs, reward, meas):
     """One env step of every copy: each block of copies (:func:`hydro_envs.sim.rk4.step_block`)
     is stepped by the plant's serial step ``step``, its step counts advanced, and observed. Inline
-    it into a ``parallel=True`` kernel that names the step (an env's ``_step_observe_parallel``)."""
+    it into a ``parallel=True`` kernel that names the step (an env's ``_step_observe_parallel``);
+    the arguments after ``clamps`` are :meth:`CylinderTrackingBatch.observe_args`."""
     for c in nb.prange(n_blocks(Y.shape[0])):
         lo, hi = step_block(step, c, Y, U, P, dt, NSUB, W, clamps)
         for i in range(lo, hi):
@@ -204,33 +205,14 @@ class CylinderTrackingBatch(PlantBatch):
         if self.NOISE.shape[1] > 1:
             self.NOISE[i] = rng.standard_normal((self.NOISE.shape[1], 3)) * self.noise_std
 
-    #: the env's step-and-observe kernels by the plant's serial step they run on each block
-    #: (:meth:`step_and_observe`), and the one for any other serial step (a ``staticmethod`` of one
-    #: that runs the plant's general step, bit-identical to its variants); without one, the batch
-    #: steps and observes in two calls
-    step_observe_kernels: ClassVar[dict[Any, Any]] = {}
-    step_observe_general: ClassVar[Any] = None
-
-    def step_and_observe(self) -> None:
-        kernel = self.step_observe_kernels.get(self.step_serial, self.step_observe_general)
-        if kernel is None:
-            super().step_and_observe()
-            return
+    def observe_args(self) -> tuple[Any, ...]:
         ip1, ip2 = self.pressure_indices
-        kernel(
-            self.Y, self.U, self.P, self.dt, self.NSUB, self.W, self.clamps, self.REF, self.K, self.NOISE, self.last_a,
-            self.prev_a, self.quant, self.error_scale, self.rate_pen, self.preview, self.obs_low, self.obs_high,
-            self.position_index, ip1, ip2, self.stroke_index, self.supply_index, self.obs, self.reward, self.meas,
-        )
+        return (self.Y, self.P, self.REF, self.K, self.NOISE, self.last_a, self.prev_a, self.quant, self.error_scale,
+                self.rate_pen, self.preview, self.obs_low, self.obs_high, self.position_index, ip1, ip2,
+                self.stroke_index, self.supply_index, self.obs, self.reward, self.meas)
 
     def observe(self) -> None:
-        ip1, ip2 = self.pressure_indices
-        _observe(
-            self.Y, self.P, self.REF, self.K, self.NOISE, self.last_a, self.prev_a, self.quant,
-            self.error_scale, self.rate_pen, self.preview, self.obs_low, self.obs_high,
-            self.position_index, ip1, ip2, self.stroke_index, self.supply_index,
-            self.obs, self.reward, self.meas,
-        )
+        _observe(*self.observe_args())
 
     def channel_values(self, i: int) -> dict[str, float]:
         u, x, p1, p2 = self.channel_names

@@ -152,7 +152,7 @@ def _observe(Y, P, REF, K, NOISE, last_a, prev_a, e_scale, rate_pen, preview, ob
 
 
 @nb.njit(cache=True, error_model="numpy", parallel=True)
-def _step_observe_parallel(Y, U, P, dt, NSUB, W, clamps, REF, K, NOISE, last_a, prev_a, e_scale, rate_pen, preview, obs,
+def _step_observe_parallel(U, dt, NSUB, W, clamps, Y, P, REF, K, NOISE, last_a, prev_a, e_scale, rate_pen, preview, obs,
                            reward, meas):
     """One env step of every copy in one parallel region: each block of copies is stepped by the
     plant's serial step, its step counts advanced, and observed."""
@@ -277,17 +277,14 @@ class ForceActuatorBatch(PlantBatch):
         self.head = (self.head + 1) % self.pending.shape[1]
         _apply_delayed(self.last_a, self.P, self.pending, self.head, self.n_delay, self.U)
 
-    def step_and_observe(self) -> None:
-        _step_observe_parallel(
-            self.Y, self.U, self.P, self.dt, self.NSUB, self.W, self.clamps, self.REF, self.K, self.NOISE, self.last_a,
-            self.prev_a, self.error_scale, self.rate_pen, self.preview, self.obs, self.reward, self.meas,
-        )
+    step_observe_kernels = {step_serial: _step_observe_parallel}
+
+    def observe_args(self) -> tuple[Any, ...]:
+        return (self.Y, self.P, self.REF, self.K, self.NOISE, self.last_a, self.prev_a, self.error_scale, self.rate_pen,
+                self.preview, self.obs, self.reward, self.meas)
 
     def observe(self) -> None:
-        _observe(
-            self.Y, self.P, self.REF, self.K, self.NOISE, self.last_a, self.prev_a, self.error_scale,
-            self.rate_pen, self.preview, self.obs, self.reward, self.meas,
-        )
+        _observe(*self.observe_args())
 
     def channel_values(self, i: int) -> dict[str, float]:
         return {"i": float(self.U[i, 0]), "f": float(self.meas[i])}

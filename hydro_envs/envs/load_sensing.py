@@ -158,7 +158,7 @@ def _observe(Y, P, REF, FF, K, NOISE, last_a, prev_a, dpm, m_weight, rate_pen, p
 
 
 @nb.njit(cache=True, error_model="numpy", parallel=True)
-def _step_observe_parallel(Y, U, P, dt, NSUB, W, clamps, REF, FF, K, NOISE, last_a, prev_a, dpm, m_weight, rate_pen,
+def _step_observe_parallel(U, dt, NSUB, W, clamps, Y, P, REF, FF, K, NOISE, last_a, prev_a, dpm, m_weight, rate_pen,
                            preview, obs_low, obs_high, obs, reward, meas):
     """One env step of every copy in one parallel region: each block of copies is stepped by the
     plant's serial step, its step counts advanced, and observed."""
@@ -289,19 +289,15 @@ class LoadSensingBatch(PlantBatch):
     def apply_actions(self) -> None:
         _apply(self.last_a, self.FF, self.K, self.P, self.U)
 
-    def step_and_observe(self) -> None:
-        _step_observe_parallel(
-            self.Y, self.U, self.P, self.dt, self.NSUB, self.W, self.clamps, self.REF, self.FF, self.K, self.NOISE,
-            self.last_a, self.prev_a, self.dpm, self.margin_weight, self.rate_pen, self.preview, self.obs_low,
-            self.obs_high, self.obs, self.reward, self.meas,
-        )
+    step_observe_kernels = {step_serial: _step_observe_parallel}
+
+    def observe_args(self) -> tuple[Any, ...]:
+        return (self.Y, self.P, self.REF, self.FF, self.K, self.NOISE, self.last_a, self.prev_a, self.dpm,
+                self.margin_weight, self.rate_pen, self.preview, self.obs_low, self.obs_high, self.obs, self.reward,
+                self.meas)
 
     def observe(self) -> None:
-        _observe(
-            self.Y, self.P, self.REF, self.FF, self.K, self.NOISE, self.last_a, self.prev_a, self.dpm,
-            self.margin_weight, self.rate_pen, self.preview, self.obs_low, self.obs_high,
-            self.obs, self.reward, self.meas,
-        )
+        _observe(*self.observe_args())
 
     def channel_values(self, i: int) -> dict[str, float]:
         return {

@@ -106,28 +106,28 @@ def _apply_actions(last_a, P, U):
 
 
 @nb.njit(cache=True, error_model="numpy", parallel=True)
-def _step_observe_parallel(Y, U, P, dt, NSUB, W, clamps, REF, K, NOISE, last_a, prev_a, quant, e_scale,
+def _step_observe_parallel(U, dt, NSUB, W, clamps, Y, P, REF, K, NOISE, last_a, prev_a, quant, e_scale,
                            rate_pen, preview, obs_low, obs_high, ix, ip1, ip2, i_stroke, i_supply, obs, reward,
                            meas):
     """One env step of every copy in one parallel region, stepped by the plant's
     general :func:`~hydro_envs.plants.rodless_cylinder.kernels.step_serial`
     (:func:`~hydro_envs.envs.cylinder_tracking.step_observe_blocks`)."""
-    step_observe_blocks(kernels.step_serial, Y, U, P, dt, NSUB, W, clamps, REF, K, NOISE, last_a, prev_a,
+    step_observe_blocks(kernels.step_serial, U, dt, NSUB, W, clamps, Y, P, REF, K, NOISE, last_a, prev_a,
                         quant, e_scale, rate_pen, preview, obs_low, obs_high, ix, ip1, ip2, i_stroke,
                         i_supply, obs, reward, meas)
 
 
 @nb.njit(cache=True, error_model="numpy", parallel=True)
-def _step_observe_parallel_default(Y, U, P, dt, NSUB, W, clamps, REF, K, NOISE, last_a, prev_a, quant, e_scale,
+def _step_observe_parallel_default(U, dt, NSUB, W, clamps, Y, P, REF, K, NOISE, last_a, prev_a, quant, e_scale,
                                    rate_pen, preview, obs_low, obs_high, ix, ip1, ip2, i_stroke, i_supply, obs, reward,
                                    meas):
     """One env step of every copy in one parallel region, stepped by the plant's
     step for a stiff supply and LuGre bristles in every row (every default set,
     :func:`~hydro_envs.plants.rodless_cylinder.kernels.step_serial_stiff_supply_lugre`)
     (:func:`~hydro_envs.envs.cylinder_tracking.step_observe_blocks`)."""
-    step_observe_blocks(kernels.step_serial_stiff_supply_lugre, Y, U, P, dt, NSUB, W, clamps, REF, K, NOISE, last_a, prev_a,
-                        quant, e_scale, rate_pen, preview, obs_low, obs_high, ix, ip1, ip2, i_stroke,
-                        i_supply, obs, reward, meas)
+    step_observe_blocks(kernels.step_serial_stiff_supply_lugre, U, dt, NSUB, W, clamps, Y, P, REF, K, NOISE,
+                        last_a, prev_a, quant, e_scale, rate_pen, preview, obs_low, obs_high, ix, ip1, ip2,
+                        i_stroke, i_supply, obs, reward, meas)
 
 
 class RodlessCylinderBatch(CylinderTrackingBatch):

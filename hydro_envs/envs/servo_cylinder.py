@@ -73,13 +73,13 @@ REF_RATE_FRACTION = 0.6
 
 
 @nb.njit(cache=True, error_model="numpy", parallel=True)
-def _step_observe_parallel(Y, U, P, dt, NSUB, W, clamps, REF, K, NOISE, last_a, prev_a, quant, e_scale,
+def _step_observe_parallel(U, dt, NSUB, W, clamps, Y, P, REF, K, NOISE, last_a, prev_a, quant, e_scale,
                            rate_pen, preview, obs_low, obs_high, ix, ip1, ip2, i_stroke, i_supply, obs, reward,
                            meas):
     """One env step of every copy in one parallel region, stepped by the plant's
     :func:`~hydro_envs.plants.servo_cylinder.kernels.step_serial`
     (:func:`~hydro_envs.envs.cylinder_tracking.step_observe_blocks`)."""
-    step_observe_blocks(kernels.step_serial, Y, U, P, dt, NSUB, W, clamps, REF, K, NOISE, last_a, prev_a,
+    step_observe_blocks(kernels.step_serial, U, dt, NSUB, W, clamps, Y, P, REF, K, NOISE, last_a, prev_a,
                         quant, e_scale, rate_pen, preview, obs_low, obs_high, ix, ip1, ip2, i_stroke,
                         i_supply, obs, reward, meas)
 

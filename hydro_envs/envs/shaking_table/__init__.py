@@ -200,13 +200,14 @@ def _observe_parallel(Y, P, REF, REFV, REFX, K, NOISE, last_a, prev_a, sos, ZI, 
 
 
 @nb.njit(cache=True, error_model="numpy", parallel=True)
-def _step_observe_parallel(Y, U, P, dt, NSUB, W, clamps, REF, REFV, REFX, K, NOISE, last_a, prev_a, sos, ZI, XPREV, VF,
-                           KOBS, quant, e_scale, a_scale, v_scale, a_range, v_range, rate_pen, pos_pen, preview,
+def _step_observe_parallel(U, step_dt, NSUB, W, clamps, Y, P, REF, REFV, REFX, K, NOISE, last_a, prev_a, sos, ZI, XPREV,
+                           VF, KOBS, quant, dt, e_scale, a_scale, v_scale, a_range, v_range, rate_pen, pos_pen, preview,
                            obs_low, obs_high, obs, reward, meas):
-    """One env step of every copy in one parallel region: each block of copies is stepped by the
-    plant's serial step, its step counts advanced, and observed."""
+    """One env step of ``step_dt`` seconds of every copy in one parallel region: each block of
+    copies is stepped by the plant's serial step, its step counts advanced, and observed (``dt``:
+    the observation's differentiation step)."""
     for c in nb.prange(n_blocks(Y.shape[0])):
-        lo, hi = step_block(step_serial, c, Y, U, P, dt, NSUB, W, clamps)
+        lo, hi = step_block(step_serial, c, Y, U, P, step_dt, NSUB, W, clamps)
         for i in range(lo, hi):
             K[i] += 1
             _observe_copy(i, Y, P, REF, REFV, REFX, K, NOISE, last_a, prev_a, sos, ZI, XPREV, VF, KOBS, quant, dt,
@@ -384,21 +385,16 @@ class ShakingTableBatch(PlantBatch):
     def apply_actions(self) -> None:
         np.multiply(self.last_a[:, 0], self.P[:, plant.I_UMAX], out=self.U[:, 0])
 
-    def step_and_observe(self) -> None:
-        _step_observe_parallel(
-            self.Y, self.U, self.P, self.dt, self.NSUB, self.W, self.clamps, self.REF, self.REFV, self.REFX, self.K,
-            self.NOISE, self.last_a, self.prev_a, self.sos, self.ZI, self.XPREV, self.VF, self.KOBS, self.quant,
-            self.error_scale, self.accel_scale, self.velocity_scale, ACCELEROMETER_RANGE, VELOCITY_RANGE,
-            self.rate_pen, self.pos_pen, self.preview, self.obs_low, self.obs_high, self.obs, self.reward, self.meas,
-        )
+    step_observe_kernels = {step_serial: _step_observe_parallel}
+
+    def observe_args(self) -> tuple[Any, ...]:
+        return (self.Y, self.P, self.REF, self.REFV, self.REFX, self.K, self.NOISE, self.last_a, self.prev_a, self.sos,
+                self.ZI, self.XPREV, self.VF, self.KOBS, self.quant, DT, self.error_scale, self.accel_scale,
+                self.velocity_scale, ACCELEROMETER_RANGE, VELOCITY_RANGE, self.rate_pen, self.pos_pen, self.preview,
+                self.obs_low, self.obs_high, self.obs, self.reward, self.meas)
 
     def observe(self) -> None:
-        (_observe_parallel if self.parallel else _observe_serial)(
-            self.Y, self.P, self.REF, self.REFV, self.REFX, self.K, self.NOISE, self.last_a, self.prev_a, self.sos, self.ZI,
-            self.XPREV, self.VF, self.KOBS, self.quant, DT, self.error_scale, self.accel_scale,
-            self.velocity_scale, ACCELEROMETER_RANGE, VELOCITY_RANGE, self.rate_pen, self.pos_pen,
-            self.preview, self.obs_low, self.obs_high, self.obs, self.reward, self.meas,
-        )
+        (_observe_parallel if self.parallel else _observe_serial)(*self.observe_args())
 
     def channel_values(self, i: int) -> dict[str, float]:
         return {"u": float(self.U[i, 0]), "x": float(self.meas[i, 0]), "a": float(self.meas[i, 1])}

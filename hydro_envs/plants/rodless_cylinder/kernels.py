@@ -34,7 +34,7 @@ from hydro_envs.plants.rodless_cylinder.model import local_mode_refinement, loca
 from hydro_envs.sim.rk4 import in_blocks, rhs_along, rk4_advance_lookahead, rk4_trajectory_lookahead
 
 __all__ = ["step_serial", "step_parallel", "trajectories", "derivatives", "rhs", "guard", "for_params",
-           "step_serial_stiff_supply", "step_serial_lugre", "step_serial_stiff_supply_lugre"]
+           "step_serial_stiff_supply_lugre"]
 
 
 @njit_noalloc
@@ -69,8 +69,7 @@ def derivatives(X, U, P, OUT):
 
 
 @njit_noalloc
-def step_serial_stiff_supply(Y, U, P, dt, NSUB, W, clamps):
-    """``step_serial`` for rows without supply droop."""
+def _step_serial_stiff(Y, U, P, dt, NSUB, W, clamps):
     for i in range(Y.shape[0]):
         h = dt / NSUB[i]
         clamps[i] += rk4_advance_lookahead(rhs_stiff, guard, local_mode_substeps, Y[i], U[i], P[i], h, NSUB[i],
@@ -79,12 +78,11 @@ def step_serial_stiff_supply(Y, U, P, dt, NSUB, W, clamps):
 
 @nb.njit(cache=True, error_model="numpy", parallel=True)
 def _step_parallel_stiff(Y, U, P, dt, NSUB, W, clamps):
-    in_blocks(step_serial_stiff_supply, Y, U, P, dt, NSUB, W, clamps)
+    in_blocks(_step_serial_stiff, Y, U, P, dt, NSUB, W, clamps)
 
 
 @njit_noalloc
-def step_serial_lugre(Y, U, P, dt, NSUB, W, clamps):
-    """``step_serial`` for rows that all have a bristle state."""
+def _step_serial_lugre(Y, U, P, dt, NSUB, W, clamps):
     for i in range(Y.shape[0]):
         h = dt / NSUB[i]
         clamps[i] += rk4_advance_lookahead(rhs, guard, lugre_local_substeps, Y[i], U[i], P[i], h, NSUB[i],
@@ -93,7 +91,7 @@ def step_serial_lugre(Y, U, P, dt, NSUB, W, clamps):
 
 @nb.njit(cache=True, error_model="numpy", parallel=True)
 def _step_parallel_lugre(Y, U, P, dt, NSUB, W, clamps):
-    in_blocks(step_serial_lugre, Y, U, P, dt, NSUB, W, clamps)
+    in_blocks(_step_serial_lugre, Y, U, P, dt, NSUB, W, clamps)
 
 
 @njit_noalloc
@@ -113,8 +111,8 @@ def _step_parallel_stiff_lugre(Y, U, P, dt, NSUB, W, clamps):
 # (supply droop in some row, static curve in some row) -> step kernels
 _KERNELS = {
     (True, True): types.SimpleNamespace(step_serial=step_serial, step_parallel=step_parallel),
-    (True, False): types.SimpleNamespace(step_serial=step_serial_lugre, step_parallel=_step_parallel_lugre),
-    (False, True): types.SimpleNamespace(step_serial=step_serial_stiff_supply, step_parallel=_step_parallel_stiff),
+    (True, False): types.SimpleNamespace(step_serial=_step_serial_lugre, step_parallel=_step_parallel_lugre),
+    (False, True): types.SimpleNamespace(step_serial=_step_serial_stiff, step_parallel=_step_parallel_stiff),
     (False, False): types.SimpleNamespace(step_serial=step_serial_stiff_supply_lugre,
                                           step_parallel=_step_parallel_stiff_lugre),
 }
