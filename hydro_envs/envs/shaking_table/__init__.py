@@ -120,13 +120,16 @@ PREFETCH_SAMPLES = 8
 
 
 @nb.njit(cache=True, error_model="numpy", inline="always")
-def _observe_copy(i, Y, P, REF, REFV, REFX, K, NOISE, last_a, prev_a, sos, ZI, XPREV, VF, KOBS, quant, dt,
+def _observe_copy(i, Y, P, REF, REFI, K, NOISE, last_a, prev_a, sos, ZI, XPREV, VF, KOBS, quant, dt,
                   e_scale, a_scale, v_scale, a_range, v_range, rate_pen, pos_pen, preview, obs_low,
                   obs_high, obs, reward, meas):
     """Sensors, observation and reward of copy ``i`` after a step (or a reset).
 
-    The velocity filter advances once per env step: a repeated call at the same step count
-    (the vector env re-observes every copy after resetting some) leaves it unchanged.
+    The velocity filter and the reference's integrals ``REFI[i]`` (``v_r``, ``x_r - x_r(0)``,
+    ``x_r(0)``) advance once per env step: a repeated call at the same step count (the vector
+    env re-observes every copy after resetting some) leaves them unchanged. The integrals are
+    running sums over the reference samples passed, ``v_r(k) = dt sum_{j<k} r_j`` and
+    ``x_r(k) = x_r(0) + dt sum_{j<k} v_r(j)``, held from the reference's last sample on.
     """
     n_ref = REF.shape[1]
     n_noise = NOISE.shape[1]
@@ -135,8 +138,6 @@ def _observe_copy(i, Y, P, REF, REFV, REFX, K, NOISE, last_a, prev_a, sos, ZI, X
     prefetch_row_element(REF, i, ahead)
     for m in range(preview.shape[0]):
         prefetch_row_element(REF, i, min(ahead + preview[m], n_ref - 1))
-    prefetch_row_element(REFV, i, ahead)
-    prefetch_row_element(REFX, i, ahead)
     half = 0.5 * P[i, plant.I_L]
     r = REF[i, min(k, n_ref - 1)]
     j = k % n_noise
@@ -153,6 +154,9 @@ def _observe_copy(i, Y, P, REF, REFV, REFX, K, NOISE, last_a, prev_a, sos, ZI, X
             VF[i] = 0.0
         else:
             VF[i] = sos_filter_step(sos, ZI[i], (x_m - XPREV[i]) / dt)
+            for kk in range(KOBS[i], min(k, n_ref - 1)):  # the reference samples passed
+                REFI[i, 1] += REFI[i, 0] * dt
+                REFI[i, 0] += REF[i, kk] * dt
         XPREV[i] = x_m
         KOBS[i] = k
     v_f = min(max(VF[i], -v_range), v_range)
@@ -168,9 +172,8 @@ def _observe_copy(i, Y, P, REF, REFV, REFX, K, NOISE, last_a, prev_a, sos, ZI, X
     obs[i, c + 1] = a_m / a_scale
     obs[i, c + 2] = v_f / v_scale
     obs[i, c + 3] = last_a[i, 0]
-    kr = min(k, n_ref - 1)
-    obs[i, c + 4] = REFV[i, kr] / v_scale
-    obs[i, c + 5] = REFX[i, kr] / half
+    obs[i, c + 4] = REFI[i, 0] / v_scale
+    obs[i, c + 5] = (REFI[i, 1] + REFI[i, 2]) / half
     for m in range(obs.shape[1]):
         obs[i, m] = min(max(obs[i, m], obs_low[m]), obs_high[m])
     e = (r - a_true) / e_scale
@@ -180,27 +183,27 @@ def _observe_copy(i, Y, P, REF, REFV, REFX, K, NOISE, last_a, prev_a, sos, ZI, X
 
 
 @njit_noalloc
-def _observe_serial(Y, P, REF, REFV, REFX, K, NOISE, last_a, prev_a, sos, ZI, XPREV, VF, KOBS, quant, dt, e_scale,
+def _observe_serial(Y, P, REF, REFI, K, NOISE, last_a, prev_a, sos, ZI, XPREV, VF, KOBS, quant, dt, e_scale,
                     a_scale, v_scale, a_range, v_range, rate_pen, pos_pen, preview, obs_low, obs_high,
                     obs, reward, meas):
     for i in range(Y.shape[0]):
-        _observe_copy(i, Y, P, REF, REFV, REFX, K, NOISE, last_a, prev_a, sos, ZI, XPREV, VF, KOBS, quant, dt,
+        _observe_copy(i, Y, P, REF, REFI, K, NOISE, last_a, prev_a, sos, ZI, XPREV, VF, KOBS, quant, dt,
                       e_scale, a_scale, v_scale, a_range, v_range, rate_pen, pos_pen, preview, obs_low,
                       obs_high, obs, reward, meas)
 
 
 @nb.njit(cache=True, error_model="numpy", parallel=True)
-def _observe_parallel(Y, P, REF, REFV, REFX, K, NOISE, last_a, prev_a, sos, ZI, XPREV, VF, KOBS, quant, dt, e_scale,
+def _observe_parallel(Y, P, REF, REFI, K, NOISE, last_a, prev_a, sos, ZI, XPREV, VF, KOBS, quant, dt, e_scale,
                       a_scale, v_scale, a_range, v_range, rate_pen, pos_pen, preview, obs_low, obs_high,
                       obs, reward, meas):
     for i in nb.prange(Y.shape[0]):
-        _observe_copy(i, Y, P, REF, REFV, REFX, K, NOISE, last_a, prev_a, sos, ZI, XPREV, VF, KOBS, quant, dt,
+        _observe_copy(i, Y, P, REF, REFI, K, NOISE, last_a, prev_a, sos, ZI, XPREV, VF, KOBS, quant, dt,
                       e_scale, a_scale, v_scale, a_range, v_range, rate_pen, pos_pen, preview, obs_low,
                       obs_high, obs, reward, meas)
 
 
 @nb.njit(cache=True, error_model="numpy", parallel=True)
-def _step_observe_parallel(U, step_dt, NSUB, W, clamps, Y, P, REF, REFV, REFX, K, NOISE, last_a, prev_a, sos, ZI, XPREV,
+def _step_observe_parallel(U, step_dt, NSUB, W, clamps, Y, P, REF, REFI, K, NOISE, last_a, prev_a, sos, ZI, XPREV,
                            VF, KOBS, quant, dt, e_scale, a_scale, v_scale, a_range, v_range, rate_pen, pos_pen, preview,
                            obs_low, obs_high, obs, reward, meas):
     """One env step of ``step_dt`` seconds of every copy in one parallel region: each block of
@@ -210,7 +213,7 @@ def _step_observe_parallel(U, step_dt, NSUB, W, clamps, Y, P, REF, REFV, REFX, K
         lo, hi = step_block(step_serial, c, Y, U, P, step_dt, NSUB, W, clamps)
         for i in range(lo, hi):
             K[i] += 1
-            _observe_copy(i, Y, P, REF, REFV, REFX, K, NOISE, last_a, prev_a, sos, ZI, XPREV, VF, KOBS, quant, dt,
+            _observe_copy(i, Y, P, REF, REFI, K, NOISE, last_a, prev_a, sos, ZI, XPREV, VF, KOBS, quant, dt,
                           e_scale, a_scale, v_scale, a_range, v_range, rate_pen, pos_pen, preview, obs_low,
                           obs_high, obs, reward, meas)
 
@@ -326,8 +329,7 @@ class ShakingTableBatch(PlantBatch):
         self.pos_pen = float(position_penalty)
         n_ref = self.episode_steps + max(PREVIEW_STEPS) + 1
         self.REF = np.zeros((n, n_ref))
-        self.REFV = np.zeros((n, n_ref))
-        self.REFX = np.zeros((n, n_ref))
+        self.REFI = np.zeros((n, 3))  # reference velocity, position - initial position, initial position
         self.NOISE = np.zeros((n, n_ref if self.noise_std.any() else 1, 2))
         self.meas = np.zeros((n, 3))
         self.preview = np.array(PREVIEW_STEPS, dtype=np.int64)
@@ -373,11 +375,7 @@ class ShakingTableBatch(PlantBatch):
         else:
             arr = _check_reference_array(ref_opt)
             fill_reference(self.REF[i], arr, self.episode_steps, "m/s^2")
-        self.REFV[i, 0] = 0.0
-        np.cumsum(self.REF[i, :-1] * DT, out=self.REFV[i, 1:])
-        self.REFX[i, 0] = y[plant.X]
-        np.cumsum(self.REFV[i, :-1] * DT, out=self.REFX[i, 1:])
-        self.REFX[i, 1:] += y[plant.X]
+        self.REFI[i] = (0.0, 0.0, y[plant.X])
         if self.NOISE.shape[1] > 1:
             self.NOISE[i] = rng.standard_normal((self.NOISE.shape[1], 2)) * self.noise_std
         self.KOBS[i] = -1
@@ -388,7 +386,7 @@ class ShakingTableBatch(PlantBatch):
     step_observe_kernels = {step_serial: _step_observe_parallel}
 
     def observe_args(self) -> tuple[Any, ...]:
-        return (self.Y, self.P, self.REF, self.REFV, self.REFX, self.K, self.NOISE, self.last_a, self.prev_a, self.sos,
+        return (self.Y, self.P, self.REF, self.REFI, self.K, self.NOISE, self.last_a, self.prev_a, self.sos,
                 self.ZI, self.XPREV, self.VF, self.KOBS, self.quant, DT, self.error_scale, self.accel_scale,
                 self.velocity_scale, ACCELEROMETER_RANGE, VELOCITY_RANGE, self.rate_pen, self.pos_pen, self.preview,
                 self.obs_low, self.obs_high, self.obs, self.reward, self.meas)
