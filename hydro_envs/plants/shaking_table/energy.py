@@ -29,7 +29,7 @@ def mech_terms(y, p):
     x = y[st.X]
     v = y[st.V]
     half = 0.5 * p[st.I_L]
-    ff = stribeck_gaussian(v, p[st.I_FC], p[st.I_FS], p[st.I_VS], p[st.I_FV], 1.0 / p[st.I_BETA])
+    ff = stribeck_gaussian(v, p[st.I_FC], p[st.I_FS], p[st.I_VS], p[st.I_FV], p[st.D_TANH_WIDTH])
     u_st, d_st = stop_split(x, v, -half, half, p[st.I_KSTOP], p[st.I_ASTOP])
     e = 0.5 * (p[st.I_MB] + p[st.I_MS]) * v * v + u_st
     return e, p[st.I_A] * (y[st.PA] - y[st.PB]) * v, ff * v + d_st, abs(ff * v) + abs(d_st), u_st

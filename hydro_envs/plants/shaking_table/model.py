@@ -92,8 +92,8 @@ from hydro_envs.laws.valve import second_order_valve_acceleration
 from hydro_envs.plants.shaking_table.bounds import ACCURATE_H_LAMBDA, local_mode_rates, stiffness_modes
 from hydro_envs.plants.shaking_table.params import (  # noqa: F401  (re-exported)
     BULK_MODULUS_MODELS, D_EMAX, D_IFAS_ALPHA_KAPPA, D_IFAS_INV_KAPPA, D_IFAS_INV_M, D_IFAS_LN_P0, D_IFAS_M_E0,
-    D_IFAS_OIL_E0, D_INV_M, D_LOCAL, D_NOTCH_AMP, D_NOTCH_C2, D_NOTCH_FAR, D_NOTCH_ONE_C2, D_PAIR, I_A, I_ALPHA,
-    I_ASTOP, I_BETA, I_CEL, I_CIL, I_DPTR, I_E0, I_FC, I_FS, I_FV, I_KAPPA, I_KSTOP, I_KU, I_L, I_L1, I_L2, I_M, I_MB,
+    D_IFAS_OIL_E0, D_INV_M, D_LOCAL, D_NOTCH_AMP, D_NOTCH_C2, D_NOTCH_FAR, D_NOTCH_ONE_C2, D_PAIR, D_TANH_WIDTH, I_A,
+    I_ALPHA, I_ASTOP, I_BETA, I_CEL, I_CIL, I_DPTR, I_E0, I_FC, I_FS, I_FV, I_KAPPA, I_KSTOP, I_KU, I_L, I_L1, I_L2, I_M, I_MB,
     I_MODEL, I_MS, I_MU, I_P0, I_PFLOOR, I_PLT, I_PS, I_PT, I_R, I_U, I_UMAX, I_V0, I_VMIN, I_VS, I_W0, I_ZETA,
     N_PARAMS, PLANT, PRESETS, SPECIMENS, ShakingTableParams,
 )
@@ -198,7 +198,7 @@ def valve_flows(xv, pa, pb, p):
 def _piston_force(x, v, pa, pb, p):
     """Net force on the moving mass [N]: A (P_a - P_b) - F_fric + F_stop (003 eq (10))."""
     half = 0.5 * p[I_L]
-    f_fric = stribeck_gaussian(v, p[I_FC], p[I_FS], p[I_VS], p[I_FV], 1.0 / p[I_BETA])  # (11)-(12)
+    f_fric = stribeck_gaussian(v, p[I_FC], p[I_FS], p[I_VS], p[I_FV], p[D_TANH_WIDTH])  # (11)-(12), 1/beta
     f_stop = end_stop_force(x, v, -half, half, p[I_KSTOP], p[I_ASTOP])
     return p[I_A] * (pa - pb) - f_fric + f_stop
 

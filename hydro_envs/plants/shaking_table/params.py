@@ -159,7 +159,7 @@ class ShakingTableParams(PhysicalParams):
     derived_names: ClassVar[tuple[str, ...]] = (
         "modulus_max", "local_rate", "air_release_pressure", "inv_mass",
         "ifas_m_over_e0", "ifas_inv_m", "ifas_inv_kappa", "ifas_ln_p0", "ifas_oil_over_e0", "ifas_alpha_over_kappa",
-        "notch_amplitude", "notch_c2", "notch_one_plus_c2", "notch_far",
+        "notch_amplitude", "notch_c2", "notch_one_plus_c2", "notch_far", "tanh_width",
     )
 
     def derived_columns(self) -> list[float]:
@@ -167,12 +167,13 @@ class ShakingTableParams(PhysicalParams):
         worst-case rate of the locally refined orifice modes and the air-release pressure
         (:mod:`.bounds`), ``1/M``, and the parameter-only terms of the IFAS law (eq (13),
         :func:`~hydro_envs.laws.bulk_modulus_fast.ifas_constants`) and of the notch's shape (eq
-        (19), :func:`~hydro_envs.laws.bulk_modulus_fast.modified_ifas_shape_constants`); the
-        laws' Python bodies, so that making a parameter set compiles nothing."""
+        (19), :func:`~hydro_envs.laws.bulk_modulus_fast.modified_ifas_shape_constants`), and the
+        width ``1/beta`` [m/s] of the friction's tanh sign (eq (12)); the laws' Python bodies, so
+        that making a parameter set compiles nothing."""
         ifas = ifas_constants.py_func(self.e0, self.p0, self.oil_exponent, self.air_content, self.polytropic_exponent)
         notch = modified_ifas_shape_constants.py_func(self.lambda_1, self.lambda_2, self.mu, self.threshold_pressure)
         return [modulus_upper_bound(self), max(local_mode_rates(self).values()), air_release_pressure(self),
-                1.0 / self.mass, *ifas, *notch]
+                1.0 / self.mass, *ifas, *notch, 1.0 / self.tanh_gain]
 
     # ------------------------------------------------------------------ presets
     @property
@@ -235,6 +236,6 @@ assert len(ShakingTableParams.names()) == N_FIELDS
 #: derived columns (:meth:`ShakingTableParams.derived_columns`)
 (
     D_EMAX, D_LOCAL, D_PAIR, D_INV_M, D_IFAS_M_E0, D_IFAS_INV_M, D_IFAS_INV_KAPPA, D_IFAS_LN_P0, D_IFAS_OIL_E0,
-    D_IFAS_ALPHA_KAPPA, D_NOTCH_AMP, D_NOTCH_C2, D_NOTCH_ONE_C2, D_NOTCH_FAR,
+    D_IFAS_ALPHA_KAPPA, D_NOTCH_AMP, D_NOTCH_C2, D_NOTCH_ONE_C2, D_NOTCH_FAR, D_TANH_WIDTH,
 ) = range(N_FIELDS, N_FIELDS + len(ShakingTableParams.derived_names))
 N_PARAMS = N_FIELDS + len(ShakingTableParams.derived_names)
