@@ -140,7 +140,7 @@ def _observe_copy(i, Y, P, REF, REFI, K, NOISE, last_a, prev_a, sos, ZI, XPREV, 
         prefetch_row_element(REF, i, min(ahead + preview[m], n_ref - 1))
     half = 0.5 * P[i, plant.I_L]
     r = REF[i, min(k, n_ref - 1)]
-    j = k % n_noise
+    j = k % n_noise if n_noise > 1 else 0  # (no noise: one row, and no integer division)
     x_m = Y[i, plant.X] + NOISE[i, j, 0]
     if quant > 0.0:
         x_m = quant * math.floor(x_m / quant + 0.5)
