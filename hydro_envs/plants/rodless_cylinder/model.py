@@ -97,6 +97,7 @@ from hydro_envs.laws.pneumatic_chamber import chamber_pressure_rate, gas_interna
 from hydro_envs.laws.stribeck_lugre import lugre_exponential_rate, lugre_exponential_rate_bound
 from hydro_envs.laws.valve import second_order_valve_acceleration
 from hydro_envs.sim.rk4 import STABLE_H_LAMBDA, local_substeps, worst_case_substeps
+from hydro_envs.sim.roots import brent_root
 from hydro_envs.plants.rodless_cylinder.bounds import (
     local_mode_rates as _local_mode_rates, piston_area, smallest_chamber_volume, speed_bound,
 )
@@ -582,8 +583,6 @@ def centre_pressure(params: RodlessCylinderParams) -> float:
     depend on the (equal) areas: solve ``mdot(p_s -> p_0) = mdot(p_0 -> p_e)`` at T_s. For a
     zero-lap or overlapped valve the same p_0 is the limit of a vanishing underlap.
     """
-    from scipy.optimize import brentq
-
     p = params.to_array()
     ts = params.supply_temperature
     rts = math.sqrt(params.gas_constant * ts)
@@ -593,7 +592,7 @@ def centre_pressure(params: RodlessCylinderParams) -> float:
     def f(p0):
         return _edge_flow(p, area, ps, p0, ts, rts) - _edge_flow(p, area, p0, pe, ts, rts)
 
-    return float(brentq(f, pe, ps, xtol=1e-9, rtol=1e-14))
+    return brent_root(f, pe, ps, xtol=1e-9, rtol=1e-14)
 
 
 def rest_state(params: RodlessCylinderParams, y: float, v: float = 0.0, pa: float | None = None,

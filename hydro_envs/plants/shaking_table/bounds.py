@@ -32,10 +32,9 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from scipy.optimize import brentq
-
 from hydro_envs.laws.bulk_modulus import ifas_bulk_modulus
 from hydro_envs.sim.rk4 import STABLE_H_LAMBDA
+from hydro_envs.sim.roots import brent_root
 
 __all__ = ["ACCURATE_H_LAMBDA", "SPOOL_H_OMEGA", "AIR_COMPLIANCE_SHARE", "stiffness_modes", "local_mode_rates",
            "modulus_upper_bound", "air_release_pressure"]
@@ -135,4 +134,4 @@ def air_release_pressure(p: Any) -> float:
         return 0.0
     if excess(hi) >= 0.0:
         return hi
-    return float(brentq(excess, lo, hi, xtol=1.0, rtol=1e-10))
+    return brent_root(excess, lo, hi, xtol=1.0, rtol=1e-10)

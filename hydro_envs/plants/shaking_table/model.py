@@ -98,6 +98,7 @@ from hydro_envs.plants.shaking_table.params import (  # noqa: F401  (re-exported
     N_PARAMS, PLANT, PRESETS, SPECIMENS, ShakingTableParams,
 )
 from hydro_envs.sim.rk4 import STABLE_H_LAMBDA, local_substeps, worst_case_substeps
+from hydro_envs.sim.roots import brent_root
 
 __all__ = [
     "PLANT",
@@ -411,8 +412,6 @@ def null_pressure(params: ShakingTableParams) -> float:
     P_a = P_b): ``R U (sqrt~(P_s - P) - sqrt~(P - P_T)) = C_el (P - P_T)`` (eqs (1), (8)).
     The external leak lowers it below (P_s + P_T)/2 (by about 2 MPa with Table 2's C_el).
     """
-    from scipy.optimize import brentq
-
     p = params.to_array()
 
     flows = valve_flows.py_func  # the same arithmetic; a compiled copy would cost an env's reset 0.3 s
@@ -424,7 +423,7 @@ def null_pressure(params: ShakingTableParams) -> float:
     lo, hi = params.tank_pressure, params.supply_pressure
     if params.flow_coefficient == 0.0 or params.underlap == 0.0:
         return 0.5 * (lo + hi) if params.external_leakage == 0.0 else lo
-    return float(brentq(residual, lo, hi, xtol=1e-6, rtol=1e-14))
+    return brent_root(residual, lo, hi, xtol=1e-6, rtol=1e-14)
 
 
 def rest_state(params: ShakingTableParams, x: float = 0.0, v: float = 0.0) -> np.ndarray:

@@ -136,7 +136,8 @@ class ShakingTableParams(PhysicalParams):
                 f"{name}.bulk_modulus_model = {self.bulk_modulus_model} must be 0 (constant), "
                 "1 (IFAS) or 2 (modified IFAS)"
             )
-        if not modified_ifas_shape_is_valid(self.lambda_1, self.lambda_2, self.mu, self.threshold_pressure):
+        # the law's Python body: checking a parameter set compiles nothing
+        if not modified_ifas_shape_is_valid.py_func(self.lambda_1, self.lambda_2, self.mu, self.threshold_pressure):
             h0 = self.lambda_1 - 2.0 * self.lambda_2 * math.tanh(self.mu * self.threshold_pressure)
             raise ParameterError(
                 f"{name}: modified-IFAS shape (lambda_1, lambda_2, mu, threshold_pressure) = "
