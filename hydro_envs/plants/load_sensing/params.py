@@ -217,13 +217,14 @@ def derived(params: LoadSensingParams) -> dict[str, float]:
     the locally refined modes, :func:`.bounds.local_mode_rates`, and the coefficients of their
     bound in the smallest drop, :func:`.bounds.orifice_rate_coefficients`)."""
     p = params
-    nu = iso_vg_kinematic_viscosity(p.oil_grade, p.oil_temperature)
-    nu40 = iso_vg_kinematic_viscosity(p.oil_grade, 40.0)
+    # the laws' Python bodies (the same libm calls, bit-identical): making a parameter set compiles nothing
+    nu = iso_vg_kinematic_viscosity.py_func(p.oil_grade, p.oil_temperature)
+    nu40 = iso_vg_kinematic_viscosity.py_func(p.oil_grade, 40.0)
     d = {
         "spool_area": 0.25 * math.pi * p.spool_diameter**2,
         "viscous": p.viscous_friction_40c * nu / nu40,
-        "ls_inductance": pipe_inductance(p.oil_density, p.ls_line_length, p.ls_line_diameter),
-        "ls_resistance": pipe_laminar_resistance(nu * p.oil_density, p.ls_line_length, p.ls_line_diameter),
+        "ls_inductance": pipe_inductance.py_func(p.oil_density, p.ls_line_length, p.ls_line_diameter),
+        "ls_resistance": pipe_laminar_resistance.py_func(nu * p.oil_density, p.ls_line_length, p.ls_line_diameter),
         "ls_line_volume": 0.25 * math.pi * p.ls_line_diameter**2 * p.ls_line_length,
         "k_meter": p.discharge_coefficient * math.sqrt(2.0 / p.oil_density),
         "k_flow_force": 2.0 * p.discharge_coefficient * math.cos(p.jet_angle) * p.metering_width,
