@@ -1,12 +1,10 @@
 """Brent's method without scipy.optimize (hydro_envs.sim.roots): the same roots as
 ``scipy.optimize.brentq``, bit for bit, on test functions and on the rest-state solves of the
-envs' resets; clear errors; and the envs that use it reset without importing scipy.optimize."""
+envs' resets, and clear errors (that no env imports scipy.optimize: tests/test_env_contract.py)."""
 
 from __future__ import annotations
 
 import math
-import subprocess
-import sys
 
 import numpy as np
 import pytest
@@ -85,14 +83,3 @@ def test_rest_state_solves_equal_scipy_brentq(monkeypatch):
               [rodless.centre_pressure(p) for p in rodless_draws])
     assert ours == theirs
     assert len(set(ours[1])) > 10 and min(ours[1]) > 0.0  # the air band lies inside the bracket
-
-
-@pytest.mark.parametrize("env_id", ["hydro_envs/ShakingTable-v0", "hydro_envs/RodlessCylinder-v0"])
-def test_env_steps_without_importing_scipy_optimize(env_id):
-    code = (
-        "import sys, gymnasium as gym, hydro_envs\n"
-        f"env = gym.make({env_id!r}); env.reset(seed=0); env.step(env.action_space.sample())\n"
-        "print('scipy.optimize' in sys.modules)\n"
-    )
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, timeout=600)
-    assert out.stdout.strip() == "False"
