@@ -93,8 +93,9 @@ from hydro_envs.plants.shaking_table.bounds import ACCURATE_H_LAMBDA, local_mode
 from hydro_envs.plants.shaking_table.params import (  # noqa: F401  (re-exported)
     BULK_MODULUS_MODELS, D_EMAX, D_IFAS_ALPHA_KAPPA, D_IFAS_INV_KAPPA, D_IFAS_INV_M, D_IFAS_LN_P0, D_IFAS_M_E0,
     D_IFAS_OIL_E0, D_INV_M, D_LOCAL, D_NOTCH_AMP, D_NOTCH_C2, D_NOTCH_FAR, D_NOTCH_ONE_C2, D_PAIR, D_TANH_WIDTH, I_A,
-    I_ALPHA, I_ASTOP, I_BETA, I_CEL, I_CIL, I_DPTR, I_E0, I_FC, I_FS, I_FV, I_KAPPA, I_KSTOP, I_KU, I_L, I_L1, I_L2, I_M, I_MB,
-    I_MODEL, I_MS, I_MU, I_P0, I_PFLOOR, I_PLT, I_PS, I_PT, I_R, I_U, I_UMAX, I_V0, I_VMIN, I_VS, I_W0, I_ZETA,
+    I_ALPHA, I_ASTOP, I_BETA, I_CEL, I_CIL, I_DPTR, I_E0, I_FC, I_FS, I_FV, I_KAPPA, I_KSTOP, I_KU, I_L, I_L1, I_L2,
+    I_M, I_MB, I_MODEL, I_MS, I_MU, I_P0, I_PFLOOR, I_PLT, I_PS, I_PT, I_R, I_U, I_UMAX, I_V0, I_VMIN, I_VS, I_W0,
+    I_ZETA,
     N_PARAMS, PLANT, PRESETS, SPECIMENS, ShakingTableParams,
 )
 from hydro_envs.sim.rk4 import STABLE_H_LAMBDA, local_substeps, worst_case_substeps
