@@ -45,6 +45,8 @@ def test_same_roots_as_scipy_brentq():
 
 
 def test_root_at_a_bracket_end_and_default_tolerances():
+    root = brent_root(lambda x: np.float64(x) - 0.3, 0.0, 1.0)
+    assert type(root) is float and root == brentq(lambda x: x - 0.3, 0.0, 1.0)
     assert brent_root(lambda x: x - 2.0, 2.0, 5.0) == 2.0
     assert brent_root(lambda x: x - 5.0, 2.0, 5.0) == 5.0
     f = lambda x: math.cos(x) - x  # noqa: E731

@@ -34,9 +34,9 @@ def brent_root(f: Callable[[float], float], a: float, b: float, xtol: float = 2e
     if f_prev * fx > 0.0:
         raise ValueError(f"f(a) = {f_prev} and f(b) = {fx} must have different signs (a = {a}, b = {b})")
     if f_prev == 0.0:
-        return x_prev
+        return float(x_prev)
     if fx == 0.0:
-        return x
+        return float(x)
     x_far = f_far = 0.0  # the other end of the bracket [x, x_far]
     step = step_prev = 0.0
     for _ in range(maxiter):
@@ -49,7 +49,7 @@ def brent_root(f: Callable[[float], float], a: float, b: float, xtol: float = 2e
         half_tol = (xtol + rtol * abs(x)) / 2
         half_bracket = (x_far - x) / 2
         if fx == 0.0 or abs(half_bracket) < half_tol:
-            return x
+            return float(x)
         bisect = True
         if abs(step_prev) > half_tol and abs(fx) < abs(f_prev):
             if x_prev == x_far:  # secant through x and x_prev
