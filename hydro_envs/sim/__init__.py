@@ -1,5 +1,6 @@
 """Fixed-step compiled integration (RK4 sub-steps, batched), sub-steps from the stiffness
-bound, batched trajectories (:func:`simulate`) and stiff reference solves."""
+bound, batched trajectories (:func:`simulate`), stiff reference solves, and the root finder of
+rest states (:mod:`hydro_envs.sim.roots`)."""
 
 from hydro_envs.sim.rk4 import rk4_advance, rk4_trajectory
 from hydro_envs.sim.simulate import simulate, substeps
