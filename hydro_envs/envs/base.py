@@ -272,7 +272,8 @@ class PlantBatch:
         self.K = np.zeros(n, dtype=np.int64)
         self.last_a = np.zeros((n, self.action_dim))
         self.prev_a = np.zeros((n, self.action_dim))
-        self.obs = np.zeros((n, self.obs_dim))
+        self.obs = np.zeros((n, self.obs_dim), dtype=np.float32)  # the observation space's dtype (kernels
+        # compute in float64 and round once, on storing)
         self.reward = np.zeros(n)
         self.params: list[PhysicalParams] = [self.base_params] * n
         self.rngs: list[np.random.Generator | None] = [None] * n
@@ -520,14 +521,15 @@ class PlantBatch:
         holds the step's before)."""
         if self._kernel_stale:
             self.select_step_kernel()
-        self.apply_actions()
         if self.parallel:
             self.step_and_observe()
         else:
             self.step_then_observe()
 
     def step_then_observe(self) -> None:
-        """Step every copy (``step_kernel``), count the step in ``K`` and :meth:`observe`."""
+        """:meth:`apply_actions`, step every copy (``step_kernel``), count the step in ``K`` and
+        :meth:`observe`."""
+        self.apply_actions()
         self.step_kernel(self.Y, self.U, self.P, self.dt, self.NSUB, self.W, self.clamps)
         self.K += 1
         self.observe()
@@ -537,6 +539,9 @@ class PlantBatch:
     #: step, bit-identical to its variants); see :meth:`step_and_observe`
     step_observe_kernels: ClassVar[dict[Any, Any]] = {}
     step_observe_general: ClassVar[Any] = None
+    #: whether those kernels fill the plant inputs ``U`` from ``last_a`` themselves, each block's
+    #: before stepping it (the arithmetic of :meth:`apply_actions`, which then does not run)
+    step_observe_applies_actions: ClassVar[bool] = False
 
     def observe_args(self) -> tuple[Any, ...]:
         """The arguments of the env's observation kernels (``Y``, ``P``, references, ..., ``obs``,
@@ -553,6 +558,8 @@ class PlantBatch:
         if kernel is None:
             self.step_then_observe()
             return
+        if not self.step_observe_applies_actions:
+            self.apply_actions()
         kernel(self.U, self.dt, self.NSUB, self.W, self.clamps, *self.observe_args())
 
     def state_dict(self, i: int) -> dict[str, float]:
@@ -615,7 +622,7 @@ class BatchedEnv(gym.Env):
         b.observe()
         self._params_info = b.params[0].as_dict()
         self._history = [b.render_sample(0)] if self.render_mode is not None else []
-        return b.obs[0].astype(np.float32), {"state": b.state_dict(0), "params": dict(self._params_info)}
+        return b.obs[0].copy(), {"state": b.state_dict(0), "params": dict(self._params_info)}
 
     def step(self, action: Any):
         b = self._batch
@@ -642,7 +649,7 @@ class BatchedEnv(gym.Env):
         if self.render_mode is not None:
             self._history.append(b.render_sample(0))
         info = {"state": dict(zip(b.plant.STATE_NAMES, b.Y[0].tolist())), "params": dict(self._params_info)}
-        return b.obs[0].astype(np.float32), float(b.reward[0]), False, False, info
+        return b.obs[0].copy(), float(b.reward[0]), False, False, info
 
     def channel_values(self) -> dict[str, float]:
         """Sensor outputs in SI units, keyed by the measured-data channel names."""
@@ -701,6 +708,10 @@ class BatchedVectorEnv(VectorEnv):
         self.plant_name = self._batch.plant_spec.name
         self.render_mode = None
         self._needs_reset = np.zeros(self.num_envs, dtype=bool)
+        self._resets_pending = False  # whether any of _needs_reset is set
+        #: at least every copy's step count ``K``: below the episode length no copy can be truncated,
+        #: and the step does not read ``K`` (the kernel's threads have just written it)
+        self._steps_bound = 0
         self._params_info: dict[str, np.ndarray] = {}
         self._reset_done = False
 
@@ -774,9 +785,11 @@ class BatchedVectorEnv(VectorEnv):
             raise
         b.observe()
         self._needs_reset[:] = False
+        self._resets_pending = False
+        self._steps_bound = int(b.K.max())
         self._reset_done = True
         self._refresh_params_info()
-        return b.obs.astype(np.float32), {"state": self._state_info(), "params": dict(self._params_info)}
+        return b.obs.copy(), {"state": self._state_info(), "params": dict(self._params_info)}
 
     def step(self, actions: Any):
         if not self._reset_done:
@@ -786,12 +799,14 @@ class BatchedVectorEnv(VectorEnv):
         if take_actions(raw, b.prev_a, b.last_a):
             raise not_finite_error(raw)
         b.advance()
+        self._steps_bound += 1
+        may_end = self._steps_bound >= self.max_episode_steps  # (the tasks end by truncation only)
         terminated = np.zeros(self.num_envs, dtype=bool)
-        truncated = b.K >= self.max_episode_steps
+        truncated = b.K >= self.max_episode_steps if may_end else np.zeros(self.num_envs, dtype=bool)
         reward = b.reward.copy()
         info: dict[str, Any] = {}
         if self.autoreset_mode == AutoresetMode.NEXT_STEP:
-            if self._needs_reset.any():
+            if self._resets_pending:
                 redo = np.flatnonzero(self._needs_reset)
                 for i in redo:
                     b.reset_copy(i, b.rngs[i], None)
@@ -799,13 +814,15 @@ class BatchedVectorEnv(VectorEnv):
                 reward[redo] = 0.0
                 truncated[redo] = False
                 self._refresh_params_info()
+                self._steps_bound = int(b.K.max())
             self._needs_reset = terminated | truncated
-            obs = b.obs.astype(np.float32)
+            self._resets_pending = may_end and bool(self._needs_reset.any())
+            obs = b.obs.copy()
             info["state"] = self._state_info()
         else:  # SAME_STEP
             done = np.flatnonzero(terminated | truncated)
             info["state"] = self._state_info()
-            obs = b.obs.astype(np.float32)
+            obs = b.obs.copy()
             if done.size:
                 final = np.zeros_like(obs)
                 final[done] = obs[done]
@@ -814,8 +831,9 @@ class BatchedVectorEnv(VectorEnv):
                 for i in done:
                     b.reset_copy(i, b.rngs[i], None)
                 b.observe()
-                obs = b.obs.astype(np.float32)
+                obs = b.obs.copy()
                 self._refresh_params_info()
+                self._steps_bound = int(b.K.max())
         info["params"] = dict(self._params_info)
         return obs, reward, terminated, truncated, info
 

@@ -91,7 +91,7 @@ from hydro_envs.plants.shaking_table.kernels import step_serial
 from hydro_envs.plants.shaking_table.model import table_acceleration
 from hydro_envs.plants.shaking_table.params import SPECIMENS, ShakingTableParams
 from hydro_envs.plants.shaking_table.spec import SPEC
-from hydro_envs.sim.rk4 import n_blocks, step_block
+from hydro_envs.sim.rk4 import block_bounds, n_blocks, step_block
 
 __all__ = [
     "ShakingTableEnv",
@@ -208,9 +208,13 @@ def _step_observe_parallel(U, step_dt, NSUB, W, clamps, Y, P, REF, REFI, K, NOIS
                            obs_low, obs_high, obs, reward, meas):
     """One env step of ``step_dt`` seconds of every copy in one parallel region: each block of
     copies is stepped by the plant's serial step, its step counts advanced, and observed (``dt``:
-    the observation's differentiation step)."""
+    the observation's differentiation step). Each block's valve commands ``U`` come from
+    ``last_a`` first (:meth:`ShakingTableBatch.apply_actions`'s arithmetic)."""
     for c in nb.prange(n_blocks(Y.shape[0])):
-        lo, hi = step_block(step_serial, c, Y, U, P, step_dt, NSUB, W, clamps)
+        lo, hi = block_bounds(c, Y.shape[0])
+        for i in range(lo, hi):
+            U[i, 0] = last_a[i, 0] * P[i, plant.I_UMAX]
+        step_block(step_serial, c, Y, U, P, step_dt, NSUB, W, clamps)
         for i in range(lo, hi):
             K[i] += 1
             _observe_copy(i, Y, P, REF, REFI, K, NOISE, last_a, prev_a, sos, ZI, XPREV, VF, KOBS, quant, dt,
@@ -381,9 +385,10 @@ class ShakingTableBatch(PlantBatch):
         self.KOBS[i] = -1
 
     def apply_actions(self) -> None:
-        np.multiply(self.last_a[:, 0], self.P[:, plant.I_UMAX], out=self.U[:, 0])
+        np.multiply(self.last_a[:, 0], self.P[:, plant.I_UMAX], out=self.U[:, 0])  # action -> valve command [V]
 
     step_observe_kernels = {step_serial: _step_observe_parallel}
+    step_observe_applies_actions = True
 
     def observe_args(self) -> tuple[Any, ...]:
         return (self.Y, self.P, self.REF, self.REFI, self.K, self.NOISE, self.last_a, self.prev_a, self.sos,
