@@ -272,8 +272,8 @@ class PlantBatch:
         self.K = np.zeros(n, dtype=np.int64)
         self.last_a = np.zeros((n, self.action_dim))
         self.prev_a = np.zeros((n, self.action_dim))
-        self.obs = np.zeros((n, self.obs_dim), dtype=np.float32)  # the observation space's dtype (kernels
-        # compute in float64 and round once, on storing)
+        # the observation space's dtype: the kernels compute in float64 and round once, on storing
+        self.obs = np.zeros((n, self.obs_dim), dtype=np.float32)
         self.reward = np.zeros(n)
         self.params: list[PhysicalParams] = [self.base_params] * n
         self.rngs: list[np.random.Generator | None] = [None] * n
