@@ -32,6 +32,8 @@ import math
 
 import numba
 
+from hydro_envs.libm import exp, log
+
 __all__ = ["ifas_bulk_modulus_fast", "ifas_bulk_modulus_scaled", "ifas_constants", "modified_ifas_shape_fast",
            "modified_ifas_shape_constants"]
 
@@ -55,7 +57,7 @@ def ifas_bulk_modulus_scaled(p, p0, p_floor, alpha, m_over_e0, inv_m, inv_kappa,
     base = 1.0 + m_over_e0 * (pp - p0)
     if base < 1e-12:
         base = 1e-12
-    q = math.exp(inv_kappa * (ln_p0 - math.log(pp)) + inv_m * math.log(base))  # air over oil: r^(1/kappa) b^(1/m)
+    q = exp(inv_kappa * (ln_p0 - log(pp)) + inv_m * log(base))  # air over oil: r^(1/kappa) b^(1/m)
     return base * pp * ((1.0 - alpha) + alpha * q) / (oil_over_e0 * pp + alpha_over_kappa * (base * q))
 
 
@@ -110,7 +112,7 @@ def modified_ifas_shape_fast(p_a, p_b, lambda_1, mu, p_lt, amp, c2, one_plus_c2,
     x = mu * (abs(p_a - p_b) - abs(p_lt))
     if x > x_far:
         return lambda_1
-    r = math.exp(-2.0 * abs(x))
+    r = exp(-2.0 * abs(x))
     if x >= 0.0:
         return lambda_1 - amp * r / (1.0 + r * (one_plus_c2 + r * c2))
     return lambda_1 - amp / (one_plus_c2 + r + (c2 / r if r > 0.0 else 0.0))

@@ -15,9 +15,9 @@ regularised signs and smooth steps of the laws (forces, moduli), not quantities 
 
 from __future__ import annotations
 
-import math
-
 import numba
+
+from hydro_envs.libm import exp
 
 __all__ = ["tanh_one_exp"]
 
@@ -27,5 +27,5 @@ def tanh_one_exp(x):
     """``tanh(x)`` as ``1 - 2 / (exp(2 |x|) + 1)`` with the sign of ``x``; exactly odd; absolute
     error <= ~2e-16; +-1 beyond |x| = 20."""
     a = abs(x)
-    t = 1.0 if a > 20.0 else 1.0 - 2.0 / (math.exp(2.0 * a) + 1.0)
+    t = 1.0 if a > 20.0 else 1.0 - 2.0 / (exp(2.0 * a) + 1.0)
     return -t if x < 0.0 else t

@@ -29,6 +29,7 @@ import math
 import numba
 
 from hydro_envs.laws.elementary import tanh_one_exp
+from hydro_envs.libm import exp
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -88,7 +89,7 @@ def stribeck_exponential(v, f_c, f_s, v_s, b, v_eps):
     law is continuous through v = 0 (pass ``v_eps = 0`` for the literal paper form).
     With v_eps << v_s the force rises to ~f_s within a few v_eps of zero velocity.
     """
-    mag = f_c + (f_s - f_c) * math.exp(-abs(v) / v_s)
+    mag = f_c + (f_s - f_c) * exp(-abs(v) / v_s)
     return mag * tanh_sign(v, v_eps) + b * v
 
 
@@ -103,7 +104,7 @@ def stribeck_exponential_slope_bound(v, f_c, f_s, v_s, b, v_eps):
     Over all v it is at most ``b + f_s / v_eps + (f_s - f_c) / v_s``.
     Units: as :func:`stribeck_exponential` -> [N s/m]. Source: the derivative of that law.
     """
-    e = math.exp(-abs(v) / v_s)
+    e = exp(-abs(v) / v_s)
     g = f_c + (f_s - f_c) * e
     if v_eps > 0.0:
         x = min(abs(v) / v_eps, 350.0)
@@ -135,7 +136,7 @@ def stribeck_gaussian(v, f_c, f_s, v_s, b, v_eps):
     (zero slope of the exponential factor) and decays faster for |v| > v_s.
     """
     r = v / v_s
-    mag = f_c + (f_s - f_c) * math.exp(-r * r)
+    mag = f_c + (f_s - f_c) * exp(-r * r)
     return mag * tanh_sign(v, v_eps) + b * v
 
 
@@ -214,7 +215,7 @@ def lugre_g(v, f_c, f_s, v_s):
     AMESim friction model) and ref [6] in 002; same Gaussian shape as 003 eq (11).
     """
     r = v / v_s
-    return f_c + (f_s - f_c) * math.exp(-r * r)
+    return f_c + (f_s - f_c) * exp(-r * r)
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -263,7 +264,7 @@ def lugre_bristle_step_exact(z, v, f_c, f_s, v_s, sigma0, dt):
     x = a * dt
     if x < 1e-12:
         return z + (v - a * z) * dt
-    e = math.exp(-x)
+    e = exp(-x)
     phi = -math.expm1(-x) / x  # (1 - exp(-x)) / x
     return z * e + v * dt * phi
 

@@ -19,6 +19,8 @@ import math
 
 import numba
 
+from hydro_envs.libm import exp, log
+
 __all__ = ["nozzle_flow_constants", "nozzle_mass_flow_fast", "nozzle_mass_flow_slope_fast"]
 
 
@@ -68,7 +70,7 @@ def nozzle_mass_flow_fast(cd_area, p_up, p_down, sqrt_rt_up, ratio_lam, crit, ps
     if ratio <= crit:
         psi = psi_c
     elif ratio <= ratio_lam:
-        q = math.exp(inv_kappa * math.log(ratio))
+        q = exp(inv_kappa * log(ratio))
         t = q * (q - ratio)
         psi = math.sqrt(coef * t) if t > 0.0 else 0.0
     else:
@@ -104,7 +106,7 @@ def nozzle_mass_flow_slope_fast(cd_area, p_1, p_2, sqrt_rt_up, ratio_lam, crit, 
         psi = psi_c
         dpsi = 0.0
     elif r <= ratio_lam:
-        q = math.exp(inv_kappa * math.log(r))
+        q = exp(inv_kappa * log(r))
         t = q * (q - r)
         if t > 0.0:
             psi = math.sqrt(coef * t)

@@ -33,6 +33,8 @@ import math
 
 import numba
 
+from hydro_envs.libm import exp
+
 __all__ = ["stribeck_exponential_curve", "lugre_exponential_rate", "lugre_exponential_rate_bound"]
 
 
@@ -44,7 +46,7 @@ def stribeck_exponential_curve(v, f_c, f_s, v_s):
     Source: ``004_f1423316a055addb.txt`` sec. 3.1, Table 2 (g(0) = F_s, g -> F_c, and the
     tangent at 0+ meets F_c at v = v_s, the Fig. 3 construction).
     """
-    return f_c + (f_s - f_c) * math.exp(-abs(v) / v_s)
+    return f_c + (f_s - f_c) * exp(-abs(v) / v_s)
 
 
 @numba.njit(cache=True, error_model="numpy")

@@ -122,6 +122,7 @@ from hydro_envs.laws.elementary import tanh_one_exp
 from hydro_envs.laws.filters import lfilter_from_rest
 from hydro_envs.laws.friction import dahl_friction_rate, tanh_sign
 from hydro_envs.laws.hysteresis import pi_memories, play_operator
+from hydro_envs.libm import exp
 from hydro_envs.sim.rk4 import STABLE_H_LAMBDA, local_substeps
 from hydro_envs.plants.force_actuator.params import (  # noqa: F401  (re-exported)
     ForceActuatorParams, I_A1, I_AR, I_ASTOP, I_BS, I_DA, I_DG, I_DK, I_DLIN, I_DV, I_FC, I_FLOAD,
@@ -356,7 +357,7 @@ def stiction_level(v, f_c, fs_retract, fs_extend, v_s):
     """Friction level g(v) [N]: Stribeck curve from the direction's static level to F_c."""
     fs = fs_extend if v > 0.0 else fs_retract
     r = v / v_s
-    return f_c + (fs - f_c) * math.exp(-r * r)
+    return f_c + (fs - f_c) * exp(-r * r)
 
 
 @njit_noalloc
