@@ -120,19 +120,18 @@ def log(x):
     return math.log(x)
 
 
-@overload(exp)
-def _exp_compiled(x):
-    if isinstance(x, types.Float) and x.bitwidth == 64 and USES_GLIBC_ROUTINES is not None:
-        return lambda x: _exp_call(x)
-    if isinstance(x, (types.Integer, types.Float)):
-        return lambda x: math.exp(x)
-    return None
+def _compile_as(function, call, fallback) -> None:
+    """Compiled ``function(x)``: ``call`` (an intrinsic) on float64, ``fallback`` (``math``'s) on other
+    numbers, or on every number if no routine is registered."""
+
+    @overload(function)
+    def compiled(x):
+        if isinstance(x, types.Float) and x.bitwidth == 64 and USES_GLIBC_ROUTINES is not None:
+            return lambda x: call(x)
+        if isinstance(x, (types.Integer, types.Float)):
+            return lambda x: fallback(x)
+        return None
 
 
-@overload(log)
-def _log_compiled(x):
-    if isinstance(x, types.Float) and x.bitwidth == 64 and USES_GLIBC_ROUTINES is not None:
-        return lambda x: _log_call(x)
-    if isinstance(x, (types.Integer, types.Float)):
-        return lambda x: math.log(x)
-    return None
+_compile_as(exp, _exp_call, math.exp)
+_compile_as(log, _log_call, math.log)
