@@ -552,8 +552,9 @@ class PlantBatch:
         """The parallel batch's step: one kernel that steps and observes each block of copies in
         a single parallel region (:func:`hydro_envs.sim.rk4.step_block`), called as
         ``kernel(U, dt, NSUB, W, clamps, *observe_args())``, so that the observation runs on every
-        thread and the threads are woken once per env step; :meth:`step_then_observe` for a
-        serial step without one (:attr:`step_observe_kernels`)."""
+        thread and the threads are woken once per env step, after :meth:`apply_actions` unless
+        the kernel fills the inputs itself (:attr:`step_observe_applies_actions`);
+        :meth:`step_then_observe` for a serial step without one (:attr:`step_observe_kernels`)."""
         kernel = self.step_observe_kernels.get(self.step_serial, self.step_observe_general)
         if kernel is None:
             self.step_then_observe()
