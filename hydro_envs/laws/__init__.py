@@ -18,6 +18,15 @@ friction (:mod:`hydro_envs.laws.friction`)
     lugre_bristle_step_exact(z, v, f_c, f_s, v_s, sigma0, dt)  LuGre, NOTES.md numerics
     karnopp_friction(v, f_applied, f_c, f_s, b, dv)   002 eq (1) stick branch, Karnopp
 
+seal_friction (:mod:`hydro_envs.laws.seal_friction`): the dynamic friction of every sliding seal
+    stribeck_curve_exponential(v, f_c, f_s, v_s)      002 eq (1), 004 Table 2 (steady level)
+    stribeck_curve_gaussian(v, f_c, f_s, v_s)         003 eq (11) (steady level)
+    bristle_rate(v, z, g, sigma0, exponent)           LuGre (n = 1), 001 eq (1) (n = 2)
+    micro_damping(v, sigma1, v_d)                     sigma1 fading with speed (dissipative)
+    seal_friction(v, z, g, sigma0, sigma1, v_d, sigma2, exponent) -> (F, dz/dt)
+    bristle_dissipation(v, z, F, dz, sigma0)          F v less the bristles' stored-energy rate
+    bristle_block_rate_bound(v, z, g, slope_ratio, sigma0, sigma1, v_d, damping, mass, exponent)
+
 orifice (:mod:`hydro_envs.laws.orifice`)
     regularized_signed_sqrt(dp, dp_tr)                Modelica regRoot / Hopsan (NOTES.md)
     regularized_signed_sqrt_slope_bound(dp, dp_tr)    its slope's bound (sub-step control)

@@ -1,0 +1,219 @@
+r"""Dynamic seal friction: one bristle-model family whose steady state is the seed's Stribeck curve.
+
+Every plant with a sliding seal (servo cylinder 002, force actuator 001, shaking table 003,
+rodless cylinder 004, load-sensing actuator) computes its friction with these functions. They
+are pure numba scalar kernels in SI units (m, m/s, N, N/m, N s/m). Sign convention as in
+:mod:`hydro_envs.laws.friction`: the force *opposes* motion, ``m a = F_drive - F``.
+
+The family (bristle deflection ``z`` [m], velocity ``v`` [m/s])::
+
+    u      = 1 - sigma0 z sgn(v) / g(v)
+    dz/dt  = v u |u|^(n - 1)                                  (n = 1: LuGre; n = 2: 001 eq (1))
+    F      = sigma0 z + sigma1(v) dz/dt + sigma2 v
+    sigma1(v) = sigma1 exp(-(v / v_d)^2)
+
+* ``g(v) > 0`` is the steady-state level: at constant ``v != 0`` the state settles at
+  ``z = g(v) sgn(v) / sigma0`` and ``F = g(v) sgn(v) + sigma2 v``, i.e. exactly the seed's
+  static law with the discontinuous sign: 002 eq (1) and 004 Table 2 with the exponential curve
+  (:func:`stribeck_curve_exponential`), 003 eq (11) with the Gaussian one
+  (:func:`stribeck_curve_gaussian`), 001 eq (1) with a constant level.
+* ``n = 1`` is the LuGre model (Canudas de Wit, Olsson, Astrom, Lischinsky 1995, IEEE TAC 40(3);
+  ref [30] of 003, ref [6] of 002). ``n = 2`` with ``sigma1 = sigma2 = 0`` and ``g = F_c`` is the
+  modified Dahl model of 001 eq (1), ``dF/dt = gamma (F - F_c sgn v)^2 v`` with ``F = sigma0 z``
+  and ``gamma = sigma0 / F_c^2`` (:func:`hydro_envs.laws.friction.dahl_friction_rate` is the
+  same law written for the force).
+* Stick: at ``v = 0`` the bristle rate is zero, so a body at rest under a net force ``f`` below
+  the breakaway level ``g(0)`` deflects the bristles to ``z = f / sigma0`` and holds there (a
+  spring of stiffness ``sigma0``); above it the bristles yield and the body slides. The
+  deflection at breakaway, ``g(0) / sigma0``, is the pre-sliding displacement.
+* Micro-damping ``sigma1`` damps the pre-sliding oscillation of the body on its bristles. It
+  fades with speed (``v_d``, here the Stribeck velocity), as Canudas de Wit et al. (1995) propose
+  so that the model stays dissipative: the power the friction takes, less the rate of the
+  energy ``sigma0 z^2 / 2`` the bristles store, is
+
+      D = F v - sigma0 z dz/dt = |v| (g w^2 + sigma1(v) |v| (1 - w)) + sigma2 v^2,   w = sigma0 z sgn(v) / g
+
+  (n = 1), which is >= 0 for every ``w`` when ``sigma1(v) |v| <= 4 g(v)``; with the fading
+  ``sigma1(v)`` that holds at every speed when ``sigma1 v_d / sqrt(2 e) <= 4 min g``
+  (:func:`micro_damping_is_dissipative`). With a constant ``sigma1`` it fails above
+  ``|v| = 4 g / sigma1``, right after a breakaway from ``F_s`` (``w = F_s/F_c > 1``). For n = 2
+  (``sigma1 = 0``) ``D = |v| g w (1 - u|u|) + sigma2 v^2 >= 0`` for every ``w``.
+* A seal without dry friction (``g <= 0``, e.g. the Coulomb and static levels set to zero to
+  measure what dry friction costs) leaves the viscous term only: ``F = sigma2 v``, ``dz/dt = 0``.
+
+Numerics: the state is stiff at speed (``dz/dt`` relaxes at ``a = n sigma0 |v| |u|^(n-1) / g``)
+and the body on its bristles is a mass-spring ``sqrt(sigma0 / m)``. A plant sizes its sub-step
+for the second (:func:`bristle_block_rate_bound` at ``v = 0``) and refines locally for the first
+(:func:`hydro_envs.sim.rk4.rk4_advance_lookahead` with :func:`bristle_block_rate_bound` at the
+sub-step's start and Euler prediction), as the rodless cylinder's LuGre friction did first.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+
+from hydro_envs.libm import exp
+
+__all__ = [
+    "stribeck_curve_exponential",
+    "stribeck_curve_gaussian",
+    "bristle_rate",
+    "micro_damping",
+    "seal_friction",
+    "bristle_dissipation",
+    "bristle_block_rate_bound",
+    "stribeck_slope_ratio_bound",
+    "micro_damping_is_dissipative",
+    "presliding_displacement",
+    "critical_micro_damping",
+]
+
+
+@numba.njit(cache=True, error_model="numpy")
+def stribeck_curve_exponential(v, f_c, f_s, v_s):
+    """Exponential Stribeck level ``g(v) = f_c + (f_s - f_c) exp(-|v| / v_s)`` [N].
+
+    Units: v [m/s], f_c (Coulomb) [N], f_s (static) [N], v_s (Stribeck velocity, > 0) [m/s].
+    Source: ``002_af30b681d6ccfd6c.txt`` eq (1) (sliding branch, without the sign);
+    ``004_f1423316a055addb.txt`` sec. 3.1 / Table 2 (the tangent from F_s meets F_c at v_s).
+    """
+    return f_c + (f_s - f_c) * exp(-abs(v) / v_s)
+
+
+@numba.njit(cache=True, error_model="numpy")
+def stribeck_curve_gaussian(v, f_c, f_s, v_s):
+    """Gaussian Stribeck level ``g(v) = f_c + (f_s - f_c) exp(-(v / v_s)^2)`` [N].
+
+    Units: as :func:`stribeck_curve_exponential`.
+    Source: ``003_54985feb8193da53.txt`` eq (11) (without the sign); the LuGre paper's curve.
+    """
+    r = v / v_s
+    return f_c + (f_s - f_c) * exp(-r * r)
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def bristle_rate(v, z, g, sigma0, exponent):
+    """Bristle deflection rate ``dz/dt = v u |u|^(n-1)``, ``u = 1 - sigma0 z sgn(v) / g`` [m/s].
+
+    ``exponent`` n is 1 (LuGre: ``v - sigma0 |v| z / g``) or 2 (001 eq (1)). Zero at ``v = 0``
+    (the bristles hold) and for ``g <= 0`` (no dry friction).
+    Units: v [m/s], z [m], g [N], sigma0 [N/m] -> [m/s].
+    """
+    if v == 0.0 or not g > 0.0:
+        return 0.0
+    s = 1.0 if v > 0.0 else -1.0
+    u = 1.0 - sigma0 * z * s / g
+    if exponent == 2:
+        return v * u * abs(u)
+    return v * u
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def micro_damping(v, sigma1, v_d):
+    """Velocity-dependent micro-damping ``sigma1 exp(-(v / v_d)^2)`` [N s/m] (Canudas de Wit et
+    al. 1995; keeps the law dissipative, see the module docstring). ``v_d <= 0``: constant."""
+    if not v_d > 0.0:
+        return sigma1
+    r = v / v_d
+    return sigma1 * exp(-r * r)
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def seal_friction(v, z, g, sigma0, sigma1, v_d, sigma2, exponent):
+    """``(F, dz/dt)``: friction force [N] and bristle rate [m/s] of the family.
+
+    ``F = sigma0 z + sigma1(v) dz/dt + sigma2 v`` with :func:`bristle_rate` and
+    :func:`micro_damping`; for ``g <= 0`` (no dry friction) ``(sigma2 v, 0)``.
+    Units: v [m/s], z [m], g [N], sigma0 [N/m], sigma1 and sigma2 [N s/m], v_d [m/s].
+    """
+    if not g > 0.0:
+        return sigma2 * v, 0.0
+    dz = bristle_rate(v, z, g, sigma0, exponent)
+    return sigma0 * z + micro_damping(v, sigma1, v_d) * dz + sigma2 * v, dz
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def bristle_dissipation(v, z, force, dz, sigma0):
+    """Power the friction dissipates [W]: ``F v`` less the rate ``sigma0 z dz/dt`` of the energy
+    the bristles store (>= 0 for the family, module docstring)."""
+    return force * v - sigma0 * z * dz
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def bristle_block_rate_bound(v, z, g, slope_ratio, sigma0, sigma1, v_d, damping, mass, exponent):
+    """Upper bound [1/s] of the eigenvalue magnitudes of the (velocity, bristle) block of a body
+    of ``mass`` [kg] with this friction, at velocity ``v`` and deflection ``z``.
+
+    ``g`` [N] is a lower bound of the level near ``v`` (``g <= 0``: no bristle block; the
+    viscous and other damping ``damping / mass`` alone), ``slope_ratio`` an upper bound of
+    ``|v g'(v)| / g`` (:func:`stribeck_slope_ratio_bound`), ``damping`` [N s/m] every other damping
+    on the body (viscous sigma2, a stop). With ``a = -d(dz/dt)/dz``, ``e = d(dz/dt)/dv``, the block
+    ``[[-(sigma1' dz/dt + sigma1(v) e + c)/M, -(sigma0 - sigma1(v) a)/M], [e, -a]]`` has trace
+    ``-T`` with ``T = a + (|sigma1' dz/dt| + sigma1(v)|e| + c)/M`` and determinant of magnitude at
+    most ``D = (a (|sigma1' dz/dt| + c) + |e| sigma0) / M``, so every eigenvalue has
+    ``|lambda| <= T/2 + sqrt(T^2/4 + D)``. For n = 1: ``a = sigma0 |v| / g``,
+    ``|e| <= |u| + sigma0 |z| slope_ratio / g``; for n = 2: ``a = 2 sigma0 |v| |u| / g``,
+    ``|e| <= u^2 + 2 |u| sigma0 |z| slope_ratio / g``, with ``|u| <= 1 + sigma0 |z| / g``.
+    Units: v [m/s], z [m], g [N], sigma0 [N/m], sigma1 and damping [N s/m], v_d [m/s], mass [kg].
+    """
+    if not g > 0.0:
+        return damping / mass
+    q = sigma0 * abs(z) / g
+    u = 1.0 + q
+    av = abs(v)
+    s1 = micro_damping(v, sigma1, v_d)
+    if exponent == 2:
+        a = 2.0 * sigma0 * av * u / g
+        e = u * u + 2.0 * u * q * slope_ratio
+        zd = av * u * u
+    else:
+        a = sigma0 * av / g
+        e = u + q * slope_ratio
+        zd = av * u
+    s1p = 0.0
+    if v_d > 0.0:
+        r = v / v_d
+        s1p = 2.0 * sigma1 * abs(r) / v_d * exp(-r * r) * zd
+    t = a + (s1p + s1 * e + damping) / mass
+    d = (a * (s1p + damping) + e * sigma0) / mass
+    return 0.5 * t + math.sqrt(0.25 * t * t + d)
+
+
+def stribeck_slope_ratio_bound(f_c: float, f_s: float, shape: str) -> float:
+    """Upper bound of ``|v g'(v)| / g(v)`` over all v for a Stribeck level with ``f_s >= f_c > 0``:
+    ``(f_s - f_c) / (e f_c)`` for the exponential curve, ``2 (f_s - f_c) / (e f_c)`` for the
+    Gaussian one, 0 for a constant level (``shape`` in ``exponential``, ``gaussian``,
+    ``constant``); for ``f_c <= 0`` with ``f_s > 0``, the bound at the level's floor ``f_s``
+    times ``exp(-|v|/v_s)`` is unbounded in ratio, so ``inf`` is returned (size such a plant by
+    its worst case). Python (parameter analysis)."""
+    if shape == "constant" or f_s <= f_c:
+        return 0.0
+    if not f_c > 0.0:
+        return math.inf
+    k = {"exponential": 1.0, "gaussian": 2.0}[shape]
+    return k * (f_s - f_c) / (math.e * f_c)
+
+
+def micro_damping_is_dissipative(sigma1: float, v_d: float, g_min: float) -> bool:
+    """Whether ``sigma1(v) |v| <= 4 g_min`` at every speed (module docstring): ``sigma1 v_d /
+    sqrt(2 e) <= 4 g_min`` for a fading micro-damping (``v_d > 0``); a constant one (``v_d <= 0``)
+    is dissipative at all speeds only when ``sigma1 = 0``."""
+    if sigma1 <= 0.0:
+        return True
+    if not v_d > 0.0:
+        return False
+    return sigma1 * v_d / math.sqrt(2.0 * math.e) <= 4.0 * g_min
+
+
+def presliding_displacement(f_breakaway: float, sigma0: float) -> float:
+    """Bristle deflection at breakaway ``f_breakaway / sigma0`` [m] (the pre-sliding displacement)."""
+    return f_breakaway / sigma0
+
+
+def critical_micro_damping(sigma0: float, mass: float) -> float:
+    """``2 sqrt(sigma0 m)`` [N s/m]: the micro-damping that damps the body's pre-sliding
+    oscillation on its bristles critically (cf. Astrom and Canudas de Wit 2008, IEEE CSM 28(6),
+    on choosing sigma1 from the modal damping of that oscillation)."""
+    return 2.0 * math.sqrt(sigma0 * mass)
