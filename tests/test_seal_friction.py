@@ -9,7 +9,8 @@
   bristles stiffen);
 * dissipation: the friction never delivers power beyond what its bristles stored (and a
   constant micro-damping does, which shows the check can fail);
-* the stiffness bound against the numerical Jacobian's eigenvalues.
+* the stiffness bound against the numerical Jacobian's eigenvalues;
+* the quasi-static limit (``rate_cap``) against the law without it, both by Radau.
 """
 
 from __future__ import annotations
@@ -26,8 +27,8 @@ from hydro_envs.laws.friction import dahl_friction_rate
 FC, FS, VS, S2 = 40.0, 60.0, 0.01, 250.0
 
 
-def law(v, z, g, s0, s1, vd, s2, n):
-    return sf.seal_friction(v, z, g, s0, s1, vd, s2, n)
+def law(v, z, g, s0, s1, vd, s2, n, cap=0.0):
+    return sf.seal_friction(v, z, g, s0, s1, vd, s2, n, cap)
 
 
 @pytest.mark.parametrize("shape", ["exponential", "gaussian"])
@@ -234,8 +235,8 @@ def test_no_dry_friction_leaves_viscous_only():
     assert law(0.1, 3e-5, 0.0, 1e6, 5e3, VS, S2, 1) == (S2 * 0.1, 0.0)
 
 
-@pytest.mark.parametrize("n", [1, 2])
-def test_block_rate_bound_covers_the_jacobian(n):
+@pytest.mark.parametrize("n,cap", [(1, 0.0), (2, 0.0), (1, 4000.0), (2, 4000.0)])
+def test_block_rate_bound_covers_the_jacobian(n, cap):
     rng = np.random.default_rng(1)
     s0, m, c = 1e6, 12.3, 250.0
     s1 = 0.0 if n == 2 else sf.critical_micro_damping(s0, m)
@@ -246,7 +247,7 @@ def test_block_rate_bound_covers_the_jacobian(n):
         z = rng.uniform(-1, 1) * FS / s0
 
         def f(y):
-            fr, dz = law(y[0], y[1], g(y[0]), s0, s1, VS, 0.0, n)
+            fr, dz = law(y[0], y[1], g(y[0]), s0, s1, VS, 0.0, n, cap)
             return np.array([(-fr - c * y[0]) / m, dz])
         y0 = np.array([v, z])
         jac = np.empty((2, 2))
@@ -255,5 +256,61 @@ def test_block_rate_bound_covers_the_jacobian(n):
             e[j] = h
             jac[:, j] = (f(y0 + e) - f(y0 - e)) / (2 * h)
         lam = np.abs(np.linalg.eigvals(jac)).max()
-        bound = sf.bristle_block_rate_bound(v, z, min(g(v), FC), ratio, s0, s1, VS, c, m, n)
+        bound = sf.bristle_block_rate_bound(v, z, min(g(v), FC), ratio, s0, s1, VS, c, m, n, cap)
         assert lam <= bound * (1 + 1e-6) + 1e-6
+        if cap > 0.0:
+            assert bound <= sf.bristle_stiffness_bound(FC, FS, ratio, s0, s1, VS, c, m, n, cap, 1.0) * (1 + 1e-9)
+
+
+# ------------------------------------------------------------------ the quasi-static limit
+CAP = 4000.0
+
+
+def test_quasi_static_limit_keeps_the_steady_state_and_is_dissipative():
+    s0, s1 = 2e6, sf.critical_micro_damping(2e6, 12.3)
+    rng = np.random.default_rng(2)
+    for v in (-0.8, -0.2, 0.09, 0.5, 1.2):
+        g = sf.stribeck_curve_exponential(v, FC, FS, VS)
+        f, dz = law(v, g * math.copysign(1.0, v) / s0, g, s0, s1, VS, S2, 1, CAP)
+        assert dz == 0.0
+        assert f == pytest.approx(g * math.copysign(1.0, v) + S2 * v, rel=1e-12)
+    for n in (1, 2):
+        for _ in range(3000):
+            v = rng.normal(0.0, 0.5)
+            z = rng.uniform(-2.0, 2.0) * FS / s0
+            g = sf.stribeck_curve_exponential(v, FC, FS, VS)
+            f, dz = law(v, z, g, s0, s1 if n == 1 else 0.0, VS, S2, n, CAP)
+            assert sf.bristle_dissipation(v, z, f, dz, s0) >= -1e-9 * (abs(f * v) + 1.0)
+    # LuGre exactly below the speed where the relaxation reaches the cap
+    v = 0.5 * CAP * FC / s0
+    for z in (-FS / s0, 0.0, 0.5 * FS / s0):
+        g = sf.stribeck_curve_exponential(v, FC, FS, VS)
+        assert law(v, z, g, s0, s1, VS, S2, 1, CAP) == law(v, z, g, s0, s1, VS, S2, 1, 0.0)
+
+
+def _forced_body(cap, t_end=0.6):
+    """12.3 kg on LuGre seals (servo-like: F_S/sigma0 = 30 um) under a force that swings it
+    through reversals at up to ~0.5 m/s, with fast accelerations (up to ~100 m/s^2)."""
+    s0, m = 2e6, 12.3
+    s1 = sf.critical_micro_damping(s0, m)
+
+    def push(t):
+        return 1200.0 * math.sin(2 * math.pi * 3.0 * t) + 300.0 * math.sin(2 * math.pi * 17.0 * t)
+
+    def rhs(t, y):
+        g = sf.stribeck_curve_exponential(y[1], FC, FS, VS)
+        f, dz = law(y[1], y[2], g, s0, s1, VS, S2, 1, cap)
+        return [y[1], (push(t) - f - 2000.0 * y[1]) / m, dz]
+    t = np.linspace(0.0, t_end, 6001)
+    sol = solve_ivp(rhs, (0.0, t_end), [0.0, 0.0, 0.0], method="Radau", rtol=1e-10,
+                    atol=[1e-12, 1e-11, 1e-15], t_eval=t)
+    return sol.y
+
+
+def test_quasi_static_limit_against_lugre():
+    """The capped law follows plain LuGre (Radau, rtol 1e-10) through reversals at speed: the
+    position differs by far less than a 1 um scale count, the friction force only briefly."""
+    y_cap, y_lugre = _forced_body(CAP), _forced_body(0.0)
+    assert np.abs(y_lugre[1]).max() > 0.3  # fast enough for the cap to act (above 0.08 m/s)
+    assert np.abs(y_cap[0] - y_lugre[0]).max() < 0.2e-6
+    assert np.abs(y_cap[1] - y_lugre[1]).max() < 2e-4

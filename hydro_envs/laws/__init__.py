@@ -23,9 +23,11 @@ seal_friction (:mod:`hydro_envs.laws.seal_friction`): the dynamic friction of ev
     stribeck_curve_gaussian(v, f_c, f_s, v_s)         003 eq (11) (steady level)
     bristle_rate(v, z, g, sigma0, exponent)           LuGre (n = 1), 001 eq (1) (n = 2)
     micro_damping(v, sigma1, v_d)                     sigma1 fading with speed (dissipative)
-    seal_friction(v, z, g, sigma0, sigma1, v_d, sigma2, exponent) -> (F, dz/dt)
+    quasi_static_weight(v, z, g, sigma0, exponent, rate_cap)   relaxation faster than rate_cap: static curve
+    seal_friction(v, z, g, sigma0, sigma1, v_d, sigma2, exponent, rate_cap) -> (F, dz/dt)
     bristle_dissipation(v, z, F, dz, sigma0)          F v less the bristles' stored-energy rate
-    bristle_block_rate_bound(v, z, g, slope_ratio, sigma0, sigma1, v_d, damping, mass, exponent)
+    bristle_block_rate_bound(v, z, g, slope_ratio, sigma0, sigma1, v_d, damping, mass, exponent, rate_cap)
+    bristle_stiffness_bound(...)                      its maximum over the state space (Python)
 
 orifice (:mod:`hydro_envs.laws.orifice`)
     regularized_signed_sqrt(dp, dp_tr)                Modelica regRoot / Hopsan (NOTES.md)

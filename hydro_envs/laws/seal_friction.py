@@ -41,11 +41,29 @@ The family (bristle deflection ``z`` [m], velocity ``v`` [m/s])::
 * A seal without dry friction (``g <= 0``, e.g. the Coulomb and static levels set to zero to
   measure what dry friction costs) leaves the viscous term only: ``F = sigma2 v``, ``dz/dt = 0``.
 
-Numerics: the state is stiff at speed (``dz/dt`` relaxes at ``a = n sigma0 |v| |u|^(n-1) / g``)
-and the body on its bristles is a mass-spring ``sqrt(sigma0 / m)``. A plant sizes its sub-step
-for the second (:func:`bristle_block_rate_bound` at ``v = 0``) and refines locally for the first
-(:func:`hydro_envs.sim.rk4.rk4_advance_lookahead` with :func:`bristle_block_rate_bound` at the
-sub-step's start and Euler prediction), as the rodless cylinder's LuGre friction did first.
+Quasi-static limit at speed (``rate_cap``): the bristles relax towards their steady deflection
+at ``a = sigma0 |v| |u|^(n-1) n / g`` -- 1/(20 us) for a hydraulic seal at 1 m/s -- far faster than
+any fixed step a plant can afford, while the friction they produce is then the static curve. With
+``rate_cap > 0`` the law takes relaxation faster than ``rate_cap`` as instantaneous, the singular-
+perturbation limit of LuGre: with ``eps = min(1, rate_cap / a)``::
+
+    dz/dt = eps v u |u|^(n-1)
+    F     = eps sigma0 z + (1 - eps) g(v) sgn(v) + sigma1(v) dz/dt + sigma2 v
+
+Below ``|v| = rate_cap g / sigma0`` (n = 1) ``eps = 1``: the law is LuGre exactly -- stick,
+pre-sliding, breakaway, the Stribeck dip and every reversal. Above it the bristle force blends
+into the static curve it relaxes to, with the relaxation slowed to ``rate_cap``. The steady state
+is unchanged (``z = g sgn(v) / sigma0`` gives ``F = g sgn(v) + sigma2 v`` for every eps), and the
+law stays dissipative for every ``eps`` in [0, 1]:
+
+    D = |v| (g (eps w^2 + 1 - eps) + eps sigma1(v) |v| (1 - w)) + sigma2 v^2      (n = 1)
+
+(>= 0 under the same micro-damping condition; n = 2: ``|v| g (eps w (1 - u|u|) + 1 - eps)``).
+The stiffest rate the law then has is about ``rate_cap`` at speed and the body's pre-sliding
+oscillation on its bristles at rest, ``sqrt(sigma0 / m)``; :func:`bristle_stiffness_bound` bounds
+both over the state space, so a plant sizes its fixed sub-step for them and needs no local
+refinement. ``rate_cap <= 0`` is LuGre without the limit (a plant must then resolve ``a`` itself,
+as the rodless cylinder's refinement does).
 """
 
 from __future__ import annotations
@@ -61,11 +79,14 @@ __all__ = [
     "stribeck_curve_gaussian",
     "bristle_rate",
     "micro_damping",
+    "quasi_static_weight",
     "seal_friction",
     "bristle_dissipation",
     "bristle_block_rate_bound",
+    "bristle_stiffness_bound",
     "stribeck_slope_ratio_bound",
     "micro_damping_is_dissipative",
+    "dissipative_fade_velocity",
     "presliding_displacement",
     "critical_micro_damping",
 ]
@@ -121,28 +142,50 @@ def micro_damping(v, sigma1, v_d):
 
 
 @numba.njit(cache=True, error_model="numpy", inline="always")
-def seal_friction(v, z, g, sigma0, sigma1, v_d, sigma2, exponent):
+def quasi_static_weight(v, z, g, sigma0, exponent, rate_cap):
+    """``eps = min(1, rate_cap / a)`` with the bristle relaxation rate ``a`` (n = 1:
+    ``sigma0 |v| / g``; n = 2: ``2 sigma0 |v| |u| / g``): 1 where the law is LuGre (or Dahl),
+    below 1 where the relaxation is taken as instantaneous (module docstring). 1 for
+    ``rate_cap <= 0``, ``v = 0`` or ``g <= 0``."""
+    if not rate_cap > 0.0 or v == 0.0 or not g > 0.0:
+        return 1.0
+    a = sigma0 * abs(v) / g
+    if exponent == 2:
+        s = 1.0 if v > 0.0 else -1.0
+        a *= 2.0 * abs(1.0 - sigma0 * z * s / g)
+    return 1.0 if a <= rate_cap else rate_cap / a
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def seal_friction(v, z, g, sigma0, sigma1, v_d, sigma2, exponent, rate_cap):
     """``(F, dz/dt)``: friction force [N] and bristle rate [m/s] of the family.
 
-    ``F = sigma0 z + sigma1(v) dz/dt + sigma2 v`` with :func:`bristle_rate` and
-    :func:`micro_damping`; for ``g <= 0`` (no dry friction) ``(sigma2 v, 0)``.
-    Units: v [m/s], z [m], g [N], sigma0 [N/m], sigma1 and sigma2 [N s/m], v_d [m/s].
+    ``F = eps sigma0 z + (1 - eps) g sgn(v) + sigma1(v) dz/dt + sigma2 v``, ``dz/dt = eps``
+    :func:`bristle_rate`, with :func:`micro_damping` and the quasi-static weight ``eps``
+    (:func:`quasi_static_weight`; 1, i.e. plain LuGre or Dahl, for ``rate_cap <= 0``); for
+    ``g <= 0`` (no dry friction) ``(sigma2 v, 0)``.
+    Units: v [m/s], z [m], g [N], sigma0 [N/m], sigma1 and sigma2 [N s/m], v_d [m/s],
+    rate_cap [1/s].
     """
     if not g > 0.0:
         return sigma2 * v, 0.0
-    dz = bristle_rate(v, z, g, sigma0, exponent)
-    return sigma0 * z + micro_damping(v, sigma1, v_d) * dz + sigma2 * v, dz
+    eps = quasi_static_weight(v, z, g, sigma0, exponent, rate_cap)
+    dz = eps * bristle_rate(v, z, g, sigma0, exponent)
+    f = sigma0 * z
+    if eps < 1.0:
+        f = eps * f + (1.0 - eps) * (g if v > 0.0 else -g)
+    return f + micro_damping(v, sigma1, v_d) * dz + sigma2 * v, dz
 
 
 @numba.njit(cache=True, error_model="numpy", inline="always")
 def bristle_dissipation(v, z, force, dz, sigma0):
     """Power the friction dissipates [W]: ``F v`` less the rate ``sigma0 z dz/dt`` of the energy
-    the bristles store (>= 0 for the family, module docstring)."""
+    ``sigma0 z^2 / 2`` the bristles store (>= 0 for the family, module docstring)."""
     return force * v - sigma0 * z * dz
 
 
 @numba.njit(cache=True, error_model="numpy", inline="always")
-def bristle_block_rate_bound(v, z, g, slope_ratio, sigma0, sigma1, v_d, damping, mass, exponent):
+def bristle_block_rate_bound(v, z, g, slope_ratio, sigma0, sigma1, v_d, damping, mass, exponent, rate_cap):
     """Upper bound [1/s] of the eigenvalue magnitudes of the (velocity, bristle) block of a body
     of ``mass`` [kg] with this friction, at velocity ``v`` and deflection ``z``.
 
@@ -155,8 +198,12 @@ def bristle_block_rate_bound(v, z, g, slope_ratio, sigma0, sigma1, v_d, damping,
     most ``D = (a (|sigma1' dz/dt| + c) + |e| sigma0) / M``, so every eigenvalue has
     ``|lambda| <= T/2 + sqrt(T^2/4 + D)``. For n = 1: ``a = sigma0 |v| / g``,
     ``|e| <= |u| + sigma0 |z| slope_ratio / g``; for n = 2: ``a = 2 sigma0 |v| |u| / g``,
-    ``|e| <= u^2 + 2 |u| sigma0 |z| slope_ratio / g``, with ``|u| <= 1 + sigma0 |z| / g``.
-    Units: v [m/s], z [m], g [N], sigma0 [N/m], sigma1 and damping [N s/m], v_d [m/s], mass [kg].
+    ``|e| <= u^2 + 2 |u| sigma0 |z| slope_ratio / g``, with ``|u| <= 1 + sigma0 |z| / g``. Where the
+    quasi-static weight ``eps = rate_cap / a < 1`` acts, ``a`` and the bristle force's stiffness
+    scale by eps, ``e`` becomes at most ``eps (|e| + n |u|)`` and ``d eps / dv`` adds at most
+    ``n eps g |u| (1 + slope_ratio) / |v|`` to the velocity damping.
+    Units: v [m/s], z [m], g [N], sigma0 [N/m], sigma1 and damping [N s/m], v_d [m/s], mass [kg],
+    rate_cap [1/s].
     """
     if not g > 0.0:
         return damping / mass
@@ -172,13 +219,38 @@ def bristle_block_rate_bound(v, z, g, slope_ratio, sigma0, sigma1, v_d, damping,
         a = sigma0 * av / g
         e = u + q * slope_ratio
         zd = av * u
+    k = sigma0
+    c = damping
+    if rate_cap > 0.0 and a > rate_cap:
+        eps = rate_cap / a
+        a *= eps
+        e = eps * (e + u * (2.0 if exponent == 2 else 1.0))
+        zd *= eps
+        k *= eps
+        c += eps * g * u / av * (1.0 + slope_ratio) * (2.0 if exponent == 2 else 1.0)
     s1p = 0.0
     if v_d > 0.0:
         r = v / v_d
         s1p = 2.0 * sigma1 * abs(r) / v_d * exp(-r * r) * zd
-    t = a + (s1p + s1 * e + damping) / mass
-    d = (a * (s1p + damping) + e * sigma0) / mass
+    t = a + (s1p + s1 * e + c) / mass
+    d = (a * (s1p + c) + e * k) / mass
     return 0.5 * t + math.sqrt(0.25 * t * t + d)
+
+
+def bristle_stiffness_bound(g_min: float, g_max: float, slope_ratio: float, sigma0: float, sigma1: float,
+                            v_d: float, damping: float, mass: float, exponent: int, rate_cap: float,
+                            v_max: float) -> float:
+    """Largest :func:`bristle_block_rate_bound` [1/s] over speeds 0..``v_max`` (a grid of 0 and 400
+    log-spaced speeds from 1e-6 ``v_max``) at the deflection bound ``g_max / sigma0`` and the lowest
+    level ``g_min``: the friction's stiffness mode over the whole state space, for a plant's
+    ``stiffness_modes``. Without a ``rate_cap`` it grows with ``v_max`` like ``sigma0 v_max / g_min``.
+    ``g_max <= 0`` (no dry friction): ``damping / mass``. Python (parameter analysis)."""
+    if not g_max > 0.0:
+        return damping / mass
+    z = g_max / sigma0
+    speeds = [0.0] + [v_max * 10.0 ** (-6.0 + 6.0 * i / 399.0) for i in range(400)]
+    f = bristle_block_rate_bound.py_func
+    return max(f(v, z, g_min, slope_ratio, sigma0, sigma1, v_d, damping, mass, exponent, rate_cap) for v in speeds)
 
 
 def stribeck_slope_ratio_bound(f_c: float, f_s: float, shape: str) -> float:
@@ -205,6 +277,16 @@ def micro_damping_is_dissipative(sigma1: float, v_d: float, g_min: float) -> boo
     if not v_d > 0.0:
         return False
     return sigma1 * v_d / math.sqrt(2.0 * math.e) <= 4.0 * g_min
+
+
+def dissipative_fade_velocity(sigma1: float, v_s: float, g_min: float, margin: float = 0.9) -> float:
+    """Fading velocity ``v_d`` [m/s] of the micro-damping: the Stribeck velocity ``v_s``, or less
+    where that would break dissipativity, ``margin * 4 sqrt(2 e) g_min / sigma1`` (module
+    docstring: ``sigma1 v_d / sqrt(2 e) <= 4 g_min``). ``sigma1 <= 0``: ``v_s``; ``g_min <= 0``
+    with ``sigma1 > 0``: 0 (a constant 0 damping at speed). Python (parameter analysis)."""
+    if sigma1 <= 0.0:
+        return v_s
+    return max(0.0, min(v_s, margin * 4.0 * math.sqrt(2.0 * math.e) * g_min / sigma1))
 
 
 def presliding_displacement(f_breakaway: float, sigma0: float) -> float:
