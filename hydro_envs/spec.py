@@ -88,6 +88,10 @@ class PlantSpec:
     #: plausibility checks of measured records (names of ``params_class`` fields)
     stroke_parameter: str | None = None
     pressure_parameter: str | None = None
+    #: the parameters that make the plant's dry friction (Coulomb, static, Stribeck levels; not
+    #: viscous friction): set to 0 they leave viscous friction alone, the plant a benchmark
+    #: compares with to measure what dry friction costs (``friction_share``)
+    dry_friction_parameters: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         if not _NAME_RE.fullmatch(self.name):
@@ -188,6 +192,16 @@ class PlantSpec:
         """Upper estimates of the Jacobian eigenvalue magnitudes [1/s] of ``params``."""
         return self.model.stiffness_modes(params)
 
+    def without_dry_friction(self, values: Any) -> dict[str, float]:
+        """A parameter mapping ``values`` (overrides of the nominal set) with every dry-friction
+        parameter (:attr:`dry_friction_parameters`) set to 0; ``ValueError`` for a plant without
+        dry friction."""
+        if not self.dry_friction_parameters:
+            raise ValueError(f"plant {self.name!r} declares no dry-friction parameters")
+        out = {k: float(v) for k, v in dict(values).items()}
+        out.update({k: 0.0 for k in self.dry_friction_parameters})
+        return out
+
     def randomization_file(self) -> Any:
         """The default randomisation spec shipped with the plant (a Traversable), or None."""
         if not self.package:
@@ -212,6 +226,7 @@ class PlantSpec:
             "envs": [e.id for e in self.envs],
             "experiments": list(self.experiments),
             "model": self.has_model,
+            "dry_friction_parameters": list(self.dry_friction_parameters),
         }
         if self.has_model:
             d["parameters_class"] = self.params_class

@@ -74,8 +74,10 @@ def servo_record(p, droop: bool, seed: int, duration: float) -> Record:
     wv, zv = p.valve_natural_frequency, p.valve_damping
     p_set = p.supply_pressure
 
+    s0, s1 = p.bristle_stiffness, p.bristle_damping
+
     def rhs(t, y):
-        x, v, p1, p2, xv, vv, ps, _ = y
+        x, v, p1, p2, xv, vv, ps, _, z = y
         r = centre + np.sum(amp * np.sin(w_ref * t + ph))
         dr = np.sum(amp * w_ref * np.cos(w_ref * t + ph))
         u = float(np.clip((40.0 * (r - x) + dr) / kq, -p.command_max, p.command_max))
@@ -91,24 +93,27 @@ def servo_record(p, droop: bool, seed: int, duration: float) -> Record:
             q_p = q2
         v1 = a * x + p.line_volume_1
         v2 = a * (L - x) + p.line_volume_2
-        fric = p.coulomb_friction * math.tanh(v / p.friction_sign_velocity) + p.viscous_friction * v
+        # Coulomb friction through the seals' bristles (LuGre, written here; micro-damping fading
+        # over the Stribeck velocity)
+        dz = v - s0 * abs(v) * z / p.coulomb_friction
+        fric = s0 * z + s1 * math.exp(-(v / p.stribeck_velocity) ** 2) * dz + p.viscous_friction * v
         q_pump = Q_MAX * min(max((p_set - ps) / DP_C, 0.0), 1.0)
         q_relief = K_RELIEF * max(ps - p_set - 2e5, 0.0)
         return [v, (a * (p1 - p2) - fric) / m,
                 p.bulk_modulus / v1 * (q1 - a * v), p.bulk_modulus / v2 * (q2 + a * v),
                 vv, -wv * wv * xv - 2 * zv * wv * vv + p.spool_gain * wv * wv * u,
-                p.bulk_modulus / V_HOSE * (q_pump - q_p - q_relief) if droop else 0.0, u]
+                p.bulk_modulus / V_HOSE * (q_pump - q_p - q_relief) if droop else 0.0, u, dz]
 
     pm = 0.5 * (p.supply_pressure + p.tank_pressure)
     x0 = centre + float(np.sum(amp * np.sin(ph)))
-    y0 = [x0, 0.0, pm, pm, 0.0, 0.0, p_set, 0.0]
+    y0 = [x0, 0.0, pm, pm, 0.0, 0.0, p_set, 0.0, 0.0]
     n = int(round(duration / DT)) + 1
     tt = DT * np.arange(n + 1)
     with np.errstate(over="ignore"):  # Radau's finite-difference Jacobian probes far from the solution
         sol = solve_ivp(rhs, (0.0, tt[-1]), y0, method="Radau", t_eval=tt, rtol=1e-7,
-                        atol=[1e-9, 1e-7, 1, 1, 1e-10, 1e-7, 1, 1e-9])
+                        atol=[1e-9, 1e-7, 1, 1, 1e-10, 1e-7, 1, 1e-9, 1e-12])
     assert sol.success, sol.message
-    u = np.diff(sol.y[-1]) / DT
+    u = np.diff(sol.y[7]) / DT
     chans = {"x": sol.y[0, :n] + 1e-6 * rng.standard_normal(n),
              "p1": sol.y[2, :n] + 5e3 * rng.standard_normal(n),
              "p2": sol.y[3, :n] + 5e3 * rng.standard_normal(n)}

@@ -33,7 +33,7 @@ ENV_ID = "hydro_envs/ServoCylinderPosition-v0"
 NOMINAL = ServoCylinderParams()
 L = NOMINAL.stroke
 HALF = 0.5 * L
-STATE_KEYS = ("x", "v", "p1", "p2", "xv", "vv")
+STATE_KEYS = ("x", "v", "p1", "p2", "xv", "vv", "z")
 PARAM_NAMES = ServoCylinderParams.names()
 OBS_DIM = 11
 
@@ -387,7 +387,7 @@ def test_randomize_false_gives_nominal_params():
         assert info["params"] == NOMINAL.as_dict()
         _, _, _, _, info = env.step(_a(0.1))
         assert info["params"] == NOMINAL.as_dict()
-    assert env.unwrapped.n_substeps == 3  # documented for the nominal plant
+    assert env.unwrapped.n_substeps == 2  # documented for the nominal plant
 
 
 def test_randomize_true_draws_inside_yaml_ranges(spec):

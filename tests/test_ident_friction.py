@@ -261,9 +261,9 @@ def test_virtual_experiment_stays_off_the_stops_and_recovers_exactly():
     pts = friction_points_from_square_wave(run.data)
     assert np.all(np.sign(pts.v) == np.sign(pts.command))
     truth = static_friction("stribeck", pts.v, _truth(run.params),
-                            sign_velocity=run.params.friction_sign_velocity)
+                            sign_velocity=0.0)
     np.testing.assert_allclose(pts.force, truth, rtol=3e-3)
-    fit = fit_friction(pts, model="stribeck", sign_velocity=run.params.friction_sign_velocity)
+    fit = fit_friction(pts, model="stribeck", sign_velocity=0.0)
     for k, val in _truth(run.params).items():
         assert _rel(fit.parameters[k], val) < 0.01, (k, fit.parameters[k], val)
 
@@ -277,7 +277,7 @@ def test_virtual_experiment_realistic_sensors_recovery():
     for seed in range(4):
         run = run_friction_experiment(STABLE, sensors=SensorModel.realistic(), seed=seed)
         pts = friction_points_from_square_wave(run.data)
-        fit = fit_friction(pts, model="stribeck", sign_velocity=run.params.friction_sign_velocity,
+        fit = fit_friction(pts, model="stribeck", sign_velocity=0.0,
                            sigma=pts.force_std / np.sqrt(pts.n_samples))
         truth = _truth(run.params)
         for k, val in truth.items():
@@ -290,17 +290,17 @@ def test_virtual_experiment_realistic_sensors_recovery():
 
 def test_nominal_plant_low_speed_limit_cycle_is_visible():
     """On the nominal plant the Stribeck slope (down to -2000 N s/m) beats the damping below
-    ~20 mm/s: a friction-induced limit cycle makes the window force oscillate by tens of N
-    (ideal sensors), while windows from 25 to 80 mm/s are steady; F_c and F_v are still found
+    ~18 mm/s: a friction-induced stick-slip cycle makes the window force oscillate by tens of N
+    (ideal sensors), while windows from 20 to 80 mm/s are steady; F_c and F_v are still found
     within 2 %. The window averages are cycle averages, which biases F_s and v_s."""
     run = run_friction_experiment()
     pts = friction_points_from_square_wave(run.data)
-    slow = np.abs(pts.v) < 0.021
-    steady = (np.abs(pts.v) > 0.025) & (np.abs(pts.v) < 0.08)
-    assert slow.sum() == 12 and steady.sum() >= 20
-    assert np.min(pts.force_std[slow]) > 10.0  # 11 N at 3.3 mm/s ... 110 N at 20 mm/s
+    slow = np.abs(pts.v) < 0.018
+    steady = (np.abs(pts.v) > 0.019) & (np.abs(pts.v) < 0.08)
+    assert slow.sum() == 10 and steady.sum() >= 20
+    assert np.min(pts.force_std[slow]) > 10.0  # 20 N at 3.3 mm/s ... 85 N at 16.7 mm/s
     assert np.max(pts.force_std[steady]) < 0.2
-    fit = fit_friction(pts, model="stribeck", sign_velocity=NOMINAL.friction_sign_velocity,
+    fit = fit_friction(pts, model="stribeck", sign_velocity=0.0,
                        check_identifiability=False)
     assert _rel(fit.parameters["F_c"], NOMINAL.coulomb_friction) < 0.02
     assert _rel(fit.parameters["F_v"], NOMINAL.viscous_friction) < 0.02
@@ -379,7 +379,7 @@ def test_constant_velocity_test_on_servo_cylinder():
     pts = constant_velocity_test(simulate, [0.5, 1.0, 2.0], area_a=params.piston_area,
                                     settle_time=0.1)
     truth = static_friction("stribeck", pts.v, _truth(params),
-                            sign_velocity=params.friction_sign_velocity)
+                            sign_velocity=0.0)
     np.testing.assert_allclose(pts.force, truth, rtol=2e-3)
 
 
@@ -562,7 +562,7 @@ def test_cli_identify_friction_json_and_text(tmp_path, capsys):
     """The paper's full 150 s test on the nominal plant with realistic sensors, through a file
     and ``hydro identify friction``. F_c and F_v within 5 %; F_s and v_s carry the limit-cycle
     bias of the constant-velocity method on this plant (see
-    test_nominal_plant_low_speed_limit_cycle_is_visible): F_s within 8 %, v_s within 25 %."""
+    test_nominal_plant_low_speed_limit_cycle_is_visible): F_s within 8 %, v_s within 30 %."""
     path = tmp_path / "run.csv"
     run = run_friction_experiment(sensors=SensorModel.realistic(), seed=0, path=path)
     assert run.schedule.duration == pytest.approx(150.0, abs=0.5)
@@ -576,7 +576,7 @@ def test_cli_identify_friction_json_and_text(tmp_path, capsys):
     assert _rel(par["F_c"], NOMINAL.coulomb_friction) < 0.05
     assert _rel(par["F_v"], NOMINAL.viscous_friction) < 0.05
     assert _rel(par["F_s"], NOMINAL.static_friction) < 0.08
-    assert _rel(par["v_s"], NOMINAL.stribeck_velocity) < 0.25
+    assert _rel(par["v_s"], NOMINAL.stribeck_velocity) < 0.30
     assert hydro_main(["identify", "friction", "--plant", "servo_cylinder", "--data", str(path),
                        "--model", "stribeck_gaussian", "--asymmetric"]) == 0
     text = capsys.readouterr().out
@@ -640,7 +640,7 @@ def test_standard_errors_cover_the_truth_over_many_virtual_experiments():
     for seed in range(20):
         run = run_friction_experiment(STABLE, sensors=SensorModel.realistic(), seed=100 + seed)
         pts = friction_points_from_square_wave(run.data)
-        fit = fit_friction(pts, model="stribeck", sign_velocity=run.params.friction_sign_velocity,
+        fit = fit_friction(pts, model="stribeck", sign_velocity=0.0,
                            sigma=pts.force_std / np.sqrt(pts.n_samples))
         truth = _truth(run.params)
         zs.append([(fit.parameters[k] - v) / fit.std_errors[k] for k, v in truth.items()])

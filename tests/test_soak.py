@@ -74,7 +74,7 @@ def _window_excess(outs):
 def test_energy_check_passes_a_stop_impact_at_the_stiffness_bound_substeps():
     p = dataclasses.replace(sc.ServoCylinderParams(), stop_stiffness=1e10)
     pm = 0.5 * (p.supply_pressure + p.tank_pressure)
-    P, Y0, NSUB = _servo_batch(p, [p.stroke - 1e-4, 0.5, pm, pm, 0.0, 0.0])
+    P, Y0, NSUB = _servo_batch(p, [p.stroke - 1e-4, 0.5, pm, pm, 0.0, 0.0, 0.0])
     outs = []
     for _ in range(soak.ENERGY_WINDOW):  # into the stop, bounce, out
         o, y = _replay(P, Y0, NSUB, u=5.0)
@@ -89,23 +89,35 @@ def test_energy_check_fails_when_the_stop_is_integrated_outside_rk4_stability():
     """One RK4 step of 1 ms on a 1e11 N/m stop (h sqrt(k/m) = 90): energy is created."""
     p = dataclasses.replace(sc.ServoCylinderParams(), stop_stiffness=1e11)
     pm = 0.5 * (p.supply_pressure + p.tank_pressure)
-    P, Y0, NSUB = _servo_batch(p, [p.stroke + 1e-6, 0.3, pm, pm, 0.0, 0.0], nsub=1)
+    P, Y0, NSUB = _servo_batch(p, [p.stroke + 1e-6, 0.3, pm, pm, 0.0, 0.0, 0.0], nsub=1)
     o, _ = _replay(P, Y0, NSUB)
     assert _window_excess([o]) > 1e3
 
 
 def test_passivity_check_fails_on_a_friction_that_pushes():
-    """Friction levels written negative into the kernel's parameter array (the dataclass
-    would refuse them): the friction power is negative at every stage."""
+    """A viscous coefficient written negative into the kernel's parameter array (the dataclass
+    would refuse it) and, apart, a micro-damping held constant at speed (the fading the law
+    needs to stay dissipative switched off): the friction power, less the bristles' stored
+    energy rate, is negative at every stage."""
     p = sc.ServoCylinderParams()
     pm = 0.5 * (p.supply_pressure + p.tank_pressure)
-    P, Y0, NSUB = _servo_batch(p, [0.03, 0.05, pm, pm, 0.0, 0.0])
+    z_ss = p.coulomb_friction / p.bristle_stiffness
+    P, Y0, NSUB = _servo_batch(p, [0.03, 0.05, pm, pm, 0.0, 0.0, z_ss])
     o, _ = _replay(P, Y0, NSUB)
     assert o[5] == 0
-    P[0, sc.I_FC] = -40.0
-    P[0, sc.I_FS] = -60.0
-    o, _ = _replay(P, Y0, NSUB)
+    pushing = P.copy()
+    pushing[0, sc.I_D] = -5000.0  # -12.5 W at 50 mm/s against the 2 W the Coulomb level takes
+    o, _ = _replay(pushing, Y0, NSUB)
     assert o[5] == NSUB[0]  # every sub-step has negative-power stages
+    # just after breakaway the bristles hold F_S at a speed whose level is F_C: a constant
+    # micro-damping returns more than they release
+    Y1 = Y0.copy()
+    Y1[0, sc.Z] = p.static_friction / p.bristle_stiffness
+    Y1[0, sc.V] = 0.05
+    assert _replay(P, Y1, NSUB)[0][5] == 0
+    constant = P.copy()
+    constant[0, sc.I_DFADE] = 1e3
+    assert _replay(constant, Y1, NSUB)[0][5] > 0
 
 
 @pytest.mark.parametrize("friction_model", [0.0, 1.0])

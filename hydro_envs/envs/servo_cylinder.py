@@ -30,13 +30,14 @@ at the valve's null pressure ``(p_s + p_R)/2``. ``reset(options=...)`` accepts `
 mapping of parameter overrides, applied after the draw), ``state`` (mapping of state names to
 values) and ``reference`` (a kind name or an array of positions [m], one per step).
 
-**Info** at every step: ``state`` (plant state as SI quantities ``x, v, p1, p2, xv, vv``) and
+**Info** at every step: ``state`` (plant state as SI quantities ``x, v, p1, p2, xv, vv, z``; ``z``
+the seals' bristle deflection, :mod:`hydro_envs.plants.servo_cylinder.model`) and
 ``params`` (this episode's parameter set).
 
 **Numerics**: every env step is one call of the compiled batch kernel; the number of RK4
 sub-steps is chosen each episode from the drawn parameters' stiffness bound
 (:func:`hydro_envs.plants.servo_cylinder.stiffness_modes`,
-:func:`hydro_envs.sim.stiffness.substeps_from_stiffness`): 3 for the nominal plant (h = 0.33 ms).
+:func:`hydro_envs.sim.stiffness.substeps_from_stiffness`): 2 for the nominal plant (h = 0.5 ms).
 """
 
 from __future__ import annotations
@@ -55,7 +56,7 @@ from hydro_envs.envs.cylinder_tracking import (
     observation_space,
     step_observe_blocks,
 )
-from hydro_envs.envs.references import REFERENCE_KINDS, generate_reference
+from hydro_envs.envs.references import REFERENCE_KINDS, FrictionReference, generate_reference
 from hydro_envs.plants.servo_cylinder import kernels
 from hydro_envs.plants.servo_cylinder import model as plant
 from hydro_envs.plants.servo_cylinder.params import ServoCylinderParams
@@ -161,8 +162,20 @@ class ServoCylinderPositionVectorEnv(BatchedVectorEnv):
 
 
 # ------------------------------------------------------------------ friction-critical tasks
+#: the friction tasks' references: creep through reversals at 0.3-3 mm/s (below the 10 mm/s
+#: Stribeck velocity of the seals: the triangle's speed 4 A f, the sine's peak 2 pi A f), 2-8
+#: reversals per 8 s episode; micro steps of 50-300 um (2-10 times the seals' 30 um pre-sliding
+#: displacement, so every step breaks the seals away) held 2-3 s, long enough to show hunting
+FRICTION_REFERENCE = FrictionReference(frequency=(0.2, 0.4), amplitude=(0.2e-3, 1.0e-3), step=(50e-6, 300e-6),
+                                       hold=(2.0, 3.0))
+#: episode length of both friction tasks [steps]
+FRICTION_STEPS = 8000
+#: a precision axis for the friction tasks: a 1 um linear scale instead of the 30 um encoder of 002
+FRICTION_SCALE = 1e-6
 (
     ServoCylinderSlowSineBatch, ServoCylinderMicroPositionBatch,
     ServoCylinderSlowSineEnv, ServoCylinderSlowSineVectorEnv,
     ServoCylinderMicroPositionEnv, ServoCylinderMicroPositionVectorEnv,
-) = friction_task_classes("ServoCylinder", ServoCylinderBatch, REF_BAND, "x", __name__)
+) = friction_task_classes("ServoCylinder", ServoCylinderBatch, REF_BAND, "x", __name__,
+                          steps=(FRICTION_STEPS, FRICTION_STEPS), ranges=FRICTION_REFERENCE,
+                          defaults={"position_quantization": FRICTION_SCALE})

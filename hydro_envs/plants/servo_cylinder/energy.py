@@ -10,7 +10,7 @@ from __future__ import annotations
 import numba as nb
 
 from hydro_envs.jit import njit_noalloc
-from hydro_envs.laws.friction import stribeck_exponential, tanh_sign
+from hydro_envs.laws.seal_friction import bristle_dissipation, seal_friction
 from hydro_envs.plants.servo_cylinder import model as sc
 from hydro_envs.plants.servo_cylinder.model import servo_cylinder_guard as guard
 from hydro_envs.plants.servo_cylinder.model import servo_cylinder_rhs as rhs
@@ -24,19 +24,21 @@ N_BODIES = 1
 
 @njit_noalloc
 def mech_terms(y, p):
-    """Piston: kinetic energy, load potential and stop spring; port A (p1 - p2) v; friction
-    (002 eq (1), memoryless: passive) and stop damping dissipate."""
+    """Piston: kinetic energy, load potential, stop spring and the energy ``sigma0 z^2 / 2`` of the
+    seals' bristles; port A (p1 - p2) v; the seal friction (LuGre, its power less the bristles'
+    stored-energy rate, :func:`~hydro_envs.laws.seal_friction.bristle_dissipation`) and stop
+    damping dissipate."""
     x = y[sc.X]
     v = y[sc.V]
+    z = y[sc.Z]
     dp = y[sc.P1] - y[sc.P2]
-    level = 1.0 + p[sc.I_FASYM] * tanh_sign(v, p[sc.I_VEPS])
-    f_add = p[sc.I_FPC] * abs(dp)
-    ff = stribeck_exponential(
-        v, level * (p[sc.I_FC] + f_add), level * (p[sc.I_FS] + f_add), p[sc.I_VS], p[sc.I_D], p[sc.I_VEPS]
-    )
+    s0 = p[sc.I_SIG0]
+    ff, dz = seal_friction(v, z, sc.friction_level(v, dp, p), s0, p[sc.I_SIG1], p[sc.I_DFADE], p[sc.I_D], 1,
+                           p[sc.I_ZCAP])
+    d_f = bristle_dissipation(v, z, ff, dz, s0)
     u_st, d_st = stop_split(x, v, 0.0, p[sc.I_L], p[sc.I_KSTOP], p[sc.I_ASTOP])
-    e = 0.5 * p[sc.I_M] * v * v + p[sc.I_FL] * x + u_st
-    return e, p[sc.I_A] * dp * v, ff * v + d_st, abs(ff * v) + abs(d_st), u_st
+    e = 0.5 * p[sc.I_M] * v * v + p[sc.I_FL] * x + u_st + 0.5 * s0 * z * z
+    return e, p[sc.I_A] * dp * v, d_f + d_st, abs(ff * v) + abs(s0 * z * dz) + abs(d_st), u_st
 
 
 @njit_noalloc

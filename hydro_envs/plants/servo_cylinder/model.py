@@ -12,6 +12,7 @@ State (SI, pressures absolute)::
     3      p2    Pa     chamber-2 pressure
     4      xv    m      valve spool position
     5      vv    m/s    valve spool velocity
+    6      z     m      bristle (pre-sliding) deflection of the seals (LuGre state)
 
 Input: ``u`` [V], servo-valve command, +-10 V for full spool stroke (Table 1: k_v = 0.0279
 mm/V, x_vm = 0.279 mm).
@@ -19,11 +20,18 @@ mm/V, x_vm = 0.279 mm).
 Equations (numbers of 002)::
 
     x'  = v                                                          (8.1)
-    m v' = A (p1 - p2) - F_f(v) - F_L + F_stop(x, v)                  (7), (8.2)
+    m v' = A (p1 - p2) - F_f - F_L + F_stop(x, v)                     (7), (8.2)
     p1' = beta / (A x + V1) * (Q1 - A v)                              (5), (8.3)
     p2' = beta / (A (L - x) + V2) * (Q2 + A v)                        (6), (8.4)
     xv'' = -w_v^2 xv - 2 zeta_v w_v xv' + k_v w_v^2 u                 (2), (8.5-6)
-    F_f = (F_C + (F_S - F_C) exp(-|v|/v_S)) sign(v) + d v             (1), with d of (7)
+    F_f = sigma0 z + sigma1(v) z' + d v,   z' = v - sigma0 |v| z / g(v)  (LuGre)
+    g(v) = F_C + (F_S - F_C) exp(-|v|/v_S)                            (1)
+
+Friction: the seal friction family of :mod:`hydro_envs.laws.seal_friction` (LuGre, n = 1)
+with 002 eq (1) as its steady state: at constant v, ``F_f = g(v) sign(v) + d v`` exactly, the
+paper's sliding branch with the discontinuous sign; at v = 0 the seals hold the piston on their
+bristle spring up to the breakaway force F_S (eq (1)'s stick branch ``min(|u|, F_S)``), with the
+pre-sliding displacement ``F_S / sigma0``. No regularisation velocity enters the model.
 
 Valve flows (critically lapped, matched, symmetric; Q2 counted *into* chamber 2)::
 
@@ -39,7 +47,7 @@ diagnosis workflow, :mod:`identification.diagnosis`, when measured data call for
     internal_leakage C_il: Q1 -= C_il (p1 - p2), Q2 += C_il (p1 - p2)       (as 003 eqs (4)-(5))
     external_leakage C_el: Q_i -= C_el (p_i - p_R)                          (as 003 eqs (4)-(5))
     friction_asymmetry a, friction_pressure_coefficient c_p: both Stribeck levels of (1) become
-        (1 + a tanh(v/v_eps)) (F + c_p |p1 - p2|)
+        (1 + a sign(v)) (F + c_p |p1 - p2|)
     supply_line_resistance R_s: the P edge sees p_s - R_s Q_P instead of p_s (supply droop with
         the drawn flow, hydro_envs.laws.orifice.supply_pressure_at_flow; with an underlapped
         spool near null, where both P edges are open, from the wider edge's flow)
@@ -70,13 +78,14 @@ import numpy as np
 
 from hydro_envs.jit import njit_noalloc
 from hydro_envs.laws.contact import end_stop_force
-from hydro_envs.laws.friction import stribeck_exponential, tanh_sign
+from hydro_envs.laws.seal_friction import bristle_stiffness_bound, seal_friction, stribeck_slope_ratio_bound
 from hydro_envs.laws.orifice import orifice_flow, spool_edge_opening, supply_pressure_at_flow
 from hydro_envs.laws.valve import second_order_valve_acceleration
+from hydro_envs.libm import exp
 from hydro_envs.plants.servo_cylinder.params import (  # noqa: F401  (indices re-exported)
     I_A, I_ASTOP, I_CD, I_CEL, I_CIL, I_D, I_DPTR, I_FASYM, I_FC, I_FL, I_FPC, I_FS, I_KSTOP, I_KV, I_L,
-    I_LAP, I_M, I_PFLOOR, I_PS, I_PT, I_RHO, I_RS, I_UMAX, I_V1, I_V2, I_VEPS, I_VMIN, I_VS, I_W, I_WV, I_XVM,
-    I_ZV, I_BETA, N_PARAMS, PLANT, ServoCylinderParams,
+    I_LAP, I_M, I_PFLOOR, I_PS, I_PT, I_RHO, I_RS, I_SIG0, I_SIG1, I_UMAX, I_V1, I_V2, I_VMIN, I_VS, I_W,
+    I_WV, I_XVM, I_ZCAP, I_ZV, I_BETA, I_DFADE, N_FIELDS, N_PARAMS, PLANT, ServoCylinderParams,
 )
 
 __all__ = [
@@ -85,15 +94,17 @@ __all__ = [
     "servo_cylinder_rhs",
     "servo_cylinder_guard",
     "stiffness_modes",
+    "friction_level",
+    "friction_bounds",
     "hydraulic_natural_frequency",
     "no_load_velocity",
     "closed_valve_energy",
 ]
 
-STATE_NAMES = ("x", "v", "p1", "p2", "xv", "vv")
-STATE_UNITS = ("m", "m/s", "Pa", "Pa", "m", "m/s")
-N_STATES = 6
-X, V, P1, P2, XV, VV = range(N_STATES)
+STATE_NAMES = ("x", "v", "p1", "p2", "xv", "vv", "z")
+STATE_UNITS = ("m", "m/s", "Pa", "Pa", "m", "m/s", "m")
+N_STATES = 7
+X, V, P1, P2, XV, VV, Z = range(N_STATES)
 
 #: sensor outputs (noise-free): measured channel -> the state index it reads, and measured
 #: channel -> the state index whose time derivative it reads
@@ -163,12 +174,9 @@ def servo_cylinder_rhs(y, u, p, dy):
     if p2 <= p[I_PFLOOR] and dp2 < 0.0:
         dp2 = 0.0
 
-    # (1), (7); levels scaled by direction (asymmetry) and raised by the seal pressure
-    level = 1.0 + p[I_FASYM] * tanh_sign(v, p[I_VEPS])
-    f_add = p[I_FPC] * abs(p1 - p2)
-    f_friction = stribeck_exponential(
-        v, level * (p[I_FC] + f_add), level * (p[I_FS] + f_add), p[I_VS], p[I_D], p[I_VEPS]
-    )
+    # (1), (7): LuGre seals with eq (1) as steady state
+    f_friction, dz = seal_friction(v, y[Z], friction_level(v, p1 - p2, p), p[I_SIG0], p[I_SIG1], p[I_DFADE],
+                                   p[I_D], 1, p[I_ZCAP])
     f_stop = end_stop_force(x, v, 0.0, p[I_L], p[I_KSTOP], p[I_ASTOP])
     dy[X] = v  # (8.1)
     dy[V] = (area * (p1 - p2) - f_friction - p[I_FL] + f_stop) / p[I_M]  # (7), (8.2)
@@ -176,6 +184,17 @@ def servo_cylinder_rhs(y, u, p, dy):
     dy[P2] = dp2
     dy[XV] = vv  # (8.5)
     dy[VV] = second_order_valve_acceleration(xv, vv, u[0], p[I_KV], p[I_WV], p[I_ZV])  # (2), (8.6)
+    dy[Z] = dz
+
+
+@njit_noalloc
+def friction_level(v, dp, p):
+    """Steady-state friction level ``g(v)`` [N] of 002 eq (1) at velocity ``v`` and pressure
+    difference ``dp = p1 - p2``: ``(1 + a sign(v)) (F_C + c_p |dp| + (F_S - F_C) exp(-|v|/v_S))``
+    (asymmetry ``a`` and pressure coefficient ``c_p`` 0 in the seed; 0 without dry friction)."""
+    s = 1.0 if v > 0.0 else (-1.0 if v < 0.0 else 0.0)
+    level = 1.0 + p[I_FASYM] * s
+    return level * (p[I_FC] + p[I_FPC] * abs(dp) + (p[I_FS] - p[I_FC]) * exp(-abs(v) / p[I_VS]))
 
 
 @njit_noalloc
@@ -203,6 +222,31 @@ def hydraulic_natural_frequency(params: ServoCylinderParams, x: float) -> float:
     return math.sqrt(k_oil / params.mass)
 
 
+def friction_bounds(params: ServoCylinderParams) -> dict[str, float]:
+    """Bounds of the LuGre friction over the state space: the smallest sliding level ``g_min``
+    (Coulomb, lowered by the asymmetry), the largest level ``g_max`` (static, raised by the
+    asymmetry and the seal pressure at the full supply drop), the bristle deflection bound
+    ``z_max = g_max / sigma0`` (LuGre keeps ``|z|`` inside it), the bound of ``|v g'| / g``
+    (:func:`~hydro_envs.laws.seal_friction.stribeck_slope_ratio_bound`) and the speed bound
+    ``v_max`` = 2 x the no-load velocity (the env's velocity limit,
+    :data:`hydro_envs.envs.base.VELOCITY_FACTOR`). ``g_max = 0``: no dry friction."""
+    a = abs(params.friction_asymmetry)
+    f_add = params.friction_pressure_coefficient * (params.supply_pressure - params.pressure_floor)
+    g_min = (1.0 - a) * params.coulomb_friction
+    g_max = (1.0 + a) * (max(params.static_friction, params.coulomb_friction) + f_add)
+    ratio = stribeck_slope_ratio_bound(params.coulomb_friction, params.static_friction, "exponential")
+    return {"g_min": g_min, "g_max": g_max, "z_max": g_max / params.bristle_stiffness, "slope_ratio": ratio,
+            "v_max": 2.0 * no_load_velocity(params)}
+
+
+def _friction_rate(params: ServoCylinderParams) -> float:
+    b = friction_bounds(params)
+    v_d = float(params.to_array()[I_DFADE])
+    return bristle_stiffness_bound(b["g_min"], b["g_max"], b["slope_ratio"], params.bristle_stiffness,
+                                   params.bristle_damping, v_d, params.viscous_friction,
+                                   params.mass, 1, params.bristle_relaxation_cap, b["v_max"])
+
+
 def stiffness_modes(params: ServoCylinderParams) -> dict[str, float]:
     """Upper estimates of the Jacobian eigenvalue magnitudes [1/s] of every fast mode.
 
@@ -214,7 +258,10 @@ def stiffness_modes(params: ServoCylinderParams) -> dict[str, float]:
     * ``hydraulic``: oil spring on the mass, largest at the stroke end (smallest volume).
     * ``orifice``: laminar slope of the regularised root at zero drop, fully open, into the
       smallest chamber: ``beta / V_min * C_v w x_vm sqrt(2/rho) / sqrt(dp_tr)``.
-    * ``friction``: slope of the regularised Stribeck curve at v = 0, ``(F_S/v_eps + d)/m``.
+    * ``friction``: the velocity-bristle block of the LuGre seals over all speeds
+      (:func:`~hydro_envs.laws.seal_friction.bristle_stiffness_bound`): the piston's pre-sliding
+      oscillation on its bristles at rest (about ``4.5 sqrt(sigma0 / m)`` with critical
+      micro-damping) and the bristle relaxation at speed, capped at ``bristle_relaxation_cap``.
     * ``end_stop``: contact spring ``sqrt(k/m)`` plus its damping ``alpha * F_max / m`` at the
       penetration where the stop holds the full thrust ``F_max = A (p_s - p_floor)``.
     """
@@ -234,16 +281,11 @@ def stiffness_modes(params: ServoCylinderParams) -> dict[str, float]:
     )
     g_leak = 2.0 * params.internal_leakage + params.external_leakage
     f_max = a * (params.supply_pressure - params.pressure_floor)
-    f_static = (1.0 + abs(params.friction_asymmetry)) * (
-        params.static_friction
-        + params.friction_pressure_coefficient * (params.supply_pressure - params.pressure_floor)
-    )
     return {
         "valve": params.valve_natural_frequency,
         "hydraulic": omega_h,
         "orifice": params.bulk_modulus / vol_min * (g_lam + g_leak),
-        "friction": (f_static / params.friction_sign_velocity + params.viscous_friction)
-        / params.mass,
+        "friction": _friction_rate(params),
         "end_stop": math.sqrt(params.stop_stiffness / params.mass)
         + params.stop_damping * f_max / params.mass,
     }

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from typing import ClassVar
 
 from hydro_envs.params import ParameterError, PhysicalParams, physical
 
@@ -74,9 +75,23 @@ class ServoCylinderParams(PhysicalParams):
     stribeck_velocity: float = physical(
         0.01, "m/s", (1e-5, 1.0), "assumed: 10 mm/s, inside 002's constant-velocity test range"
     )
-    friction_sign_velocity: float = physical(
-        1e-3, "m/s", (1e-6, 0.1),
-        "assumed: tanh regularisation of sign(v); NOTES.md stiffness 4.4e3 1/s at 1 mm/s",
+    bristle_stiffness: float = physical(
+        2e6, "N/m", (1e4, 1e9),
+        "assumed: LuGre sigma0 of the piston and rod seals (002 gives no dynamic friction); "
+        "pre-sliding displacement F_S/sigma0 = 30 um, inside the 10-100 um of elastomer "
+        "hydraulic seals (the force actuator's 001 seals: 26 um)",
+    )
+    bristle_damping: float = physical(
+        9.9e3, "N s/m", (0.0, 1e7),
+        "assumed: LuGre sigma1 = 2 sqrt(sigma0 m), critically damped pre-sliding oscillation of the "
+        "12.3 kg piston on its seals; fades with speed as exp(-(v/v_d)^2), v_d = v_S or less "
+        "(hydro_envs.laws.seal_friction), which keeps the law dissipative",
+    )
+    bristle_relaxation_cap: float = physical(
+        4000.0, "1/s", (0.0, 1e7),
+        "assumed (numerics): bristle relaxation faster than this is taken as instantaneous, the "
+        "quasi-static limit of LuGre (hydro_envs.laws.seal_friction): 1/(0.25 ms), a quarter of the "
+        "1 ms control period; LuGre exactly below |v| = cap F_C / sigma0 = 80 mm/s (8 v_S); 0 = none",
     )
     load_force: float = physical(0.0, "N", (-1e6, 1e6), "002 eq (7): F_L, no load on the rig")
     stop_stiffness: float = physical(
@@ -138,6 +153,12 @@ class ServoCylinderParams(PhysicalParams):
                 f"ServoCylinderParams.static_friction = {self.static_friction} must be >= "
                 f"coulomb_friction = {self.coulomb_friction} (Stribeck: F_S >= F_C)"
             )
+        if self.static_friction > 0.0 and not self.coulomb_friction > 0.0:
+            raise ParameterError(
+                f"ServoCylinderParams.coulomb_friction = {self.coulomb_friction} must be > 0 when "
+                f"static_friction = {self.static_friction} > 0 (the LuGre level must stay positive at "
+                "speed); set both to 0 for seals without dry friction"
+            )
         if not (self.pressure_floor < self.tank_pressure < self.supply_pressure):
             raise ParameterError(
                 "ServoCylinderParams: need pressure_floor < tank_pressure < supply_pressure, got "
@@ -150,14 +171,29 @@ class ServoCylinderParams(PhysicalParams):
                 f"{min(self.line_volume_1, self.line_volume_2)} m^3)"
             )
 
+    #: derived kernel column: the speed over which the seals' micro-damping fades, the Stribeck
+    #: velocity or less where that keeps the friction dissipative
+    #: (hydro_envs.laws.seal_friction.dissipative_fade_velocity at the lowest sliding level)
+    derived_names: ClassVar[tuple[str, ...]] = ("micro_damping_velocity",)
+
+    def derived_columns(self) -> list[float]:
+        from hydro_envs.laws.seal_friction import dissipative_fade_velocity
+
+        g_min = (1.0 - abs(self.friction_asymmetry)) * self.coulomb_friction
+        return [dissipative_fade_velocity(self.bristle_damping, self.stribeck_velocity, g_min)]
+
 
 # Column indices of the packed parameter array (declaration order of the dataclass).
 (
     I_PS, I_PT, I_M, I_A, I_L, I_V1, I_V2, I_RHO, I_BETA, I_CD, I_W, I_XVM, I_KV, I_WV,
-    I_ZV, I_UMAX, I_D, I_FC, I_FS, I_VS, I_VEPS, I_FL, I_KSTOP, I_ASTOP, I_DPTR, I_PFLOOR,
+    I_ZV, I_UMAX, I_D, I_FC, I_FS, I_VS, I_SIG0, I_SIG1, I_ZCAP, I_FL, I_KSTOP, I_ASTOP, I_DPTR, I_PFLOOR,
     I_VMIN, I_LAP, I_CIL, I_CEL, I_FASYM, I_FPC, I_RS,
-) = range(33)
+) = range(35)
+assert ServoCylinderParams.names()[I_SIG1] == "bristle_damping"
 assert ServoCylinderParams.names()[I_VMIN] == "min_chamber_volume"
 assert ServoCylinderParams.names()[I_FPC] == "friction_pressure_coefficient"
 assert ServoCylinderParams.names()[I_RS] == "supply_line_resistance"
-N_PARAMS = 33
+N_FIELDS = 35
+#: derived column (ServoCylinderParams.derived_names)
+I_DFADE = N_FIELDS
+N_PARAMS = N_FIELDS + len(ServoCylinderParams.derived_names)

@@ -26,15 +26,16 @@ SPEC = PlantSpec(
             "hydro_envs/ServoCylinderSlowSine-v0",
             "hydro_envs.envs.servo_cylinder:ServoCylinderSlowSineEnv",
             "hydro_envs.envs.servo_cylinder:ServoCylinderSlowSineVectorEnv",
-            4000,
+            8000,
         ),
         EnvEntry(
             "hydro_envs/ServoCylinderMicroPosition-v0",
             "hydro_envs.envs.servo_cylinder:ServoCylinderMicroPositionEnv",
             "hydro_envs.envs.servo_cylinder:ServoCylinderMicroPositionVectorEnv",
-            3000,
+            8000,
         ),
     ),
     stroke_parameter="stroke",
     pressure_parameter="supply_pressure",
+    dry_friction_parameters=("coulomb_friction", "static_friction", "friction_pressure_coefficient"),
 )
