@@ -10,11 +10,10 @@ One script that walks through what the suite is for, on ``ServoCylinderPosition-
    ``A (p_1 - p_2)`` per plateau, eq (10)), and fit the Stribeck law 002 eq (1) by nonlinear
    least squares (:func:`identification.friction.fit_friction`). The fit is printed beside the
    rig's true values, with standard errors.
-2. **Calibrate** the classical controllers: the PID from the plant's linearisation
-   (:func:`agents.controllers.servo_cylinder.pid_tuning`: crossover ``zeta_h omega_h`` below the
-   hydraulic resonance), and the PID + friction feedforward whose compensator
-   (:class:`hydro_envs.plants.servo_cylinder.compensation.FrictionCompensator`) uses the Stribeck law just
-   identified. The identified friction is checked against the training randomisation ranges
+2. **Calibrate** the classical controllers: the PID with load-pressure feedback from the plant's
+   linearisation without dry friction (:func:`agents.controllers.servo_cylinder.pid_tuning`), and
+   the same loop with the Stribeck law just identified in its pressure target
+   (:class:`agents.controllers.tracking.PressureLoopPID`). The identified friction is checked against the training randomisation ranges
    (``configs/randomization/servo_cylinder.yaml``): the learned agent must have seen the rig.
 3. **Train** a PPO (default; ``--algo sac`` also works) agent with domain randomisation
    (:func:`agents.train.train`, ``agents/configs/<algo>.yml``, the batched-kernel SB3 adapter,
@@ -86,8 +85,8 @@ class Stage:
 def identify_friction(seed: int = 0):
     """Run the 002 sec. 4 test on the nominal rig with realistic sensors and fit 002 eq (1).
 
-    Returns ``(fit, points, experiment)``. The sign regularisation of the fit is the plant's
-    (``friction_sign_velocity``), as a user would read it from the model they calibrate.
+    Returns ``(fit, points, experiment)``. The plant's seals follow eq (1) with the sign
+    function at constant velocity (their LuGre law's steady state), so the fit uses sign(v).
     """
     from hydro_envs.data.sensors import SensorModel
     from hydro_envs.plants.servo_cylinder.friction_test import run_friction_experiment
@@ -96,7 +95,7 @@ def identify_friction(seed: int = 0):
 
     exp = run_friction_experiment(sensors=SensorModel.realistic(), seed=seed, period_max=3.0)
     points = friction_points_from_square_wave(exp.data)
-    fit = fit_friction(points, model="stribeck", sign_velocity=exp.params.friction_sign_velocity)
+    fit = fit_friction(points, model="stribeck")
     return fit, points, exp
 
 
@@ -143,7 +142,7 @@ def friction_figure(fit: Any, points: Any, truth: Any, path: Path) -> Path | Non
     fig, ax = plt.subplots(figsize=(6.4, 4.0))
     ax.plot(v * 1e3, points.force, "o", ms=3, label="plateaus of the virtual test (noisy sensors)")
     ax.plot(vv * 1e3, fit.predict(vv), "-", label="identified Stribeck law, 002 eq (1)")
-    ax.plot(vv * 1e3, static_friction("stribeck", vv, true_params, None, truth.friction_sign_velocity),
+    ax.plot(vv * 1e3, static_friction("stribeck", vv, true_params, None, 0.0),
             "--", label="rig (truth)")
     ax.set_xlabel("piston velocity [mm/s]")
     ax.set_ylabel("friction force A (p1 - p2) [N]")
@@ -159,12 +158,11 @@ def friction_figure(fit: Any, points: Any, truth: Any, path: Path) -> Path | Non
 def calibrated_controllers(fit: Any) -> tuple[Any, Any, dict[str, float]]:
     """``(pid, pid_ff, tuning)``: the PID from the nominal linearisation and the same PID with
     the feedforward of the identified friction law."""
-    from agents.controllers.servo_cylinder import PIDController, PIDFrictionFeedforwardController, pid_tuning
+    from agents.controllers.servo_cylinder import ServoPIDController, pid_tuning
     from hydro_envs.plants.servo_cylinder.params import ServoCylinderParams
 
     p = ServoCylinderParams()
-    return (PIDController.from_params(p), PIDFrictionFeedforwardController.from_params(p, model=fit),
-            pid_tuning(p))
+    return (ServoPIDController.from_params(p), ServoPIDController.from_params(p, model=fit), pid_tuning(p))
 
 
 # ------------------------------------------------------------------ 3. train
@@ -302,7 +300,7 @@ def run(out: str | Path = "runs/demo", *, algo: str = "ppo", timesteps: int | No
     pid, pid_ff, tuning = calibrated_controllers(fit)
     console.print(f"PID: omega_h = {tuning['omega_h']:.0f} rad/s at mid-stroke, crossover omega_c = "
                   f"{tuning['omega_c']:.1f} rad/s, K_p = {tuning['kp']:.1f} 1/m, T_i = {tuning['ti'] * 1e3:.0f} ms, "
-                  f"T_d = {tuning['td'] * 1e3:.2f} ms")
+                  f"T_d = {tuning['td'] * 1e3:.2f} ms, load-pressure gain k_dp = {tuning['k_dp']:g}")
     console.print(f"{FF_NAME}: the same PID + the valve-command increment that delivers the reference "
                   "velocity against the identified friction (hydro_envs.plants.servo_cylinder.compensation)")
     for field, val, lo, hi, ok in inside_training_ranges(fit):

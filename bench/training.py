@@ -185,7 +185,7 @@ def tracking_rmse(policy, n: int, seed: int, reference: str = "mixed") -> float:
 
 
 def pid_policy():
-    from agents.controllers.servo_cylinder import PIDController
+    from agents.controllers.servo_cylinder import ServoPIDController as PIDController
 
     pid = PIDController.from_params()
 

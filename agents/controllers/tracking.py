@@ -9,20 +9,23 @@ measurement through a first-order filter ``tf``; integral with back-calculation 
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 
 from agents.controllers.core import ANTI_WINDUP, BaseController, PIDCore
 
-__all__ = ["TrackingPID", "ANTI_WINDUP", "DT"]
+__all__ = ["TrackingPID", "PressureLoopPID", "ANTI_WINDUP", "DT", "PREVIEW_DT"]
 
 DT = 1e-3  # s, control period of the cylinder-tracking envs
+#: the observation's preview offsets [steps] after the current reference (obs[1])
+PREVIEW_STEPS_OBS = (0, 10, 20, 30, 40, 50)
 
 
 class TrackingPID(BaseController):
     """PID on the position error with filtered derivative and anti-windup.
 
-    ``kp`` [action/m], ``ti, td, tf, tt`` [s]; ``stroke`` [m] and ``error_scale`` [m] undo the
+    ``kp`` [action/m], ``ti, td, tf, tt`` [s] (``ti = inf``: no integral); ``stroke`` [m] and ``error_scale`` [m] undo the
     observation's normalisation; ``anti_windup`` in ``("back_calculation", "conditional",
     "none")``. ``tt`` defaults to ``ti``. The law is :class:`~agents.controllers.core.PIDCore`'s
     on the error ``obs[0] * error_scale`` and the measured position; subclasses add
@@ -36,10 +39,13 @@ class TrackingPID(BaseController):
                  tt: float | None = None) -> None:
         super().__init__()
         tt = ti if tt is None else tt
-        for name, val, lo in (("kp", kp, 0.0), ("ti", ti, 0.0), ("tt", tt, 0.0), ("stroke", stroke, 0.0),
-                              ("error_scale", error_scale, 0.0), ("dt", dt, 0.0)):
+        for name, val, lo in (("kp", kp, 0.0), ("stroke", stroke, 0.0), ("error_scale", error_scale, 0.0),
+                              ("dt", dt, 0.0)):
             if not (math.isfinite(val) and val > lo):
                 raise ValueError(f"{name} must be finite and > 0, got {val}")
+        for name, val in (("ti", ti), ("tt", tt)):  # inf: no integral action
+            if not (val > 0.0 and not math.isnan(val)):
+                raise ValueError(f"{name} must be > 0 (inf: no integral), got {val}")
         for name, val in (("td", td), ("tf", tf)):
             if not (math.isfinite(val) and val >= 0):
                 raise ValueError(f"{name} must be finite and >= 0, got {val}")
@@ -70,3 +76,56 @@ class TrackingPID(BaseController):
         e = obs[:, 0] * self.error_scale
         x = self.half * (obs[:, 7] + 1.0)
         return self.pid.step(e, x, self.feedforward(obs))
+
+
+#: seconds between the observation's reference previews (obs[1] = r(t), obs[2..6] = r(t + 10 k ms))
+PREVIEW_DT = 0.01
+
+
+class PressureLoopPID(TrackingPID):
+    r"""Position PID with a load-pressure loop and optional velocity and friction feed-forward,
+    for the cylinder-tracking observation (obs[8..9] = chamber pressures over ``p_s``)::
+
+        a = PID(e) + vff v_ref / K_q + k_dp (F^(v_ref) / A - (p_1 - p_2)) / p_s
+
+    * the pressure feedback ``-k_dp (p_1 - p_2) / p_s`` damps the oil (or air) spring mode of the
+      axis, which limits a position loop without it to ``K_v < 2 zeta_h omega_h``;
+    * ``v_ref`` is the reference velocity between the previews ``preview`` and ``preview + 1``
+      (10 ms apart), ``K_q`` the velocity gain per unit action (``vff = True``: the velocity
+      feed-forward);
+    * ``F^(v)`` [N] is a friction model (``model``: callable or ``.predict``; ``None``: no
+      friction in the target). At a velocity reversal of the reference it swings the target
+      pressure by ``2 F^ / A`` ahead of the motion, the pressure the axis otherwise has to build
+      while it stands still. A subclass can override :meth:`friction_target` (an observer).
+    """
+
+    def __init__(self, kp: float, ti: float, td: float, tf: float, *, stroke: float, k_q: float, area: float,
+                 supply_pressure: float, k_dp: float, vff: bool = False, model: Any = None, preview: int = 1,
+                 **kwargs: Any) -> None:
+        super().__init__(kp, ti, td, tf, stroke=stroke, **kwargs)
+        for name, val in (("k_q", k_q), ("area", area), ("supply_pressure", supply_pressure)):
+            if not (np.isfinite(val) and val > 0):
+                raise ValueError(f"{name} must be finite and > 0, got {val}")
+        if not (np.isfinite(k_dp) and k_dp >= 0):
+            raise ValueError(f"k_dp must be finite and >= 0, got {k_dp}")
+        if preview not in range(len(PREVIEW_STEPS_OBS) - 1):
+            raise ValueError(f"preview = {preview!r}; allowed 0..{len(PREVIEW_STEPS_OBS) - 2}")
+        self.k_q, self.area, self.ps, self.k_dp = float(k_q), float(area), float(supply_pressure), float(k_dp)
+        self.vff, self.preview = bool(vff), int(preview)
+        self._f = None if model is None else (model.predict if hasattr(model, "predict") else model)
+
+    def preview_velocity(self, j: int, obs: np.ndarray) -> np.ndarray:
+        """Reference velocity [m/s] between previews ``j`` and ``j + 1`` (obs[1 + j], obs[2 + j])."""
+        return self.half * (obs[:, 2 + j] - obs[:, 1 + j]) / PREVIEW_DT
+
+    def friction_target(self, v: np.ndarray, dp: np.ndarray, obs: np.ndarray) -> np.ndarray | float:
+        """Friction force [N] the pressure difference should carry at reference velocity ``v``."""
+        return 0.0 if self._f is None else np.asarray(self._f(v), dtype=float)
+
+    def feedforward(self, obs: np.ndarray) -> np.ndarray:
+        v = self.preview_velocity(self.preview, obs)
+        out = v / self.k_q if self.vff else np.zeros(obs.shape[0])
+        if self.k_dp > 0.0:
+            dp = (obs[:, 8] - obs[:, 9]) * self.ps
+            out = out + self.k_dp * (self.friction_target(v, dp, obs) / self.area - dp) / self.ps
+        return out

@@ -1,0 +1,123 @@
+"""Stability margins of the classical loops on the plants' linearisation without dry friction
+(agents.controllers.margins): the tool against closed forms, then every servo loop at the
+nominal plant and the randomisation's corners."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from agents.controllers.margins import dry_free_linearization, loop_margins, pid_state_space
+from hydro_envs import registry
+from hydro_envs.plants.servo_cylinder import model as sc
+from hydro_envs.plants.servo_cylinder.params import ServoCylinderParams
+from hydro_envs.randomization import load_randomization
+
+DT = 1e-3
+
+
+def test_margins_of_a_sampled_integrator_under_p_control():
+    """P(z) = K dt / (z - 1) (an integrator behind a zero-order hold), a = -k y: the phase is
+    -90 deg - w dt / 2, so it crosses -180 deg at Nyquist where |L| = k K dt / 2, and
+    |L| = 1 where 2 sin(w dt / 2) = k K dt."""
+    K, k = 0.7, 60.0
+    ctrl = (np.zeros((1, 1)), np.zeros((1, 1)), np.zeros((1, 1)), np.array([[-k]]))
+    m = loop_margins(np.array([[1.0]]), np.array([[K * DT]]), np.array([[1.0]]), ctrl, DT, n_freq=20000)
+    wdt = 2.0 * math.asin(k * K * DT / 2.0)
+    assert m.phase_margin_deg == pytest.approx(90.0 - math.degrees(wdt) / 2.0, abs=1e-3)
+    assert m.crossover_hz == pytest.approx(wdt / (2 * math.pi * DT), rel=1e-4)
+    assert m.gain_margin_db == pytest.approx(20 * math.log10(2.0 / (k * K * DT)), abs=0.05)
+    assert m.stable and m.spectral_radius == pytest.approx(1.0 - k * K * DT)
+    unstable = loop_margins(np.array([[1.0]]), np.array([[K * DT]]), np.array([[1.0]]),
+                            (*ctrl[:3], np.array([[-2.5 / (K * DT)]])), DT)
+    assert not unstable.stable and unstable.gain_margin_db < 0
+
+
+def test_pid_state_space_is_the_pid_core_law():
+    from agents.controllers.core import PIDCore
+
+    kp, ti, td, tf = 50.0, 0.05, 2e-3, 5e-3
+    Ac, Bc, Cc, Dc = pid_state_space(kp, ti, td, tf, DT)
+    core = PIDCore(kp, ti, td, tf, DT, lo=-1e9, hi=1e9)
+    core.allocate(1)
+    Dc = Dc[0, 0]
+    xi = np.zeros(3)
+    rng = np.random.default_rng(0)
+    y_prev = 0.0
+    for k in range(200):
+        y = rng.normal()
+        if k == 0:  # the core's first sample has no derivative; start both from y_{-1} = y_0
+            xi[2] = y
+        a_ss = float((Cc @ xi)[0] + Dc * y)
+        a_core = float(core.step(np.array([-y]), np.array([y]))[0])
+        assert a_ss == pytest.approx(a_core, rel=1e-12, abs=1e-12)
+        xi = Ac @ xi + Bc[:, 0] * y
+        y_prev = y
+    assert y_prev != 0.0
+
+
+def _servo_plant(p):
+    spec = registry.get("servo_cylinder")
+    y0 = np.zeros(sc.N_STATES)
+    y0[sc.X] = 0.5 * p.stroke
+    y0[sc.P1] = y0[sc.P2] = 0.5 * (p.supply_pressure + p.tank_pressure)
+    Ad, Bd, C = dry_free_linearization(spec, p, y0, [0.0], DT, (sc.X, sc.P1, sc.P2))
+    return Ad, Bd * p.command_max, C
+
+
+def _with_pressure_feedback(ctrl, k_dp, ps):
+    """A controller of the position (one input) extended to (x, p1, p2) with -k_dp (p1 - p2)/ps."""
+    Ac, Bc, Cc, Dc = ctrl
+    return Ac, np.hstack([Bc, np.zeros((Bc.shape[0], 2))]), Cc, np.hstack([Dc, [[-k_dp / ps, k_dp / ps]]])
+
+
+def servo_loops(p, nominal=None):
+    """Linear parts of the servo's classical loops (designed on ``nominal``, default ``p``)."""
+    from agents.controllers.servo_cylinder import K_DP, LOOP_BANDWIDTH, pid_tuning
+
+    q = nominal or p
+    t = pid_tuning(q)
+    pid = _with_pressure_feedback(pid_state_space(t["kp"], t["ti"], t["td"], t["tf"], DT), K_DP, q.supply_pressure)
+    kp_p = LOOP_BANDWIDTH / t["k_q"]
+    prop = _with_pressure_feedback(pid_state_space(kp_p, math.inf, 0.0, 0.0, DT), K_DP, q.supply_pressure)
+    # flow: a = (omega_c e + I) / K_q - k_dp p_L / p_s at null (the inverse orifice law's gain there)
+    ki = t["omega_c"] * DT / (4.0 / t["omega_c"]) / t["k_q"]
+    flow = _with_pressure_feedback((np.array([[1.0]]), np.array([[-ki]]), np.array([[1.0]]),
+                                    np.array([[-t["omega_c"] / t["k_q"]]])), K_DP, q.supply_pressure)
+    return {"pid": pid, "p": prop, "flow": flow}
+
+
+def test_servo_loops_are_stable_without_dry_friction_at_the_nominal_plant():
+    p = ServoCylinderParams()
+    Ad, Bd, C = _servo_plant(p)
+    res = {name: loop_margins(Ad, Bd, C, ctrl, DT) for name, ctrl in servo_loops(p).items()}
+    for name, m in res.items():
+        assert m.stable, (name, m)
+        assert m.gain_margin_db >= 6.0 and m.phase_margin_deg >= 45.0, (name, m)
+    assert res["pid"].gain_margin_db == pytest.approx(21.6, abs=0.3)  # the module docstring's numbers
+    assert res["pid"].phase_margin_deg == pytest.approx(80.0, abs=1.0)
+    # the old loop (no pressure feedback, crossover 0.075 omega_h) relied on the friction: unstable
+    from agents.controllers.servo_cylinder import pid_tuning
+
+    t = pid_tuning(p, crossover_ratio=0.075)
+    old = loop_margins(Ad, Bd, C[:1], pid_state_space(t["kp"], t["ti"], t["td"], t["tf"], DT), DT)
+    assert not old.stable and old.gain_margin_db < 0
+
+
+def test_servo_loops_keep_their_margins_over_the_randomisation():
+    """The loops designed on the nominal plant, on the plants of the randomisation's corners."""
+    spec = load_randomization("servo_cylinder", ServoCylinderParams)
+    rng = np.random.default_rng(5)
+    corners = [spec.corner(False), spec.corner(True)] + [
+        spec.corner(rng.integers(0, 2, len(spec.entries)).astype(bool)) for _ in range(20)]
+    nominal = ServoCylinderParams()
+    worst = {}
+    for p in corners:
+        Ad, Bd, C = _servo_plant(p)
+        for name, ctrl in servo_loops(p, nominal).items():
+            m = loop_margins(Ad, Bd, C, ctrl, DT)
+            assert m.stable, (name, m)
+            worst[name] = min(worst.get(name, np.inf), m.gain_margin_db)
+    assert min(worst.values()) >= 3.0 and worst["pid"] >= 4.0, worst
