@@ -28,14 +28,23 @@ Per episode (true, noise-free signals after each step):
 * friction metrics (:mod:`agents.metrics`): ``reversal_error`` (mean over the reference's
   velocity reversals of the peak error within 0.2 s after each, the quadrant glitch) and
   ``stick_time`` (fraction of the time the reference moves while the plant rests) of the
-  tracking episode; ``steady_state_error`` (mean |error| over the last half of each hold) and
-  ``limit_cycle`` (peak-to-peak error there: hunting) of the holds of the step episode, or of the
-  tracking episode when there is no step episode; n/a when the reference has no reversal or hold;
+  tracking episode; ``steady_state_error`` (mean |error| over the last half of each hold, less
+  the last 60 ms the reference preview lets a controller anticipate), ``limit_cycle``
+  (peak-to-peak error there) and ``hunting`` (the same over holds of 2 s or more) of the holds of
+  the step episode, or of the tracking episode when there is no step episode; n/a when the
+  reference has no reversal or hold;
 * ``failed``: non-finite state or action, or RMSE not better than holding the output at its
   initial value (``rmse >= rms(ref - y_0)``);
 * ``rmse_rel_pid``: the episode's RMSE over the classical PID's RMSE on the same draw and
   episode (paired; only when ``pid`` is among the controllers). The episodes mix reference
   kinds, so the RMSE spread between episodes is large; the paired ratio removes it.
+* ``friction_share`` (when the plant declares its dry-friction parameters,
+  :attr:`hydro_envs.spec.PlantSpec.dry_friction_parameters`): the share of a controller's mean
+  squared tracking error that dry friction causes, ``1 - sum MSE_0 / sum MSE`` over the draws,
+  where ``MSE_0`` is the same controller's on the same draws and episodes with the Coulomb,
+  static and Stribeck parts of the friction set to zero (viscous friction kept). A task is
+  friction-critical when the PID's is >= 0.5 (:data:`FRICTION_CRITICAL`);
+  ``reversal_excess`` is the reversal error less that of the same twin episode.
 
 Aggregates per controller (:mod:`agents.benchmark_stats`): mean with a seeded 95 %
 percentile-bootstrap interval over the draws (never below zero for a nonnegative metric; for
@@ -84,6 +93,8 @@ __all__ = [
     "cvar",
     "draw_bootstrap_ci",
     "draw_parameters",
+    "dry_friction_free",
+    "FRICTION_CRITICAL",
     "rollout",
     "run_benchmark",
     "step_metrics",
@@ -100,8 +111,10 @@ METRICS = (
     ("overshoot", "overshoot [%]"),
     ("settling_time", "settling [s]"),
     ("reversal_error", "reversal error"),
+    ("reversal_excess", "reversal excess"),
     ("steady_state_error", "steady-state error"),
     ("limit_cycle", "limit cycle (p-p)"),
+    ("hunting", "hunting (p-p, holds >= 2 s)"),
     ("stick_time", "stick time [-]"),
     ("effort", "effort (RMS a)"),
     ("pressure_violations", "pressure viol. [steps]"),
@@ -109,8 +122,11 @@ METRICS = (
     ("failed", "failure rate"),
     ("cvar10_rmse", "CVaR10 RMSE"),
     ("rmse_rel_pid", "RMSE / PID (paired)"),
+    ("friction_share", "friction share"),
 )
 PAIRED_REFERENCE = "pid"
+#: ``friction_share`` at or above which a task is friction-critical
+FRICTION_CRITICAL = 0.5
 
 
 # ------------------------------------------------------------------ env adapters
@@ -223,6 +239,13 @@ def draw_parameters(env_id: str, params: str, n: int, seed: int = 0,
             continue
         out.append(values)
     return out
+
+
+def dry_friction_free(env_id: str, draws: Sequence[Mapping[str, float]]) -> list[dict[str, float]]:
+    """The draws with the plant's dry friction removed: every parameter of its
+    :attr:`~hydro_envs.spec.PlantSpec.dry_friction_parameters` set to 0 (viscous friction kept)."""
+    spec = registry.spec_for_env(env_id)
+    return [spec.without_dry_friction(d) for d in draws]
 
 
 # ------------------------------------------------------------------ metrics
@@ -379,7 +402,8 @@ def friction_metrics(track: Rollout, step: Rollout | None) -> dict[str, np.ndarr
     the tracking episodes, steady-state error and limit cycle of the step episodes (of the
     tracking episodes without step episodes). NaN for a non-finite episode."""
     n = track.y.shape[1]
-    out = {k: np.full(n, np.nan) for k in ("reversal_error", "stick_time", "steady_state_error", "limit_cycle")}
+    out = {k: np.full(n, np.nan) for k in ("reversal_error", "stick_time", "steady_state_error", "limit_cycle",
+                                           "hunting")}
     hold = step if step is not None else track
     for i in range(n):
         if not track.nonfinite[i]:
@@ -390,6 +414,7 @@ def friction_metrics(track: Rollout, step: Rollout | None) -> dict[str, np.ndarr
             y, r = hold.y[:, i], hold.ref[:, i]
             out["steady_state_error"][i] = fm.steady_state_error(y, r, hold.dt)
             out["limit_cycle"][i] = fm.limit_cycle_amplitude(y, r, hold.dt)
+            out["hunting"][i] = fm.hunting(y, r, hold.dt)
     return out
 
 
@@ -522,6 +547,7 @@ def run_benchmark(
     chunk_size: int | None = None,
     ray_address: str | None = None,
     num_cpus: int | None = None,
+    friction_share: bool = True,
 ) -> BenchmarkResult:
     """Evaluate ``controllers`` on ``n`` frozen draws of the ``params`` set (module docstring).
 
@@ -537,6 +563,10 @@ def run_benchmark(
     to give every CPU one task), a learned policy on all draws in one task. A chunk starting
     at draw ``lo`` resets its copy ``j`` with seed ``seed + lo + j``, the seed of draw
     ``lo + j`` in the serial batch, so every metric is the same bit for bit.
+
+    ``friction_share``: also run every controller on the same draws and tracking episodes without
+    dry friction (:func:`dry_friction_free`) and report the share of its mean squared error that
+    dry friction causes and its reversal excess (module docstring).
     """
     t0 = time.perf_counter()
     _adapter(env_id)
@@ -549,7 +579,8 @@ def run_benchmark(
     step_kind = ADAPTERS[env_id].step_reference if step_reference == "auto" else step_reference
     loader = policy_loader or (functools.partial(_load_policy, trust_pickle=True) if trust_pickle else _load_policy)
     say = progress or (lambda msg: None)
-    common = (env_id, seed, reference, step_kind, episode_steps, dict(env_kwargs or {}), loader)
+    dry_free = bool(friction_share and registry.spec_for_env(env_id).dry_friction_parameters)
+    common = (env_id, seed, reference, step_kind, episode_steps, dict(env_kwargs or {}), loader, dry_free)
 
     if backend == "serial":  # one piece per controller spec, all draws in one batch
         parts = []
@@ -606,11 +637,13 @@ class _Piece:
 
 def _evaluate_piece(kind: str, run: str, lo: int, part: Sequence[Mapping[str, float]], env_id: str,
                     seed: int, reference: str | None, step_kind: str | None, steps: int | None,
-                    env_kwargs: Mapping[str, Any], loader: Callable[[str], Any]) -> _Piece:
+                    env_kwargs: Mapping[str, Any], loader: Callable[[str], Any], dry_free: bool = False) -> _Piece:
     """Tracking (and step) episodes of one controller on ``part`` = draws ``lo, lo + 1, ...``.
 
     Copy ``j`` of the batch is draw ``lo + j`` reset with seed ``seed + lo + j``: the same
     episode as in a batch of all draws, so pieces can run anywhere and be concatenated.
+    ``dry_free``: also the tracking episodes on the same draws without dry friction
+    (:func:`dry_friction_free`), for ``friction_share`` and ``reversal_excess``.
     """
     from agents.controllers import make_controller
 
@@ -629,7 +662,29 @@ def _evaluate_piece(kind: str, run: str, lo: int, part: Sequence[Mapping[str, fl
             ctrl.reset()
         step = rollout(env_id, ctrl, part, seed=seed + lo, reference=step_kind, steps=steps, env_kwargs=env_kwargs)
     m = episode_metrics(track, step, ADAPTERS[env_id])
+    if dry_free:
+        if kind == "classical" and hasattr(ctrl, "reset"):
+            ctrl.reset()
+        free = rollout(env_id, ctrl, dry_friction_free(env_id, part), seed=seed + lo, reference=reference,
+                       steps=steps, env_kwargs=env_kwargs)
+        m.update(dry_free_metrics(track, free))
     return _Piece(m, track.params, (track.y[:, 0].copy(), track.ref[:, 0].copy()), track.dt)
+
+
+def dry_free_metrics(track: Rollout, free: Rollout) -> dict[str, np.ndarray]:
+    """Per episode: ``mse_dry_free`` (the mean squared error of the twin episode without dry
+    friction, for ``friction_share``) and ``reversal_excess`` (the reversal error less the
+    twin's: what friction adds with the loop's lag removed). NaN for a non-finite episode."""
+    n = track.y.shape[1]
+    e0 = np.ascontiguousarray((free.ref - free.y).T)
+    with np.errstate(invalid="ignore"):
+        mse0 = np.where(free.nonfinite, np.nan, np.mean(e0**2, axis=1))
+    excess = np.full(n, np.nan)
+    for i in range(n):
+        if not (track.nonfinite[i] or free.nonfinite[i]):
+            excess[i] = (fm.reversal_error(track.y[:, i], track.ref[:, i], track.dt)
+                         - fm.reversal_error(free.y[:, i], free.ref[:, i], free.dt))
+    return {"mse_dry_free": mse0, "reversal_excess": excess}
 
 
 def _merge(pieces: Sequence[_Piece]) -> _Piece:
@@ -709,7 +764,7 @@ def write_outputs(res: BenchmarkResult, out_dir: Path, *, figures: bool = True) 
                 w.writerow([res.env_id, res.params, c, res.members[c], key, repr(v), repr(lo), repr(hi), k])
     files.append(p)
     p = out_dir / f"{stem}_episodes.csv"
-    keys = [k for k, _ in METRICS if k != "cvar10_rmse"]
+    keys = [k for k, _ in METRICS if k not in ("cvar10_rmse", "friction_share")] + ["mse_dry_free"]
     with p.open("w", newline="", encoding="utf-8") as fh:
         w = csv.writer(fh)
         w.writerow(["controller", "episode", "draw"] + keys)
@@ -734,7 +789,7 @@ def _figures(res: BenchmarkResult, out_dir: Path, stem: str) -> list[Path]:
     from agents.benchmark_figures import write_figures
 
     ad = ADAPTERS[res.env_id]
-    keys = [(k, lab) for k, lab in METRICS if k not in ("cvar10_rmse", "failed")]
+    keys = [(k, lab) for k, lab in METRICS if k not in ("cvar10_rmse", "failed", "friction_share")]
     return write_figures(res, out_dir, stem, keys, ad.quantity, ad.unit)
 
 

@@ -32,8 +32,9 @@ FONT = {"font.size": 10, "axes.titlesize": 11, "axes.labelsize": 10, "xtick.labe
         "ytick.labelsize": 9, "legend.fontsize": 9, "figure.titlesize": 12}
 
 #: metric -> unit; ``None``: the tracked quantity's unit
-_UNITS = {"rmse": None, "max_error": None, "reversal_error": None, "steady_state_error": None,
-          "limit_cycle": None, "cvar10_rmse": None, "overshoot": "%", "settling_time": "s", "effort": "-",
+_UNITS = {"rmse": None, "max_error": None, "reversal_error": None, "reversal_excess": None,
+          "steady_state_error": None, "limit_cycle": None, "hunting": None, "cvar10_rmse": None,
+          "friction_share": "-", "overshoot": "%", "settling_time": "s", "effort": "-",
           "pressure_violations": "steps", "endstop_steps": "steps", "stick_time": "-", "failed": "-",
           "rmse_rel_pid": "-"}
 

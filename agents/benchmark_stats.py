@@ -8,6 +8,9 @@ r"""Aggregates of the benchmark's per-episode metrics, with intervals that respe
   stay paired (a paired bootstrap of the ratio).
 * Failure rate: the Wilson score interval (:func:`wilson_ci`, ``scipy.stats.binomtest``).
 * CVaR-10 % of the RMSE: a seeded percentile bootstrap over episodes (:func:`bootstrap_ci`).
+* ``friction_share`` (the PID row): ``1 - sum MSE_dry_free / sum MSE`` over the draws, the share
+  of the mean squared error that dry friction causes (:func:`share_ci`), with the same
+  bootstrap over whole draws (the two runs stay paired).
 
 Episodes of several training seeds of one learned controller share the draws: episode ``j``
 belongs to draw ``j % n_draws``, and a resample takes every episode of a drawn draw.
@@ -21,7 +24,7 @@ from collections.abc import Callable, Mapping, Sequence
 
 import numpy as np
 
-__all__ = ["N_BOOT", "bootstrap_ci", "cvar", "draw_bootstrap_ci", "summarize", "wilson_ci"]
+__all__ = ["N_BOOT", "bootstrap_ci", "cvar", "draw_bootstrap_ci", "share_ci", "summarize", "wilson_ci"]
 
 #: bootstrap resamples (the percentile bounds move by < 1 % of the interval between seeds)
 N_BOOT = 4000
@@ -90,6 +93,33 @@ def draw_bootstrap_ci(values: Sequence[float], n_draws: int | None = None, *, le
     return m, float(min(lo, m)), float(max(hi, m)), int(fin.sum())
 
 
+def share_ci(total: Sequence[float], part_free: Sequence[float], *, level: float = 0.95, n_boot: int = N_BOOT,
+             seed: int = 0) -> tuple[float, float, float, int]:
+    """``1 - sum(part_free) / sum(total)`` over the draws where both are finite, with a seeded
+    percentile-bootstrap interval over those draws (pairs resampled together): the share of a
+    total (a controller's mean squared error per draw) that a cause removed in ``part_free``
+    makes. Negative where removing the cause makes the total grow. ``(share, low, high, n)``."""
+    _check_level(level)
+    a = np.asarray(total, dtype=float).reshape(-1)
+    b = np.asarray(part_free, dtype=float).reshape(-1)
+    if a.shape != b.shape:
+        raise ValueError(f"total has {a.size} draws, part_free {b.size}; they must be paired")
+    ok = np.isfinite(a) & np.isfinite(b)
+    a, b = a[ok], b[ok]
+    if a.size == 0 or not np.sum(a) > 0.0:
+        return float("nan"), float("nan"), float("nan"), int(a.size)
+    s = float(1.0 - np.sum(b) / np.sum(a))
+    if a.size == 1:
+        return s, s, s, 1
+    rng = np.random.default_rng([int(seed), 13])
+    idx = rng.integers(0, a.size, (n_boot, a.size))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        boots = 1.0 - b[idx].sum(axis=1) / a[idx].sum(axis=1)
+    boots = boots[np.isfinite(boots)]
+    lo, hi = np.percentile(boots, [50 * (1 - level), 50 * (1 + level)])
+    return s, float(min(lo, s)), float(max(hi, s)), int(a.size)
+
+
 def bootstrap_ci(values: Sequence[float], stat: Callable[[np.ndarray], float], *, level: float = 0.95,
                  n_boot: int = 2000, seed: int = 0) -> tuple[float, float, float]:
     """Statistic of the finite ``values`` and its seeded percentile-bootstrap interval."""
@@ -110,7 +140,8 @@ def summarize(episodes: Mapping[str, np.ndarray], keys: Sequence[str], seed: int
     """Metric -> ``(value, ci_low, ci_high, n)`` for one controller (module docstring).
 
     ``keys``: the metrics to report; ``cvar10_rmse`` and ``failed`` are computed from
-    ``rmse`` and ``failed``, every other key is the mean of ``episodes[key]`` over its finite
+    ``rmse`` and ``failed``, ``friction_share`` from ``rmse`` and ``mse_dry_free`` (NaN without
+    it), every other key is the mean of ``episodes[key]`` over its finite
     values (a missing key: NaN)."""
     out = {}
     for key in keys:
@@ -123,6 +154,12 @@ def summarize(episodes: Mapping[str, np.ndarray], keys: Sequence[str], seed: int
                 fin = v[np.isfinite(v)]
                 s, lo, hi = bootstrap_ci(fin, cvar, seed=seed)
                 out[key] = (s, lo, hi, int(fin.size))
+        elif key == "friction_share":
+            if "mse_dry_free" not in episodes:
+                out[key] = (float("nan"), float("nan"), float("nan"), 0)
+            else:
+                out[key] = share_ci(np.asarray(episodes["rmse"], dtype=float) ** 2, episodes["mse_dry_free"],
+                                    seed=seed)
         elif key == "failed":
             f = np.asarray(episodes["failed"], dtype=float)
             p, lo, hi = wilson_ci(int(np.sum(f > 0.5)), int(f.size))

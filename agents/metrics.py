@@ -13,11 +13,20 @@ sample ``k`` of both belongs to the same instant). The tracking error is ``e = r
   ``window`` seconds from the reversal.
 * **Hold** (:func:`holds`): a run of constant reference of at least ``min_hold`` seconds
   (the level of a step or micro-step reference).
+* **Hold window**: the last ``tail`` fraction of a hold, ending ``guard`` seconds before the hold
+  ends (:data:`PREVIEW_GUARD`, 60 ms: the observation previews the reference 10-50 ms ahead, so a
+  controller may start the next step early; that anticipation is not an error of the hold).
 * **Steady-state error** (:func:`steady_state_error`): mean over holds of ``mean |e|`` over the
-  last ``tail`` fraction of the hold.
+  hold window.
 * **Limit-cycle amplitude** (:func:`limit_cycle_amplitude`): mean over holds of the
-  peak-to-peak ``max e - min e`` over the same last part of the hold (hunting under integral
-  action leaves a nonzero value; a plant at rest leaves zero).
+  peak-to-peak ``max e - min e`` over the hold window (hunting under integral action leaves a
+  nonzero value; a plant at rest leaves zero).
+* **Hunting** (:func:`hunting`): the limit-cycle amplitude over the holds of at least
+  ``min_hold`` = :data:`HUNTING_HOLD` (2 s) only: a loop with integral action against
+  stick-slip friction hunts with periods of a second or more, which a short hold cannot show.
+* **Reversal excess** (the benchmark's ``reversal_excess``): the reversal error less that of the
+  same controller on the same episode of the plant without dry friction -- the part of the
+  reversal error friction makes, with the loop's lag removed.
 * **Stick time** (:func:`stick_time`): fraction of the moving-reference samples at which the
   reference speed is above ``v_tol`` and the plant speed ``|y[k] - y[k-1]| / dt`` is not,
   with ``v_tol = stick_frac * max |reference speed|``.
@@ -38,6 +47,9 @@ __all__ = [
     "TAIL",
     "holds",
     "limit_cycle_amplitude",
+    "hunting",
+    "HUNTING_HOLD",
+    "PREVIEW_GUARD",
     "moving_mask",
     "reversal_error",
     "reversal_indices",
@@ -56,6 +68,10 @@ MIN_HOLD = 0.1
 TAIL = 0.5
 #: plant/reference speed below this fraction of the peak reference speed counts as at rest
 STICK_FRAC = 0.05
+#: seconds at the end of each hold left out of its window (the 10-50 ms reference preview)
+PREVIEW_GUARD = 0.06
+#: shortest hold [s] that counts for the hunting metric
+HUNTING_HOLD = 2.0
 
 
 def _check(y: np.ndarray | None, r: np.ndarray, dt: float) -> tuple[np.ndarray | None, np.ndarray]:
@@ -130,30 +146,43 @@ def holds(r: np.ndarray, dt: float, min_hold: float = MIN_HOLD) -> list[tuple[in
     return [(int(a), int(b)) for a, b in zip(starts, ends) if b - a >= n_min]
 
 
-def _hold_tails(y: np.ndarray, r: np.ndarray, dt: float, tail: float, min_hold: float) -> list[np.ndarray]:
+def _hold_tails(y: np.ndarray, r: np.ndarray, dt: float, tail: float, min_hold: float,
+                guard: float) -> list[np.ndarray]:
     if not (0.0 < tail <= 1.0):
         raise ValueError(f"tail = {tail!r}; allowed (0, 1]")
+    if not (np.isfinite(guard) and guard >= 0):
+        raise ValueError(f"guard = {guard!r}; must be >= 0 [s]")
+    g = int(round(guard / dt))
     out = []
     for a, b in holds(r, dt, min_hold):
-        k = max(1, int(round(tail * (b - a))))
-        out.append(r[b - k : b] - y[b - k : b])
+        end = b - g
+        if end - a < 2:
+            continue
+        k = max(1, int(round(tail * (end - a))))
+        out.append(r[end - k : end] - y[end - k : end])
     return out
 
 
 def steady_state_error(y: np.ndarray, r: np.ndarray, dt: float, tail: float = TAIL,
-                       min_hold: float = MIN_HOLD) -> float:
-    """Mean over holds of the mean ``|r - y|`` over the last ``tail`` of each hold."""
+                       min_hold: float = MIN_HOLD, guard: float = PREVIEW_GUARD) -> float:
+    """Mean over holds of the mean ``|r - y|`` over each hold window (module docstring)."""
     y, r = _check(y, r, dt)
-    parts = _hold_tails(y, r, dt, tail, min_hold)
+    parts = _hold_tails(y, r, dt, tail, min_hold, guard)
     return float(np.mean([np.mean(np.abs(e)) for e in parts])) if parts else float("nan")
 
 
 def limit_cycle_amplitude(y: np.ndarray, r: np.ndarray, dt: float, tail: float = TAIL,
-                          min_hold: float = MIN_HOLD) -> float:
-    """Mean over holds of the peak-to-peak error over the last ``tail`` of each hold."""
+                          min_hold: float = MIN_HOLD, guard: float = PREVIEW_GUARD) -> float:
+    """Mean over holds of the peak-to-peak error over each hold window (module docstring)."""
     y, r = _check(y, r, dt)
-    parts = _hold_tails(y, r, dt, tail, min_hold)
+    parts = _hold_tails(y, r, dt, tail, min_hold, guard)
     return float(np.mean([np.max(e) - np.min(e) for e in parts])) if parts else float("nan")
+
+
+def hunting(y: np.ndarray, r: np.ndarray, dt: float, tail: float = TAIL, min_hold: float = HUNTING_HOLD,
+            guard: float = PREVIEW_GUARD) -> float:
+    """:func:`limit_cycle_amplitude` over the holds of at least ``min_hold`` seconds (2 s)."""
+    return limit_cycle_amplitude(y, r, dt, tail, min_hold, guard)
 
 
 def stick_time(y: np.ndarray, r: np.ndarray, dt: float, stick_frac: float = STICK_FRAC,

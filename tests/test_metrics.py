@@ -63,18 +63,36 @@ def test_holds_steady_state_error_and_limit_cycle():
     y[200:400] = -2e-5
     k = np.arange(200)
     y[600:] = 1e-3 + 3e-5 * np.sin(2 * math.pi * k / 40)
-    ss = fm.steady_state_error(y, r, DT)
+    ss = fm.steady_state_error(y, r, DT, guard=0.0)
     # mean |sin| over 40 samples of a period: sum_{k<20} sin(pi k / 20) / 20 = cot(pi / 40) / 20
     assert ss == pytest.approx((2e-5 + 3e-5 / math.tan(math.pi / 40) / 20) / 2, rel=1e-12)
-    assert fm.limit_cycle_amplitude(y, r, DT) == pytest.approx((0 + 6e-5) / 2)
+    assert fm.limit_cycle_amplitude(y, r, DT, guard=0.0) == pytest.approx((0 + 6e-5) / 2)
     # the first half of every hold does not enter: the transient is invisible
     y2 = y.copy()
     y2[:200] += 1.0
-    assert fm.steady_state_error(y2, r, DT) == ss
+    assert fm.steady_state_error(y2, r, DT, guard=0.0) == ss
     # a reference without holds has nothing to measure
     ramp = DT * np.arange(500)
     assert math.isnan(fm.steady_state_error(ramp, ramp, DT))
     assert math.isnan(fm.limit_cycle_amplitude(ramp, ramp, DT))
+
+
+def test_hold_window_leaves_out_the_preview_anticipation_and_hunting_needs_long_holds():
+    """A controller that starts the next step 50 ms early (it sees the reference preview) makes
+    no hold error with the default 60 ms guard; hunting counts only holds of 2 s or more."""
+    r = np.r_[np.zeros(500), 1e-3 * np.ones(500), np.zeros(2500)]
+    y = r.copy()
+    y[450:500] = np.linspace(0.0, 0.5e-3, 50)  # early start of the step at 0.5 s
+    assert fm.steady_state_error(y, r, DT, guard=0.0) > 0.0
+    assert fm.steady_state_error(y, r, DT) == 0.0
+    assert fm.limit_cycle_amplitude(y, r, DT) == 0.0
+    k = np.arange(2500)
+    y[1000:] = 2e-5 * np.sin(2 * math.pi * k / 1000)  # a 1 Hz hunt in the long hold only
+    assert fm.hunting(y, r, DT) == pytest.approx(4e-5, rel=1e-3)
+    y_short = y.copy()
+    y_short[1000:] = 0.0
+    assert fm.hunting(y_short, r, DT) == 0.0
+    assert math.isnan(fm.hunting(y[:1000], r[:1000], DT))  # no hold of 2 s
 
 
 def test_stick_time_counts_resting_samples_while_the_reference_moves():
