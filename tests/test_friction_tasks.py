@@ -54,8 +54,33 @@ def test_episode_starts_at_rest_on_the_reference_and_is_seeded(env_id):
     assert abs(o1[0]) * batch.error_scale <= batch.quant + 1e-12  # only the sensor's quantisation
     o2, _ = gym.make(env_id).reset(seed=5)
     np.testing.assert_array_equal(o1, o2)
-    assert env.spec.max_episode_steps == (4000 if "SlowSine" in env_id else 3000)
+    if "Servo" in env_id:
+        assert env.spec.max_episode_steps == 8000 and batch.quant == 1e-6  # the precision axis
+    else:
+        assert env.spec.max_episode_steps == (4000 if "SlowSine" in env_id else 3000)
     env.close()
+
+
+def test_servo_friction_references_creep_below_the_stribeck_velocity_and_break_away():
+    """Servo tasks: the slow references stay below the seals' Stribeck velocity (creep through
+    the dip) with several reversals per episode; every micro step is larger than the seals'
+    pre-sliding displacement (the seals must break away) and is held >= 2 s (hunting shows)."""
+    from hydro_envs.envs.servo_cylinder import FRICTION_REFERENCE as R
+    from hydro_envs.plants.servo_cylinder.params import ServoCylinderParams
+
+    p = ServoCylinderParams()
+    pre = p.static_friction / p.bristle_stiffness
+    dt, n = 1e-3, 8000
+    for seed in range(20):
+        rng = np.random.default_rng(seed)
+        r = generate_friction_reference("slow", rng, n, dt, 0.1 * p.stroke, 0.9 * p.stroke, 1e-6, R)
+        v = np.diff(r) / dt
+        assert np.max(np.abs(v)) < p.stribeck_velocity
+        assert np.sum(np.diff(np.sign(v[np.abs(v) > 1e-7])) != 0) >= 2
+        m = generate_friction_reference("micro_steps", rng, n, dt, 0.1 * p.stroke, 0.9 * p.stroke, 1e-6, R)
+        jumps = np.flatnonzero(np.diff(m))
+        assert np.all(np.abs(np.diff(m)[jumps]) >= 1.5 * pre)
+        assert np.all(np.diff(np.r_[0, jumps + 1]) >= 2000)
 
 
 # ------------------------------------------------------------------ friction awareness pays
@@ -100,12 +125,13 @@ def test_rodless_disturbance_observer_learns_each_draws_friction_online():
         assert 0.95 * p.coulomb_friction <= level <= 1.1 * float(steady_friction(p, v)), (level, v)
     assert _paired_ratio(env, "pid_dp_dob", "pid_dp") < 0.9
 
-def test_servo_slow_sine_model_feedforward_beats_pid():
-    """The inverse-orifice-law feed-forward removes the PID's lag; the friction model adds
-    under 5 % on top (the flow-controlled hydraulic axis is stiff against friction)."""
+def test_servo_slow_sine_friction_model_pays():
+    """Creep through reversals on the 1 um scale: the velocity feed-forward removes the PID's
+    lag, and the identified Stribeck law in the pressure target removes most of what is left,
+    the lost motion of building the breakaway pressure at each reversal."""
     env = "hydro_envs/ServoCylinderSlowSine-v0"
     assert _paired_ratio(env, "pid_vff_stribeck", "pid") < 0.4
-    assert 0.9 < _paired_ratio(env, "pid_vff_stribeck", "pid_vff") < 1.05
+    assert _paired_ratio(env, "pid_vff_stribeck", "pid_vff") < 0.6
 
 
 def test_friction_identified_on_each_draw_recovers_its_coulomb_level():

@@ -33,7 +33,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from hydro_envs.envs.references import FRICTION_REFERENCE_KINDS, generate_friction_reference
+from hydro_envs.envs.references import FRICTION_REFERENCE_KINDS, FrictionReference, generate_friction_reference
 
 __all__ = ["FrictionTask", "friction_task_classes", "SLOW_SINE_STEPS", "MICRO_STEPS"]
 
@@ -50,6 +50,8 @@ class FrictionTask:
     friction_kind: str
     band: tuple[float, float]
     position_name: str
+    #: the plant's reference ranges (None: the band-relative defaults)
+    friction_ranges: FrictionReference | None = None
 
     def _init_task(self, reference: str | None) -> None:
         kind = reference or self.friction_kind
@@ -66,7 +68,7 @@ class FrictionTask:
                 raise ValueError(f"options['reference'] = {kind!r}; allowed {_KINDS} or an array [m]")
             L = p.stroke
             ref = generate_friction_reference(kind, rng, self.REF.shape[1], self.dt, self.band[0] * L,
-                                              self.band[1] * L, self.quant)
+                                              self.band[1] * L, self.quant or 1e-6, self.friction_ranges)
             opts["reference"] = ref
         if not opts.get("state"):
             opts["state"] = {self.position_name: float(np.asarray(ref, dtype=float).reshape(-1)[0])}
@@ -74,15 +76,21 @@ class FrictionTask:
 
 
 def friction_task_classes(prefix: str, batch_cls: type, band: tuple[float, float], position_name: str,
-                          module: str) -> tuple[type, ...]:
+                          module: str, *, steps: tuple[int, int] = (SLOW_SINE_STEPS, MICRO_STEPS),
+                          ranges: FrictionReference | None = None,
+                          defaults: Mapping[str, Any] | None = None) -> tuple[type, ...]:
     """The two friction-critical tasks on a plant's tracking batch ``batch_cls``: returns
     ``(SlowSineBatch, MicroPositionBatch, SlowSineEnv, SlowSineVectorEnv, MicroPositionEnv,
     MicroPositionVectorEnv)``, named ``<prefix><Task>...`` and owned by ``module`` (the plant's
-    env module binds them to those names, so they pickle and register like hand-written ones)."""
+    env module binds them to those names, so they pickle and register like hand-written ones).
+    ``steps``: the episode lengths of the two tasks; ``ranges``: the plant's reference ranges;
+    ``defaults``: keyword defaults of the tasks' batch (e.g. a finer position scale)."""
     from hydro_envs.envs.base import BatchedEnv, BatchedVectorEnv
 
+    task_defaults = dict(defaults or {})
+
     def init(self, n: int, *, parallel: bool, reference: str | None = None, **kwargs: Any) -> None:
-        batch_cls.__init__(self, n, parallel=parallel, **kwargs)
+        batch_cls.__init__(self, n, parallel=parallel, **{**task_defaults, **kwargs})
         self._init_task(reference)
 
     def make(name: str, bases: tuple[type, ...], attrs: dict) -> type:
@@ -90,10 +98,10 @@ def friction_task_classes(prefix: str, batch_cls: type, band: tuple[float, float
         return cls
 
     out = []
-    for task, kind, steps in (("SlowSine", "slow", SLOW_SINE_STEPS), ("MicroPosition", "micro_steps", MICRO_STEPS)):
+    for (task, kind), n_steps in zip((("SlowSine", "slow"), ("MicroPosition", "micro_steps")), steps):
         out.append(make(f"{prefix}{task}Batch", (FrictionTask, batch_cls),
                         {"band": band, "position_name": position_name, "friction_kind": kind,
-                         "episode_steps_default": steps, "__init__": init}))
+                         "episode_steps_default": n_steps, "friction_ranges": ranges, "__init__": init}))
     envs = []
     for batch in out:
         name = batch.__name__[: -len("Batch")]

@@ -12,11 +12,13 @@ episode). ``mixed`` picks one of them per episode.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
 
-__all__ = ["REFERENCE_KINDS", "FRICTION_REFERENCE_KINDS", "generate_reference", "generate_friction_reference"]
+__all__ = ["REFERENCE_KINDS", "FRICTION_REFERENCE_KINDS", "FrictionReference", "generate_reference",
+           "generate_friction_reference"]
 
 REFERENCE_KINDS = ("steps", "smooth", "sine", "chirp")
 #: references where friction decides the error (see :func:`generate_friction_reference`)
@@ -78,6 +80,29 @@ def generate_reference(
     raise ValueError(f"unknown reference kind {kind!r}; allowed: {REFERENCE_KINDS + ('mixed',)}")
 
 
+@dataclasses.dataclass(frozen=True)
+class FrictionReference:
+    """Ranges of a friction task's reference (:func:`generate_friction_reference`), per plant.
+
+    ``frequency`` [Hz] and ``amplitude`` [m] of the slow sine / triangle (``amplitude = None``:
+    ``amplitude_fraction`` of the half band); ``step`` [m] of the micro steps (``None``:
+    ``step_resolutions`` position-sensor resolutions) and their ``hold`` [s]. The defaults are
+    the band-relative ranges of the rodless cylinder's tasks."""
+
+    frequency: tuple[float, float] = (0.2, 0.5)
+    amplitude: tuple[float, float] | None = None
+    amplitude_fraction: tuple[float, float] = (0.05, 0.2)
+    step: tuple[float, float] | None = None
+    step_resolutions: tuple[float, float] = (3.0, 30.0)
+    hold: tuple[float, float] = (0.3, 0.8)
+
+    def __post_init__(self) -> None:
+        for name in ("frequency", "amplitude", "amplitude_fraction", "step", "step_resolutions", "hold"):
+            r = getattr(self, name)
+            if r is not None and not (len(r) == 2 and 0.0 < r[0] <= r[1] and math.isfinite(r[1])):
+                raise ValueError(f"FrictionReference.{name} = {r!r}; need 0 < low <= high")
+
+
 def generate_friction_reference(
     kind: str,
     rng: np.random.Generator,
@@ -86,20 +111,23 @@ def generate_friction_reference(
     low: float,
     high: float,
     resolution: float,
+    ranges: FrictionReference | None = None,
 ) -> np.ndarray:
     """Reference of ``n`` samples within ``[low, high]`` where friction decides the error.
 
-    * ``slow_sine``: ``c + A sin(2 pi f t)``, f 0.2-0.5 Hz, A 5-20 % of the half band: peak
-      speeds of a few mm/s to about 20 mm/s, so every reversal crosses the Stribeck region and
-      the slider has to break away twice per period;
+    * ``slow_sine``: ``c + A sin(2 pi f t)`` with ``f`` and ``A`` from ``ranges``
+      (:class:`FrictionReference`; default f 0.2-0.5 Hz, A 5-20 % of the half band): every
+      reversal crosses the Stribeck region and the axis has to break away twice per period;
     * ``slow_triangle``: the same band as a triangle: constant low speed between reversals;
     * ``slow``: one of the two, drawn per episode;
-    * ``micro_steps``: steps of 3-30 position-sensor resolutions (``resolution`` [m]) about the
-      centre, held 0.3-0.8 s: steady-state error, stick and hunting under integral action.
+    * ``micro_steps``: steps of ``ranges.step`` (default 3-30 position-sensor resolutions,
+      ``resolution`` [m]) about the centre, each held ``ranges.hold`` (default 0.3-0.8 s):
+      steady-state error, stick and hunting under integral action.
 
     Every kind starts at its centre ``c`` (uniform in the middle half of the band, so the
     plant can be started on the reference).
     """
+    rg = ranges or FrictionReference()
     if kind == "slow":
         kind = ("slow_sine", "slow_triangle")[int(rng.integers(2))]
     if not (high > low and n > 0 and dt > 0 and resolution > 0):
@@ -109,8 +137,9 @@ def generate_friction_reference(
     half = 0.5 * (high - low)
     c = rng.uniform(low + 0.5 * half, high - 0.5 * half)
     if kind in ("slow_sine", "slow_triangle"):
-        f = rng.uniform(0.2, 0.5)
-        amp = rng.uniform(0.05, 0.2) * half
+        f = rng.uniform(*rg.frequency)
+        amp = rng.uniform(*rg.amplitude) if rg.amplitude is not None else rng.uniform(*rg.amplitude_fraction) * half
+        amp = min(amp, 0.5 * half)
         phase = 2.0 * math.pi * f * t
         if kind == "slow_sine":
             return c + amp * np.sin(phase)
@@ -119,10 +148,11 @@ def generate_friction_reference(
         out = np.empty(n)
         k, level = 0, c
         while k < n:
-            hold = int(round(rng.uniform(0.3, 0.8) / dt))
+            hold = int(round(rng.uniform(*rg.hold) / dt))
             out[k : k + hold] = level
             k += hold
-            step = rng.uniform(3.0, 30.0) * resolution * (1.0 if rng.random() < 0.5 else -1.0)
+            size = rng.uniform(*rg.step) if rg.step is not None else rng.uniform(*rg.step_resolutions) * resolution
+            step = size * (1.0 if rng.random() < 0.5 else -1.0)
             level = float(np.clip(c + (level - c) + step, c - 0.5 * half, c + 0.5 * half))
         return out
     raise ValueError(f"unknown reference kind {kind!r}; allowed: {FRICTION_REFERENCE_KINDS + ('slow',)}")
