@@ -124,15 +124,22 @@ def test_mat_file_product_and_constants(tmp_path):
     assert d.metadata["source.f"] == "gtau*vir"
 
 
-def test_yaml_sidecar_is_found_next_to_the_file(tmp_path):
+def test_yaml_sidecar_is_used_only_when_named(tmp_path):
     t = _clock()
     si = _servo_si(t)
     p = _text(tmp_path / "run.csv", None, [t * 1e3, si["x"] * 1e3], ";")
-    (tmp_path / "run.yaml").write_text(
-        "columns: [time, pos]\nmap:\n  t: {from: time, unit: ms}\n  x: pos\nunits: {x: mm}\n")
-    d = load_measured(p, plant=SERVO, required=("x",))
+    side = tmp_path / "run.yaml"
+    side.write_text("columns: [time, pos]\nmap:\n  t: {from: time, unit: ms}\n  x: pos\nunits: {x: mm}\n")
+    with pytest.raises(MeasuredDataError, match=r"run\.yaml lies beside the data and was not used.*--map-file run\.yaml"):
+        load_measured(p, plant=SERVO, required=("x",))
+    d = load_measured(p, plant=SERVO, required=("x",), column_map=side)
     _assert_close(d["x"], si["x"])
     _assert_close(d.t, t)
+    q = write_measured(tmp_path / "own.csv", t, {"x": si["x"]}, plant=SERVO)
+    (tmp_path / "own.yaml").write_text("units: {x: mm}\n")
+    d = load_measured(q, plant=SERVO, required=("x",))  # own format: read as written, the sidecar noted
+    _assert_close(d["x"], si["x"])
+    assert len(d.notes) == 1 and "own.yaml" in d.notes[0] and "not used" in d.notes[0]
 
 
 def test_mat_v73_is_refused_with_conversion_hint(tmp_path):
