@@ -590,16 +590,16 @@ def test_cli_identify_friction_json_and_text(tmp_path, capsys):
 def test_cli_identify_errors(tmp_path, capsys):
     bad = tmp_path / "bad.csv"
     bad.write_text("# plant: servo_cylinder\nt [s],u [V],x [m],p1 [Pa]\n0,0,0,1e5\n1,0,0,1e5\n")
-    assert hydro_main(["identify", "friction", "--plant", "servo_cylinder", "--data", str(bad)]) == 1
+    assert hydro_main(["identify", "friction", "--plant", "servo_cylinder", "--data", str(bad)]) == 2  # bad input
     assert "p2" in capsys.readouterr().err
     assert hydro_main(["identify", "friction", "--plant", "servo_cylinder", "--data",
-                       str(tmp_path / "missing.csv")]) == 1
+                       str(tmp_path / "missing.csv")]) == 2
     assert "not found" in capsys.readouterr().err
     # only fast strokes: the Stribeck dip is unidentifiable -> exit 1 with the reason
     fast = tmp_path / "fast.csv"
     run_friction_experiment(STABLE, amplitudes=[2.0, 2.5, 3.0, 3.5], travel_fraction=0.7,
                                path=fast)
-    assert hydro_main(["identify", "friction", "--plant", "servo_cylinder", "--data", str(fast)]) == 1
+    assert hydro_main(["identify", "friction", "--plant", "servo_cylinder", "--data", str(fast)]) == 1  # failed check
     err = capsys.readouterr().err
     assert "F_s" in err and "v_s" in err
     assert hydro_main(["identify", "friction", "--plant", "warp_drive", "--data", str(fast)]) == 2
