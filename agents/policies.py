@@ -23,7 +23,7 @@ observation normalisation (``normalize.norm_obs`` in its ``config.yml``, on by d
 and every variance must be at least :data:`VAR_FLOOR` (a zero variance turns any deviation into
 a clipped +-``clip_obs``); a ``policy.pt`` that is not the saved weights of this policy, a
 malformed ``config.yml`` / ``args.json`` or statistics written with other weights (their
-``policy_sha256``) are one-line ``ValueError``\ s naming the file.
+``policy_sha256``) are one-line errors (``ValueError``) naming the file.
 
 **Written as one unit.** :func:`write_compact` writes the weights and the statistics into a
 temporary folder inside the destination, stamps the statistics with the SHA-256 of the weights
@@ -203,10 +203,13 @@ class ObsNormalizer:
         """Write the statistics atomically (``policy_sha256``: the weights they belong to)."""
         from hydro_envs.outputs import atomic_path
 
-        sha = self.policy_sha256 if policy_sha256 is None else policy_sha256
         with atomic_path(path) as tmp:
-            np.savez(tmp, mean=self.mean, var=self.var, clip_obs=self.clip_obs, epsilon=self.epsilon,
-                     **({"policy_sha256": np.asarray(sha)} if sha else {}))
+            self._write(tmp, policy_sha256)
+
+    def _write(self, path: str | Path, policy_sha256: str | None = None) -> None:
+        sha = self.policy_sha256 if policy_sha256 is None else policy_sha256
+        np.savez(path, mean=self.mean, var=self.var, clip_obs=self.clip_obs, epsilon=self.epsilon,
+                 **({"policy_sha256": np.asarray(sha)} if sha else {}))
 
     def normalize_obs(self, obs: Any) -> np.ndarray:
         o = np.asarray(obs)
@@ -361,7 +364,7 @@ def write_compact(policy: Any, obs_normalizer: Any | None, dest: str | Path, whi
         if obs_normalizer is not None and getattr(obs_normalizer, "norm_obs", False):
             norm = obs_normalizer if isinstance(obs_normalizer, ObsNormalizer) else ObsNormalizer.from_vecnormalize(obs_normalizer)
             current = tmp / norm_file
-            norm.save(current, policy_sha256=_sha256(tmp / policy_file))
+            norm._write(current, policy_sha256=_sha256(tmp / policy_file))
         # statistics first, weights last: the weights are the folder's mark of a finished pair
         if norm is not None:
             current = dest / norm_file
@@ -372,7 +375,7 @@ def write_compact(policy: Any, obs_normalizer: Any | None, dest: str | Path, whi
         current = dest / policy_file
         os.replace(tmp / policy_file, current)
     except OSError as exc:
-        raise write_failed(current if current.parent == dest else dest / current.name, exc) from None
+        raise write_failed(dest / current.name, exc) from None
     finally:
         with contextlib.suppress(OSError):
             shutil.rmtree(tmp)
@@ -440,13 +443,22 @@ def _load_compact(run: Path, device: str = "cpu", which: str = "final") -> Train
     except (TypeError, KeyError) as exc:
         raise ValueError(f"{run / CONFIG_FILE}: policy / policy_kwargs do not build a policy: {exc}") from None
     policy_file, norm_file = _compact_files(which)
+    import warnings
+
     try:
-        state = torch.load(run / policy_file, map_location=device, weights_only=True)
-        policy.load_state_dict(state)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # torch warns about the pickle protocol before refusing
+            state = torch.load(run / policy_file, map_location=device, weights_only=True)
     except Exception as exc:  # noqa: BLE001 - torch raises UnpicklingError, RuntimeError, EOFError, ...
-        why = " ".join(str(exc).split())[:200]
-        raise ValueError(f"{run / policy_file}: not the saved weights of this {algo} policy ({type(exc).__name__}: "
-                         f"{why}); write it with agents.train or agents.policies.export_compact") from None
+        raise ValueError(f"{run / policy_file}: not a weights file ({type(exc).__name__}; a torch state_dict is "
+                         "read with weights_only=True, never unpickled); write it with agents.train or "
+                         "agents.policies.export_compact") from None
+    try:
+        policy.load_state_dict(state)
+    except Exception as exc:  # noqa: BLE001 - RuntimeError (size mismatch, missing keys), TypeError, ...
+        why = " ".join(str(exc).split())[:160]
+        raise ValueError(f"{run / policy_file}: not the weights of this {algo} policy ({type(exc).__name__}: {why}); "
+                         f"check {CONFIG_FILE}'s policy_kwargs") from None
     policy.set_training_mode(False)
     policy.to(device)
     normalizer = _compact_normalizer(run, norm_file, policy_file, cfg, obs_space.shape)

@@ -71,8 +71,8 @@ def exit_code_for(exc: BaseException) -> int:
 def _message(exc: BaseException) -> str:
     if isinstance(exc, KeyError) and exc.args and type(exc).__str__ is KeyError.__str__:
         msg = str(exc.args[0])
-    elif isinstance(exc, OSError) and exc.filename is not None and exc.strerror:
-        msg = f"{exc.filename}: {exc.strerror}"
+    elif isinstance(exc, OSError) and exc.strerror:
+        msg = exc.strerror if exc.filename is None else f"{exc.filename}: {exc.strerror}"
     else:
         msg = str(exc)
     msg = " ".join(msg.split())

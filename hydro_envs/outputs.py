@@ -12,7 +12,8 @@
   target is either the complete old file, the complete new one, or absent.
 * :class:`Staged`: several files of one result (a benchmark's tables, a diagnosis report) written
   to temporary files and renamed only when every one of them was written; on a failure none is
-  renamed and every temporary file is removed.
+  renamed (a failure while renaming puts back the files already replaced) and every temporary
+  file is removed.
 """
 
 from __future__ import annotations
@@ -158,13 +159,35 @@ class Staged:
         return self.folder / name
 
     def commit(self) -> list[Path]:
-        done = []
-        for tmp, target in self._files:
-            self._current = target
-            _commit(tmp, target)
-            done.append(target)
+        """Rename every temporary file onto its target. A failure part way puts back what was
+        there before (the files it replaced are kept aside until every rename succeeded)."""
+        done: list[tuple[Path, Path | None]] = []
+        try:
+            for tmp, target in self._files:
+                self._current = target
+                backup = None
+                if target.exists():
+                    fd, name = tempfile.mkstemp(prefix=f".{target.stem}.", suffix=".bak" + target.suffix,
+                                                dir=target.parent)
+                    os.close(fd)
+                    backup = Path(name)
+                    os.replace(target, backup)
+                done.append((target, backup))
+                _commit(tmp, target)
+        except OSError:
+            for target, backup in reversed(done):
+                with contextlib.suppress(OSError):
+                    if backup is not None:
+                        os.replace(backup, target)
+                    else:
+                        target.unlink(missing_ok=True)
+            raise
+        for _, backup in done:
+            if backup is not None:
+                with contextlib.suppress(OSError):
+                    backup.unlink()
         self._files = []
-        return done
+        return [target for target, _ in done]
 
     def discard(self) -> None:
         for tmp, _ in self._files:

@@ -135,15 +135,23 @@ def _check_clock(d: MeasuredData, h: float, dt: np.ndarray, allow_gaps: bool, ma
     return [(bounds[k], bounds[k + 1]) for k in range(len(bounds) - 1)]
 
 
-def _pressure_hint(name: str, top: float, pmax: float | None) -> str:
-    for unit, k in _PRESSURE_UNITS:
-        if ABSOLUTE_FLOOR <= top * k and (pmax is None or top * k <= pmax):
-            return f"they look like {unit}, not Pa; declare the unit '{name} [{unit}]'"
-    return "they are not pressures in Pa; declare the column's unit"
+def _pressure_hint(name: str, top: float, pmax: float | None, nominal: float | None) -> str:
+    """The units that make the column's largest value a plausible pressure of the plant, closest
+    (in decades) to its nominal pressure first; those within half a decade of the best are named."""
+    fits = []
+    for j, (unit, k) in enumerate(_PRESSURE_UNITS):
+        v = top * k
+        if ABSOLUTE_FLOOR <= v and (pmax is None or v <= pmax):
+            fits.append((abs(math.log10(v / nominal)) if nominal else 0.0, j, unit))
+    if not fits:
+        return "they are not pressures in Pa; declare the column's unit"
+    fits.sort()
+    names = [u for d, _, u in fits if d <= fits[0][0] + 0.5]
+    return f"they look like {' or '.join(names)}, not Pa; declare the unit '{name} [{names[0]}]'"
 
 
 def _check_pressure(d: MeasuredData, spec: Any, c: Any, v: np.ndarray, pmax: float | None, pwhy: str,
-                    path: Any) -> None:
+                    nominal: float | None, path: Any) -> None:
     gauge = "gauge" in (c.name + " " + c.meaning).lower()
     low = -AMBIENT_PRESSURE if gauge else 0.0
     i = int(np.argmin(v))
@@ -164,7 +172,7 @@ def _check_pressure(d: MeasuredData, spec: Any, c: Any, v: np.ndarray, pmax: flo
             f"a gauge pressure of at least {GAUGE_FLOOR:g} Pa somewhere"
         raise MeasuredDataError(
             path, f"column {c.name!r}: values {lo:.4g}..{hi:.4g} Pa; allowed {floor} (plant {spec.name!r}); "
-            f"{_pressure_hint(c.name, top, pmax)}", column=c.name)
+            f"{_pressure_hint(c.name, top, pmax, nominal)}", column=c.name)
 
 
 def _bound(d: MeasuredData, c: Any, v: np.ndarray, limit: float, why: str, hint: str, path: Any) -> None:
@@ -227,8 +235,10 @@ def check_record(d: MeasuredData, spec: Any, *, allow_gaps: bool = False, stroke
     if pf is not None:
         pmax = PRESSURE_FACTOR * float(pf.metadata["allowed"][1])
         pwhy = f"{PRESSURE_FACTOR:g} x the largest {spec.pressure_parameter}"
+        pnom = float(pf.default)
     else:
         pmax, pwhy = getattr(spec, "max_pressure", None), f"the largest pressure of plant {spec.name!r}"
+        pnom = None
     fmax, fwhy = _force_limit(spec, pmax)
     for c in spec.channels:
         if c.name not in d:
@@ -242,7 +252,7 @@ def check_record(d: MeasuredData, spec: Any, *, allow_gaps: bool = False, stroke
                                         f"(declare the unit '{c.name} [mm]') -- or pass the rig's stroke (--stroke)",
                                         column=c.name, line=i + 1)
         elif c.unit == "Pa":
-            _check_pressure(d, spec, c, v, pmax, pwhy, path)
+            _check_pressure(d, spec, c, v, pmax, pwhy, pnom, path)
         elif c.unit == "N" and fmax is not None:
             _bound(d, c, v, fmax, fwhy, "most likely a wrong unit (kN, mN?) or a corrupt file", path)
         elif c.unit == "m/s" and L is not None:

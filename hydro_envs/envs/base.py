@@ -372,10 +372,10 @@ class PlantBatch:
         return spaces.Box(-1.0, 1.0, (self.action_dim,), dtype=np.float32)
 
     # ------------------------------------------------------------------ generic
-    def substeps_for(self, p: PhysicalParams) -> int:
+    def substeps_for(self, p: PhysicalParams, row: np.ndarray | None = None) -> int:
         """RK4 sub-steps per env step for parameter set ``p`` (stiffness bound); raises
         :class:`SubstepLimitError` when they, times the worst-case local refinement, exceed
-        :data:`MAX_SUBSTEPS`."""
+        :data:`MAX_SUBSTEPS`. ``row``: ``p.to_array()`` when the caller has it."""
         n, h, mode = substeps_from_stiffness(self.plant.stiffness_modes(p), self.dt, self.safety)
         if n > MAX_SUBSTEPS:
             raise SubstepLimitError(
@@ -383,7 +383,7 @@ class PlantBatch:
                 f"mode {mode!r}); allowed at most {MAX_SUBSTEPS}: stiffer than the plant is built for")
         bound = self.refinement_bound
         if bound is not None:
-            m = int(getattr(bound, "py_func", bound)(p.to_array(), h))
+            m = int(getattr(bound, "py_func", bound)(p.to_array() if row is None else row, h))
             if n * m > MAX_SUBSTEPS:
                 raise SubstepLimitError(
                     f"{self.plant_spec.name}: {params_off_nominal(p)} need up to {n * m} RK4 sub-steps per env step "
@@ -400,7 +400,7 @@ class PlantBatch:
             return
         i = int(np.flatnonzero(bad)[0])
         names = [n for n, v in zip(self.plant.STATE_NAMES, self.Y[i]) if not math.isfinite(v)]
-        what = (f"state {', '.join(f'{n} = {self.Y[i, self.plant.STATE_NAMES.index(n)]!r}' for n in names[:4])}"
+        what = (f"state {', '.join(f'{n} = {float(self.Y[i, self.plant.STATE_NAMES.index(n)])!r}' for n in names[:4])}"
                 if names else f"reward = {float(self.reward[i])!r}")
         more = f" ({int(bad.sum())} copies in all)" if bad.sum() > 1 else ""
         raise NonFiniteStateError(
@@ -588,12 +588,13 @@ class PlantBatch:
         if options.get("params"):
             p = self.params_cls.from_mapping(options["params"], base=p)
         self._reset_params = p
+        row = p.to_array()
         try:
-            nsub = self.substeps_for(p)
+            nsub = self.substeps_for(p, row)
         except SubstepLimitError as exc:
             raise SubstepLimitError(f"copy {i}: {exc}") from None
         self.params[i] = p
-        self.P[i] = p.to_array()
+        self.P[i] = row
         self.NSUB[i] = nsub
         self.reset_task(i, rng, p, options)
         self.K[i] = 0
