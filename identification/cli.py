@@ -25,7 +25,6 @@ import math
 import sys
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any
 
 __all__ = ["Method", "METHODS", "register_method", "add_identify_parser", "main"]
@@ -120,7 +119,6 @@ def _emit_ranges(name: str, args: argparse.Namespace, res: dict[str, Any]) -> No
     path = getattr(args, "emit_ranges", None)
     if not path:
         return
-    from hydro_envs.outputs import atomic_path
     from identification import ranges
 
     if name == "friction" and getattr(args, "asymmetric", False):
@@ -142,10 +140,8 @@ def _emit_ranges(name: str, args: argparse.Namespace, res: dict[str, Any]) -> No
         fmap[a.strip()] = b.strip()
     desc = f"hydro identify {name}" + (f" --model {args.model}" if name == "friction" else "") \
         + (" (weighted)" if res.get("weighted") else "")
-    with atomic_path(path) as tmp:
-        ranges.write_spec_from_result(tmp, res, plant, method=name, field_map=fmap or None,
-                                      k=args.ranges_k, data_file=str(args.data), fit_description=desc)
-    out = Path(path)
+    out = ranges.write_spec_from_result(path, res, plant, method=name, field_map=fmap or None,  # atomic
+                                        k=args.ranges_k, data_file=str(args.data), fit_description=desc)
     res["ranges_file"] = str(out)
     res["ranges_plant"] = plant
     res.setdefault("notes", [])
