@@ -209,7 +209,8 @@ def cli_benchmark(args: argparse.Namespace) -> int:
     _adapter(env)
     parse_controllers(env, ctrls)
     if out:
-        check_output_dir(out, force=bool(getattr(args, "force", False)))
+        inputs = [rand, str(config_path(args.config)) if args.config else None]
+        check_output_dir(out, force=bool(getattr(args, "force", False)), inputs=[i for i in inputs if i])
     if rand:
         _preflight_randomization(env, str(rand))
     _preflight_policies(env, ctrls, bool(getattr(args, "trust_pickle", False)))

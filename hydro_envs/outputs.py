@@ -75,6 +75,12 @@ def check_output_dir(path: Any, *, flag: str = "--out", inputs: Iterable[Any] = 
     p = Path(path)
     if p.exists() and not p.is_dir():
         raise OutputError(f"{flag} {p}: is a file, not a folder; give a folder (it is created)")
+    if p.is_dir():
+        root = p.resolve()
+        for inp in inputs:
+            if inp is not None and root in Path(inp).resolve().parents:
+                raise OutputError(f"{flag} {p}: holds the input file {inp}; an input is never overwritten, choose "
+                                  "another folder")
     if p.is_dir() and any(p.iterdir()) and not force:
         raise OutputError(f"{flag} {p}: the folder is not empty; pass --force to write into it (files of the "
                           "same name are replaced) or choose a new folder")

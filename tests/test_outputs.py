@@ -119,4 +119,6 @@ def test_output_dir_checks(tmp_path):
     assert check_output_dir(tmp_path / "new") == tmp_path / "new"
     (tmp_path / "empty").mkdir()
     assert check_output_dir(tmp_path / "empty") == tmp_path / "empty"
+    with pytest.raises(OutputError, match="holds the input file"):
+        check_output_dir(tmp_path, force=True, inputs=[tmp_path / "f.txt"])
     assert issubclass(OutputError, ValueError) and outputs.write_failed("f", OSError(28, "full")).errno == 28
