@@ -23,7 +23,7 @@ $(STAMP): pyproject.toml
 install: $(STAMP)
 
 demo: $(STAMP)
-	$(VENV)/bin/hydro demo
+	$(VENV)/bin/hydro demo --force
 
 # hide Stribeck friction (servo) and the modified-IFAS dip (shaking table), find them
 demo-diagnose: $(STAMP)

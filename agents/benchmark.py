@@ -308,6 +308,7 @@ def rollout(env_id: str, controller: Any, draws: Sequence[Mapping[str, float]], 
     # a few dozen copies: the serial kernel (entering numba's parallel region costs more than
     # stepping 20 copies, 8 ms vs 0.1 ms per step on a loaded 2-core machine)
     b.parallel = n >= SERIAL_BELOW
+    b.check_finite = False  # a non-finite copy is scored as failed (episode_metrics), not raised
     steps = venv.max_episode_steps
     # every copy once (the vector env requires it), then each copy with its draw; the second
     # reset reseeds copy i with seed + i, so the first leaves no trace
@@ -745,52 +746,50 @@ def _tag(env_id: str) -> str:
 
 
 def write_outputs(res: BenchmarkResult, out_dir: Path, *, figures: bool = True) -> list[Path]:
+    """Write the result's tables (and figures) into ``out_dir``; their paths. The files are
+    committed together (:class:`hydro_envs.outputs.Staged`): a failed write (a full disk) raises
+    ``OSError`` naming the file and leaves none of this result's files."""
+    from hydro_envs.outputs import Staged
+
     out_dir.mkdir(parents=True, exist_ok=True)
     stem = f"{_tag(res.env_id)}_{res.params}"
-    files = []
-    md = out_dir / f"{stem}.md"
-    md.write_text(res.markdown(), encoding="utf-8")
-    files.append(md)
-    p = out_dir / f"{stem}.json"
-    p.write_text(json.dumps(result_json(res), indent=1) + "\n", encoding="utf-8")
-    files.append(p)
-    p = out_dir / f"{stem}.csv"
-    with p.open("w", newline="", encoding="utf-8") as fh:
-        w = csv.writer(fh)
-        w.writerow(["env", "params", "controller", "seeds", "metric", "value", "ci_low", "ci_high", "n"])
-        for c, s in res.summary.items():
-            for key, _ in METRICS:
-                v, lo, hi, k = s[key]
-                w.writerow([res.env_id, res.params, c, res.members[c], key, repr(v), repr(lo), repr(hi), k])
-    files.append(p)
-    p = out_dir / f"{stem}_episodes.csv"
-    keys = [k for k, _ in METRICS if k not in ("cvar10_rmse", "friction_share")] + ["mse_dry_free"]
-    with p.open("w", newline="", encoding="utf-8") as fh:
-        w = csv.writer(fh)
-        w.writerow(["controller", "episode", "draw"] + keys)
-        for c, d in res.episodes.items():
-            for j in range(d["rmse"].size):
-                w.writerow([c, j, j % res.n] + [repr(float(d[k][j])) if k in d else "nan" for k in keys])
-    files.append(p)
-    p = out_dir / f"{stem}_draws.csv"
-    names = sorted({k for d in res.draws for k in d})
-    with p.open("w", newline="", encoding="utf-8") as fh:
-        w = csv.writer(fh)
-        w.writerow(["draw", "episode_seed"] + names)
-        for j, d in enumerate(res.draws):
-            w.writerow([j, res.seed + j] + [repr(d[k]) for k in names])
-    files.append(p)
-    if figures:
-        files += _figures(res, out_dir, stem)
+    with Staged(out_dir) as stage:
+        files = [stage.write(f"{stem}.md", res.markdown()),
+                 stage.write(f"{stem}.json", json.dumps(result_json(res), indent=1) + "\n")]
+        with open(stage.path(f"{stem}.csv"), "w", newline="", encoding="utf-8") as fh:
+            w = csv.writer(fh)
+            w.writerow(["env", "params", "controller", "seeds", "metric", "value", "ci_low", "ci_high", "n"])
+            for c, s in res.summary.items():
+                for key, _ in METRICS:
+                    v, lo, hi, k = s[key]
+                    w.writerow([res.env_id, res.params, c, res.members[c], key, repr(v), repr(lo), repr(hi), k])
+        files.append(out_dir / f"{stem}.csv")
+        keys = [k for k, _ in METRICS if k not in ("cvar10_rmse", "friction_share")] + ["mse_dry_free"]
+        with open(stage.path(f"{stem}_episodes.csv"), "w", newline="", encoding="utf-8") as fh:
+            w = csv.writer(fh)
+            w.writerow(["controller", "episode", "draw"] + keys)
+            for c, d in res.episodes.items():
+                for j in range(d["rmse"].size):
+                    w.writerow([c, j, j % res.n] + [repr(float(d[k][j])) if k in d else "nan" for k in keys])
+        files.append(out_dir / f"{stem}_episodes.csv")
+        names = sorted({k for d in res.draws for k in d})
+        with open(stage.path(f"{stem}_draws.csv"), "w", newline="", encoding="utf-8") as fh:
+            w = csv.writer(fh)
+            w.writerow(["draw", "episode_seed"] + names)
+            for j, d in enumerate(res.draws):
+                w.writerow([j, res.seed + j] + [repr(d[k]) for k in names])
+        files.append(out_dir / f"{stem}_draws.csv")
+        if figures:
+            files += _figures(res, out_dir, stem, stage)
     return files
 
 
-def _figures(res: BenchmarkResult, out_dir: Path, stem: str) -> list[Path]:
+def _figures(res: BenchmarkResult, out_dir: Path, stem: str, stage: Any = None) -> list[Path]:
     from agents.benchmark_figures import write_figures
 
     ad = ADAPTERS[res.env_id]
     keys = [(k, lab) for k, lab in METRICS if k not in ("cvar10_rmse", "failed", "friction_share")]
-    return write_figures(res, out_dir, stem, keys, ad.quantity, ad.unit)
+    return write_figures(res, out_dir, stem, keys, ad.quantity, ad.unit, stage)
 
 
 def result_json(res: BenchmarkResult) -> dict[str, Any]:

@@ -134,14 +134,24 @@ def _outliers(errors: dict[str, np.ndarray], factor: float = 3.0) -> set[str]:
 
 
 def write_figures(res: Any, out_dir: Path, stem: str, metrics: Sequence[tuple[str, str]], quantity: str,
-                  quantity_unit: str) -> list[Path]:
-    """Write ``<stem>_box.png`` and ``<stem>_traces.png`` to ``out_dir``; their paths."""
+                  quantity_unit: str, stage: Any = None) -> list[Path]:
+    """Write ``<stem>_box.png`` and ``<stem>_traces.png`` to ``out_dir``; their paths. With
+    ``stage`` (a :class:`hydro_envs.outputs.Staged` of ``out_dir``) they are written to its
+    temporary files and committed with the rest of the result; else each file atomically."""
+    from hydro_envs.outputs import atomic_path
+
     plt = _plt()
     out = []
     for suffix, fig in (("box", box_figure(res, metrics, quantity_unit)),
                         ("traces", trace_figure(res, quantity, quantity_unit))):
         path = Path(out_dir) / f"{stem}_{suffix}.png"
-        fig.savefig(path, dpi=DPI)
-        plt.close(fig)
+        try:
+            if stage is not None:
+                fig.savefig(stage.path(path.name), dpi=DPI)
+            else:
+                with atomic_path(path) as tmp:
+                    fig.savefig(tmp, dpi=DPI)
+        finally:
+            plt.close(fig)
         out.append(path)
     return out

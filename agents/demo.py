@@ -149,8 +149,13 @@ def friction_figure(fit: Any, points: Any, truth: Any, path: Path) -> Path | Non
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize=8)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    from hydro_envs.outputs import atomic_path
+
+    try:
+        with atomic_path(path) as tmp:
+            fig.savefig(tmp, dpi=110)
+    finally:
+        plt.close(fig)
     return path
 
 
@@ -339,7 +344,9 @@ def run(out: str | Path = "runs/demo", *, algo: str = "ppo", timesteps: int | No
 
 
 def _add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--out", default="runs/demo", help="output folder (default runs/demo)")
+    p.add_argument("--out", default="runs/demo",
+                   help="output folder (default runs/demo); a non-empty folder only with --force")
+    p.add_argument("--force", action="store_true", help="write into a non-empty --out folder (replacing its files)")
     p.add_argument("--algo", choices=tuple(DEFAULT_TIMESTEPS), default="ppo")
     p.add_argument("--timesteps", type=int, default=None,
                    help=f"training steps (default {DEFAULT_TIMESTEPS}; --quick {QUICK_TIMESTEPS})")
@@ -355,16 +362,21 @@ def _add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def _run_args(a: argparse.Namespace) -> int:
+    """Run the demo; errors propagate to the command line's one-line convention
+    (:mod:`hydro_envs.cli_errors`). ``--out`` is checked before the work."""
     if a.rollouts:
         from agents.rollouts import run_demo
 
         return run_demo(episodes=a.episodes, seed=a.seed)
-    try:
-        run(a.out, algo=a.algo, timesteps=a.timesteps, n=a.n, seed=a.seed, pretrained=a.pretrained,
-            quick=a.quick, params=a.params, progress_bar=not a.no_progress_bar)
-    except (ValueError, FileNotFoundError) as exc:
-        print(f"hydro demo: error: {exc}")
-        return 2
+    from hydro_envs.outputs import check_output_dir
+
+    for name in ("n", "timesteps", "episodes"):
+        v = getattr(a, name)
+        if v is not None and v < 1:
+            raise ValueError(f"--{name} = {v}; allowed an integer >= 1")
+    check_output_dir(a.out, force=bool(a.force))
+    run(a.out, algo=a.algo, timesteps=a.timesteps, n=a.n, seed=a.seed, pretrained=a.pretrained,
+        quick=a.quick, params=a.params, progress_bar=not a.no_progress_bar)
     return 0
 
 
@@ -384,9 +396,11 @@ def add_cli(subparsers: Any) -> argparse.ArgumentParser:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    p = argparse.ArgumentParser(prog="python -m agents.demo", description=__doc__.split("\n\n")[0])
+    from hydro_envs.cli_errors import Parser, guarded
+
+    p = Parser(prog="python -m agents.demo", description=__doc__.split("\n\n")[0])
     _add_arguments(p)
-    return _run_args(p.parse_args(argv))
+    return guarded("python -m agents.demo", _run_args, p.parse_args(argv))
 
 
 if __name__ == "__main__":  # pragma: no cover

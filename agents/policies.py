@@ -17,6 +17,20 @@ Run-folder layout (names are the constants below)::
     best_model.zip      best SB3 model                best_vecnormalize.pkl       its statistics
     evaluations.csv/npz periodic evaluation log       tb/                         TensorBoard logs
 
+**Checked on loading.** The observation statistics must be there when the run trained with
+observation normalisation (``normalize.norm_obs`` in its ``config.yml``, on by default), their
+``mean`` and ``var`` must have the shape of the env's observation space (frame stacks included)
+and every variance must be at least :data:`VAR_FLOOR` (a zero variance turns any deviation into
+a clipped +-``clip_obs``); a ``policy.pt`` that is not the saved weights of this policy, a
+malformed ``config.yml`` / ``args.json`` or statistics written with other weights (their
+``policy_sha256``) are one-line errors (``ValueError``) naming the file.
+
+**Written as one unit.** :func:`write_compact` writes the weights and the statistics into a
+temporary folder inside the destination, stamps the statistics with the SHA-256 of the weights
+they belong to, and renames the statistics and then the weights into place: a kill at any point
+leaves the old pair, or a pair whose stamp does not match (refused on loading), never a policy
+silently run on the wrong statistics.
+
 **Loading never unpickles by default.** :func:`load_trained` reads the safe layout: the
 policy's ``state_dict`` with ``torch.load(weights_only=True)`` and the frozen observation
 statistics (mean, var, clip_obs, epsilon) from an ``.npz`` read with ``allow_pickle=False``;
@@ -44,12 +58,13 @@ trained with.
 from __future__ import annotations
 
 import json
+import math
+import os
 import pickle
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import yaml
 
 if TYPE_CHECKING:  # agents.residual imports the controllers; loaded lazily at run time
     from agents.residual import ResidualPolicy
@@ -70,6 +85,7 @@ __all__ = [
     "BEST_POLICY_FILE",
     "BEST_OBS_NORM_FILE",
     "ObsNormalizer",
+    "VAR_FLOOR",
     "TrainedPolicy",
     "UntrustedPickleError",
     "write_compact",
@@ -98,6 +114,11 @@ class UntrustedPickleError(ValueError):
     """A run folder has only pickled files and ``trust_pickle`` was not given."""
 
 
+#: smallest observation variance accepted from saved statistics (the shipped policies' smallest
+#: is 8.7e-4); below it a feature was constant in training and any deviation explodes
+VAR_FLOOR = 1e-6
+
+
 def _compact_files(which: str) -> tuple[str, str]:
     return (POLICY_FILE, OBS_NORM_FILE) if which == "final" else (BEST_POLICY_FILE, BEST_OBS_NORM_FILE)
 
@@ -118,13 +139,35 @@ class ObsNormalizer:
 
     norm_obs = True
 
-    def __init__(self, mean: Any, var: Any, clip_obs: float, epsilon: float) -> None:
+    def __init__(self, mean: Any, var: Any, clip_obs: float, epsilon: float, policy_sha256: str = "") -> None:
         self.mean = np.asarray(mean, dtype=np.float64)
         self.var = np.asarray(var, dtype=np.float64)
         if self.mean.shape != self.var.shape or not (np.all(np.isfinite(self.mean)) and np.all(self.var >= 0)):
             raise ValueError("obs normalisation: mean and var must be finite arrays of one shape, var >= 0")
         self.clip_obs, self.epsilon = float(clip_obs), float(epsilon)
         self.training, self.norm_reward = False, False
+        #: SHA-256 of the policy weights these statistics were written with ("" if unknown)
+        self.policy_sha256 = str(policy_sha256)
+
+    def check(self, shape: tuple[int, ...], where: Any = "obs normalisation") -> "ObsNormalizer":
+        """Refuse statistics that do not fit an observation space of ``shape``: mean and var of that
+        shape, finite, every var >= :data:`VAR_FLOOR`, ``clip_obs`` > 0 and ``epsilon`` >= 0."""
+        for name, a in (("mean", self.mean), ("var", self.var)):
+            if a.shape != tuple(shape):
+                raise ValueError(f"{where}: {name} has shape {a.shape}; allowed {tuple(shape)}, the env's observation "
+                                 "space (statistics of another env or a truncated file)")
+            if not np.all(np.isfinite(a)):
+                raise ValueError(f"{where}: {name} is not finite at index {int(np.flatnonzero(~np.isfinite(a.ravel()))[0])}")
+        low = np.flatnonzero(self.var.ravel() < VAR_FLOOR)
+        if low.size:
+            i = int(low[0])
+            raise ValueError(f"{where}: var[{i}] = {float(self.var.ravel()[i]):.3g}; allowed >= {VAR_FLOOR:g} (a zero "
+                             "variance turns every deviation of that observation into +-clip_obs)")
+        if not (math.isfinite(self.clip_obs) and self.clip_obs > 0):
+            raise ValueError(f"{where}: clip_obs = {self.clip_obs!r}; allowed a finite number > 0")
+        if not (math.isfinite(self.epsilon) and self.epsilon >= 0):
+            raise ValueError(f"{where}: epsilon = {self.epsilon!r}; allowed a finite number >= 0")
+        return self
 
     @property
     def obs_rms(self) -> Any:
@@ -139,11 +182,34 @@ class ObsNormalizer:
 
     @classmethod
     def load(cls, path: str | Path) -> "ObsNormalizer":
-        with np.load(path, allow_pickle=False) as z:
-            return cls(z["mean"], z["var"], float(z["clip_obs"]), float(z["epsilon"]))
+        """Read the statistics (never unpickling); a missing key or a file that is not an ``.npz``
+        is a ``ValueError`` naming the file."""
+        try:
+            with np.load(path, allow_pickle=False) as z:
+                missing = [k for k in ("mean", "var", "clip_obs", "epsilon") if k not in z.files]
+                if missing:
+                    raise ValueError(f"{path}: missing {', '.join(missing)}; an obs_normalization.npz holds mean, "
+                                     "var, clip_obs, epsilon")
+                sha = str(z["policy_sha256"]) if "policy_sha256" in z.files else ""
+                return cls(z["mean"], z["var"], float(z["clip_obs"]), float(z["epsilon"]), sha)
+        except ValueError as exc:
+            msg = str(exc)
+            raise ValueError(msg if msg.startswith(str(path)) else f"{path}: {msg}") from None
+        except (OSError, EOFError, KeyError, TypeError) as exc:
+            raise ValueError(f"{path}: not readable observation statistics (an .npz of mean, var, clip_obs, "
+                             f"epsilon): {type(exc).__name__}: {exc}") from None
 
-    def save(self, path: str | Path) -> None:
-        np.savez(path, mean=self.mean, var=self.var, clip_obs=self.clip_obs, epsilon=self.epsilon)
+    def save(self, path: str | Path, policy_sha256: str | None = None) -> None:
+        """Write the statistics atomically (``policy_sha256``: the weights they belong to)."""
+        from hydro_envs.outputs import atomic_path
+
+        with atomic_path(path) as tmp:
+            self._write(tmp, policy_sha256)
+
+    def _write(self, path: str | Path, policy_sha256: str | None = None) -> None:
+        sha = self.policy_sha256 if policy_sha256 is None else policy_sha256
+        np.savez(path, mean=self.mean, var=self.var, clip_obs=self.clip_obs, epsilon=self.epsilon,
+                 **({"policy_sha256": np.asarray(sha)} if sha else {}))
 
     def normalize_obs(self, obs: Any) -> np.ndarray:
         o = np.asarray(obs)
@@ -228,9 +294,8 @@ def load_trained(run_dir: str | Path, which: str = "final", device: str = "cpu",
     for f in (ARGS_FILE, CONFIG_FILE, model_file):
         if not (run / f).is_file():
             raise FileNotFoundError(f"{run / f} not found: not a finished run folder of agents.train")
-    args = json.loads((run / ARGS_FILE).read_text())
-    config_all = yaml.safe_load((run / CONFIG_FILE).read_text())
-    env_id, algo = args["env_id"], args["algo"]
+    env_id, algo = _run_args(run)
+    config_all = _run_config(run, env_id, whole=True)
     model = algo_class(algo).load(run / model_file, device=device)  # trusted: cloudpickle inside
     normalizer = None
     if (run / vn_file).is_file():
@@ -267,19 +332,53 @@ def _policy_class(algo: str, policy: str) -> type:
     return cls.policy_aliases[policy]
 
 
+def _sha256(path: Path) -> str:
+    import hashlib
+
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
 def write_compact(policy: Any, obs_normalizer: Any | None, dest: str | Path, which: str = "final") -> None:
     """Write the safe layout of ``policy`` (an SB3 policy module) and its observation
-    statistics (an SB3 ``VecNormalize``, an :class:`ObsNormalizer` or None) into ``dest``."""
+    statistics (an SB3 ``VecNormalize``, an :class:`ObsNormalizer` or None) into ``dest``, as one
+    unit (module docstring): both into a temporary folder in ``dest``, the statistics stamped
+    with the weights' SHA-256, then renamed into place, statistics first. A failed write (a full
+    disk) leaves ``dest``'s previous files as they were and raises ``OSError`` naming the file."""
+    import contextlib
+    import shutil
+    import tempfile
+
     import torch
+
+    from hydro_envs.outputs import write_failed
 
     policy_file, norm_file = _compact_files(which)
     dest = Path(dest)
     dest.mkdir(parents=True, exist_ok=True)
-    state = {k: v.detach().cpu().clone() for k, v in policy.state_dict().items()}
-    torch.save(state, dest / policy_file)
-    if obs_normalizer is not None and getattr(obs_normalizer, "norm_obs", False):
-        norm = obs_normalizer if isinstance(obs_normalizer, ObsNormalizer) else ObsNormalizer.from_vecnormalize(obs_normalizer)
-        norm.save(dest / norm_file)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{which}_policy.", suffix=".tmp", dir=dest))
+    current = tmp / policy_file
+    try:
+        state = {k: v.detach().cpu().clone() for k, v in policy.state_dict().items()}
+        torch.save(state, current)
+        norm = None
+        if obs_normalizer is not None and getattr(obs_normalizer, "norm_obs", False):
+            norm = obs_normalizer if isinstance(obs_normalizer, ObsNormalizer) else ObsNormalizer.from_vecnormalize(obs_normalizer)
+            current = tmp / norm_file
+            norm._write(current, policy_sha256=_sha256(tmp / policy_file))
+        # statistics first, weights last: the weights are the folder's mark of a finished pair
+        if norm is not None:
+            current = dest / norm_file
+            os.replace(tmp / norm_file, current)
+        elif (dest / norm_file).exists():  # stale statistics of earlier weights
+            current = dest / norm_file
+            (dest / norm_file).unlink()
+        current = dest / policy_file
+        os.replace(tmp / policy_file, current)
+    except OSError as exc:
+        raise write_failed(dest / current.name, exc) from None
+    finally:
+        with contextlib.suppress(OSError):
+            shutil.rmtree(tmp)
 
 
 def export_compact(run_dir: str | Path, dest: str | Path, which: str = "final", *, trust_pickle: bool = False) -> Path:
@@ -325,22 +424,96 @@ def _load_compact(run: Path, device: str = "cpu", which: str = "final") -> Train
     for f in (ARGS_FILE, CONFIG_FILE):
         if not (run / f).is_file():
             raise FileNotFoundError(f"{run / f} not found: not a compact policy folder (agents.policies.export_compact)")
-    args = json.loads((run / ARGS_FILE).read_text())
-    env_id, algo = args["env_id"], args["algo"]
-    cfg = (yaml.safe_load((run / CONFIG_FILE).read_text()) or {}).get(env_id, {})
+    env_id, algo = _run_args(run)
+    cfg = _run_config(run, env_id)
+    if env_id not in gym.registry:
+        raise ValueError(f"{run / ARGS_FILE}: env_id = {env_id!r} is not a registered env")
     env = gym.make(env_id)
     obs_space, act_space = env.observation_space, env.action_space
     env.close()
-    n_stack = int(cfg.get("frame_stack") or 1)
+    from agents.framestack import check_frame_stack
+
+    n_stack = int(check_frame_stack(cfg.get("frame_stack"), f"{run / CONFIG_FILE}: frame_stack") or 1)
     if n_stack > 1:  # trained on VecFrameStack: n observations side by side (agents.framestack)
         obs_space = gym.spaces.Box(np.tile(obs_space.low, n_stack), np.tile(obs_space.high, n_stack),
                                    dtype=obs_space.dtype)
-    policy = _policy_class(algo, cfg.get("policy", "MlpPolicy"))(
-        obs_space, act_space, lambda _: 0.0, **policy_kwargs_object(parse_policy_kwargs(cfg.get("policy_kwargs"))))
+    try:
+        policy = _policy_class(algo, cfg.get("policy", "MlpPolicy"))(
+            obs_space, act_space, lambda _: 0.0, **policy_kwargs_object(parse_policy_kwargs(cfg.get("policy_kwargs"))))
+    except (TypeError, KeyError) as exc:
+        raise ValueError(f"{run / CONFIG_FILE}: policy / policy_kwargs do not build a policy: {exc}") from None
     policy_file, norm_file = _compact_files(which)
-    state = torch.load(run / policy_file, map_location=device, weights_only=True)
-    policy.load_state_dict(state)
+    import warnings
+
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # torch warns about the pickle protocol before refusing
+            state = torch.load(run / policy_file, map_location=device, weights_only=True)
+    except Exception as exc:  # noqa: BLE001 - torch raises UnpicklingError, RuntimeError, EOFError, ...
+        raise ValueError(f"{run / policy_file}: not a weights file ({type(exc).__name__}; a torch state_dict is "
+                         "read with weights_only=True, never unpickled); write it with agents.train or "
+                         "agents.policies.export_compact") from None
+    try:
+        policy.load_state_dict(state)
+    except Exception as exc:  # noqa: BLE001 - RuntimeError (size mismatch, missing keys), TypeError, ...
+        why = " ".join(str(exc).split())[:160]
+        raise ValueError(f"{run / policy_file}: not the weights of this {algo} policy ({type(exc).__name__}: {why}); "
+                         f"check {CONFIG_FILE}'s policy_kwargs") from None
     policy.set_training_mode(False)
     policy.to(device)
-    normalizer = ObsNormalizer.load(run / norm_file) if (run / norm_file).is_file() else None
+    normalizer = _compact_normalizer(run, norm_file, policy_file, cfg, obs_space.shape)
     return TrainedPolicy(_CompactModel(policy), normalizer, env_id=env_id, algo=algo, config=cfg, run_dir=run)
+
+
+def _run_args(run: Path) -> tuple[str, str]:
+    """``env_id`` and ``algo`` of a run folder's ``args.json`` (one-line ``ValueError`` otherwise)."""
+    path = run / ARGS_FILE
+    try:
+        args = json.loads(path.read_text(encoding="utf-8"))
+    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise ValueError(f"{path}: not valid JSON ({exc})") from None
+    if not isinstance(args, dict) or not isinstance(args.get("env_id"), str) or args.get("algo") not in ALGOS:
+        raise ValueError(f"{path}: needs env_id (an env id) and algo (one of {', '.join(ALGOS)})")
+    return args["env_id"], args["algo"]
+
+
+def _run_config(run: Path, env_id: str, *, whole: bool = False) -> dict[str, Any]:
+    """The run's ``config.yml`` (read with :func:`hydro_envs.yamlio.load_yaml`): its entry of
+    ``env_id`` (``whole``: every entry)."""
+    from hydro_envs.yamlio import load_yaml, short
+
+    path = run / CONFIG_FILE
+    data = load_yaml(path, what="run config") or {}
+    if not isinstance(data, dict):
+        raise ValueError(f"{path}: top level = {short(data)}; allowed a mapping of env id -> hyperparameters")
+    if whole:
+        return data
+    entry = data.get(env_id, {})
+    if not isinstance(entry, dict):
+        raise ValueError(f"{path}: {env_id} = {short(entry)}; allowed a mapping of hyperparameters")
+    return entry
+
+
+def trained_with_obs_normalization(cfg: dict[str, Any]) -> bool:
+    """Whether a run's config normalised observations in training (``normalize`` absent: yes, the
+    training default)."""
+    norm = cfg.get("normalize", True)
+    if isinstance(norm, dict):
+        return bool(norm.get("norm_obs", True))
+    return bool(norm)
+
+
+def _compact_normalizer(run: Path, norm_file: str, policy_file: str, cfg: dict[str, Any], shape: tuple) -> Any:
+    """The folder's observation statistics, checked (module docstring), or None for a run that
+    did not normalise its observations."""
+    path = run / norm_file
+    if not path.is_file():
+        if trained_with_obs_normalization(cfg):
+            raise ValueError(f"{path}: missing; the policy was trained with observation normalisation "
+                             f"(normalize.norm_obs in {CONFIG_FILE}) and runs wrong on raw observations")
+        return None
+    norm = ObsNormalizer.load(path).check(shape, path)
+    if norm.policy_sha256 and norm.policy_sha256 != _sha256(run / policy_file):
+        raise ValueError(f"{path}: written with other weights than {policy_file} (its policy_sha256 does not match; "
+                         "an interrupted write?); write the pair again")
+    return norm

@@ -417,17 +417,21 @@ def load_agent_config(source: str | Path | Mapping[str, Any] | None, algo: str, 
         if not path.is_file():
             raise ConfigError(f"config file {path} not found")
         name = _display_path(path)
+        from hydro_envs.yamlio import YamlError, load_yaml
+
         try:
-            data = yaml.safe_load(path.read_text())
-        except yaml.YAMLError as exc:
-            raise ConfigError(f"{path}: not valid YAML: {exc}") from exc
+            data = load_yaml(path, what="agent config")
+        except YamlError as exc:
+            raise ConfigError(str(exc)) from None
     if not isinstance(data, Mapping) or not data:
         raise ConfigError(f"{name}: must map env ids to hyperparameter entries")
     if env_id not in data:
-        raise ConfigError(f"{name}: no entry for env {env_id!r}; entries: {sorted(data)}")
+        raise ConfigError(f"{name}: no entry for env {env_id!r}; entries: {sorted(map(str, data))}")
     entry = data[env_id]
     if not isinstance(entry, Mapping):
-        raise ConfigError(f"{name} [{env_id}]: the entry must be a mapping of hyperparameters, got {entry!r}")
+        from hydro_envs.yamlio import short
+
+        raise ConfigError(f"{name} [{env_id}]: the entry must be a mapping of hyperparameters, got {short(entry)}")
     return {"__source__": name, **copy.deepcopy(dict(entry))}
 
 
@@ -633,9 +637,12 @@ class EvalLogCallback(BaseCallback):
         with open(self.run_dir / EVAL_CSV, "a", newline="") as fh:
             csv.writer(fh).writerow([self.num_timesteps, mean, std, float(ret.min()), float(ret.max()),
                                      step_r, float(length.mean()), round(wall, 3)])
-        np.savez(self.run_dir / EVAL_NPZ, timesteps=np.array(self.timesteps), results=np.array(self.returns),
-                 ep_lengths=np.array(self.lengths),
-                 eval_seeds=self.eval_seed + np.arange(self.eval_env.num_envs))
+        from hydro_envs.outputs import atomic_path
+
+        with atomic_path(self.run_dir / EVAL_NPZ) as tmp:
+            np.savez(tmp, timesteps=np.array(self.timesteps), results=np.array(self.returns),
+                     ep_lengths=np.array(self.lengths),
+                     eval_seeds=self.eval_seed + np.arange(self.eval_env.num_envs))
         self.logger.record("eval/mean_return", mean)
         self.logger.record("eval/std_return", std)
         self.logger.record("eval/mean_step_reward", step_r)
@@ -730,14 +737,16 @@ def train(
 
     train_env, eval_env = make_envs(env_id, cfg, seed=seed, n_eval_episodes=n_eval_episodes)  # before any file
     run = _run_dir(out, name, env_id, algo, seed)
-    (run / CONFIG_FILE).write_text(yaml.safe_dump({env_id: cfg}, sort_keys=False))
+    from hydro_envs.outputs import atomic_write
+
+    atomic_write(run / CONFIG_FILE, yaml.safe_dump({env_id: cfg}, sort_keys=False))
     args = dict(env_id=env_id, algo=algo, seed=seed, randomize=bool(cfg["env_kwargs"].get("randomize", True)),
                 config_source=str(entry["__source__"]), hyperparams=_jsonable(dict(hyperparams or {})),
                 timesteps=cfg["n_timesteps"], n_envs=cfg["n_envs"], eval_freq=eval_freq,
                 n_eval_episodes=n_eval_episodes, eval_seed=eval_seed, device=device,
                 torch_threads=torch.get_num_threads(), **dict(record or {}),
                 started_utc=_dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"))
-    (run / ARGS_FILE).write_text(json.dumps(args, indent=2))
+    atomic_write(run / ARGS_FILE, json.dumps(args, indent=2))
 
     cls = algo_class(algo)
     model = cls(cfg["policy"], train_env, seed=seed, device=device, verbose=verbose,
@@ -774,7 +783,12 @@ def _parse_hyperparams(items: Sequence[str]) -> dict[str, Any]:
         if "=" not in item:
             raise ConfigError(f"--hyperparams entry {item!r} must be KEY=VALUE (VALUE in YAML)")
         k, v = item.split("=", 1)
-        out[k.strip()] = yaml.safe_load(v)
+        from hydro_envs.yamlio import YamlError, load_yaml_text
+
+        try:
+            out[k.strip()] = load_yaml_text(v, f"--hyperparams {k.strip()}")
+        except YamlError as exc:
+            raise ConfigError(str(exc)) from None
     return out
 
 

@@ -11,6 +11,10 @@ plus the subcommands other installed packages register under the ``hydro_envs.co
 entry points (``identify`` and ``diagnose`` from :mod:`identification`, ``benchmark`` and
 ``demo`` from :mod:`agents`). Heavy imports (numpy, gymnasium, numba, the envs) happen inside
 the subcommands so that ``hydro --help`` stays fast.
+
+Every subcommand follows one error convention (:mod:`hydro_envs.cli_errors`): a one-line
+``hydro <command>: error: ...`` on stderr, never a traceback; exit 0 success, 1 a failed check,
+2 bad input or usage.
 """
 
 from __future__ import annotations
@@ -52,7 +56,9 @@ def _version() -> str:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    from hydro_envs.cli_errors import Parser
+
+    parser = Parser(
         prog="hydro",
         description=_DESCRIPTION,
         epilog=_EPILOG,
@@ -101,7 +107,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=int, default=0, metavar="S",
                    help="seed for reset() and the input signal (default: 0)")
     p.add_argument("--out", required=True, metavar="FILE",
-                   help="output file (.csv, or .parquet with pyarrow)")
+                   help="output file (.csv, or .parquet / .pq with pyarrow); an existing file is replaced "
+                   "only with --force")
+    p.add_argument("--force", action="store_true", help="replace an existing --out file")
     p.set_defaults(func=_cmd_simulate)
 
     p = sub.add_parser(
@@ -184,8 +192,8 @@ def _positive_int(text: str) -> int:
     return n
 
 
-def _err(msg: str) -> None:
-    print(f"hydro: error: {msg}", file=sys.stderr)
+def _err(msg: str, command: str = "hydro") -> None:
+    print(f"{command}: error: {msg}", file=sys.stderr)
 
 
 def _table(rows: Sequence[Sequence[str]], header: Sequence[str]) -> str:
@@ -217,7 +225,7 @@ def _cmd_channels(args: argparse.Namespace) -> int:
     try:
         spec = registry.get(args.plant)
     except registry.UnknownPlantError as e:
-        _err(str(e))
+        _err(str(e), "hydro channels")
         return EXIT_USAGE
     if args.json:
         print(json.dumps(spec.as_dict()))
@@ -239,17 +247,27 @@ POLICIES = ("zero", "random", "prbs", "multisine", "chirp")
 
 
 def _fraction(text: str) -> float:
-    v = float(text)
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number; allowed (0, 1]") from None
     if not (0.0 < v <= 1.0):
         raise argparse.ArgumentTypeError(f"must be in (0, 1], got {text}")
     return v
 
 
 def _positive_float(text: str) -> float:
-    v = float(text)
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number; allowed a finite number > 0") from None
     if not (v > 0.0 and v < float("inf")):
         raise argparse.ArgumentTypeError(f"must be a finite number > 0, got {text}")
     return v
+
+
+#: suffixes ``hydro simulate --out`` writes (:func:`hydro_envs.data.write_measured`)
+SIMULATE_SUFFIXES = (".csv", ".parquet", ".pq")
 
 
 def simulation_actions(policy: str, n: int, dim: int, dt: float, amplitude: float = 0.5,
@@ -290,14 +308,16 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
 
     import hydro_envs  # noqa: F401  (registers the environments)
     from hydro_envs import registry
-    from hydro_envs.data.measured import MeasuredDataError, write_measured
+    from hydro_envs.data.measured import write_measured
+    from hydro_envs.outputs import check_output_file
 
+    check_output_file(args.out, force=bool(getattr(args, "force", False)), suffixes=SIMULATE_SUFFIXES)
     try:
         env = gym.make(args.env_id, randomize=not args.nominal)
     except gym.error.Error as e:  # NameNotFound, NamespaceNotFound, VersionNotFound, ...
         ours = sorted(k for k in gym.registry if k.startswith("hydro_envs/"))
         _err(f"cannot make {args.env_id!r}: {e}; registered hydro_envs envs: "
-             + (", ".join(ours) or "(none)"))
+             + (", ".join(ours) or "(none)"), "hydro simulate")
         return EXIT_USAGE
     base = env.unwrapped  # stepped directly: a record is not capped at one episode
     steps_done, ended = 0, None
@@ -305,7 +325,7 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
         for attr in ("dt", "plant_name", "channel_values", "params"):
             if not hasattr(base, attr):
                 _err(f"{args.env_id}: env has no attribute {attr!r}; `hydro simulate` needs "
-                     "dt, plant_name, params and channel_values()")
+                     "dt, plant_name, params and channel_values()", "hydro simulate")
                 return EXIT_FAIL
         dt = float(base.dt)
         spec = registry.get(str(base.plant_name))
@@ -345,11 +365,8 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
             meta[f"param.{name}"] = f"{value!r} [{units.get(name, '')}]"
         path = write_measured(args.out, t, {n: np.array([r[n] for r in rows]) for n in names},
                               plant=spec.name, metadata=meta)
-    except ValueError as e:
-        _err(str(e))
-        return EXIT_FAIL
-    except (MeasuredDataError, OSError) as e:
-        _err(str(e))
+    except (ValueError, OSError, ArithmeticError) as e:  # the plant's own values, a full disk, a non-finite state
+        _err(str(e), "hydro simulate")
         return EXIT_FAIL
     finally:
         env.close()
@@ -370,7 +387,7 @@ def _cmd_compile(args: argparse.Namespace) -> int:
     names = list(available) if not args.only else [n.strip() for n in args.only.split(",") if n.strip()]
     unknown = [n for n in names if n not in available]
     if unknown:
-        _err(f"--only: unknown warm-up(s) {unknown}; available: {sorted(available)}")
+        _err(f"--only: unknown warm-up(s) {unknown}; available: {sorted(available)}", "hydro compile")
         return EXIT_USAGE
     t0 = time.perf_counter()
     for name in names:
@@ -393,9 +410,9 @@ def _cmd_validate(args: argparse.Namespace) -> int:
     rows = list(run_validation())
     all_ok = bool(rows) and all(r.passed for r in rows)
     if args.markdown:
-        out = Path(args.markdown)
-        out.parent.mkdir(parents=True, exist_ok=True)
-        out.write_text(format_markdown(rows) + "\n", encoding="utf-8")
+        from hydro_envs.outputs import atomic_write
+
+        out = atomic_write(Path(args.markdown), format_markdown(rows) + "\n")
         print(f"wrote {out} ({len(rows)} rows)", file=sys.stderr)
     if args.json:
         payload = {"rows": [to_jsonable(r.as_dict()) for r in rows], "passed": all_ok,
@@ -420,7 +437,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     if getattr(args, "func", None) is None:
         parser.print_help()
         return EXIT_USAGE
-    return int(args.func(args))
+    from hydro_envs.cli_errors import guarded
+
+    return guarded(f"hydro {args.command}", args.func, args)
 
 
 if __name__ == "__main__":  # pragma: no cover

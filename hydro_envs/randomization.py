@@ -38,9 +38,9 @@ from pathlib import Path
 from typing import Any, Iterable, Mapping
 
 import numpy as np
-import yaml
 
 from hydro_envs.params import ParameterError, PhysicalParams
+from hydro_envs.yamlio import short
 
 __all__ = [
     "RandomizationError",
@@ -147,7 +147,7 @@ class RandomizationSpec:
         plant = data.get("plant")
         if plant != params_cls.plant:
             raise RandomizationError(
-                f"{where}: 'plant' is {plant!r}, expected {params_cls.plant!r}"
+                f"{where}: plant = {short(plant)}; allowed {params_cls.plant!r}"
             )
         raw = data.get("parameters")
         if not isinstance(raw, Mapping) or not raw:
@@ -170,13 +170,13 @@ class RandomizationSpec:
             if not isinstance(entry["source"], str) or not entry["source"].strip():
                 raise RandomizationError(
                     f"{ew}.source must say where the nominal value and the range come from "
-                    f"(a seed table, a data sheet or 'assumed: <reason>'), got {entry['source']!r}"
+                    f"(a seed table, a data sheet or 'assumed: <reason>'), got {short(entry['source'])}"
                 )
             dist, mode = entry["distribution"], entry["mode"]
             if dist not in _DISTRIBUTIONS:
-                raise RandomizationError(f"{ew}.distribution = {dist!r}; allowed {_DISTRIBUTIONS}")
+                raise RandomizationError(f"{ew}.distribution = {short(dist)}; allowed {_DISTRIBUTIONS}")
             if mode not in _MODES:
-                raise RandomizationError(f"{ew}.mode = {mode!r}; allowed {_MODES}")
+                raise RandomizationError(f"{ew}.mode = {short(mode)}; allowed {_MODES}")
             rng = entry["range"]
             if isinstance(rng, (list, tuple)):
                 # YAML 1.1 reads "12.6e6" (no sign in the exponent) as a string: accept it
@@ -189,7 +189,7 @@ class RandomizationSpec:
                     for r in rng
                 )
             ):
-                raise RandomizationError(f"{ew}.range must be two finite numbers [low, high], got {rng!r}")
+                raise RandomizationError(f"{ew}.range = {short(rng)}; allowed two finite numbers [low, high]")
             low, high = float(rng[0]), float(rng[1])
             if not low <= high:
                 raise RandomizationError(f"{ew}.range [{low}, {high}] is inverted (need low <= high)")
@@ -198,7 +198,7 @@ class RandomizationSpec:
             want_unit = "1" if mode == "scale" else units[name]
             if str(entry["unit"]) != want_unit:
                 raise RandomizationError(
-                    f"{ew}.unit = {entry['unit']!r}, but a {mode} draw of {name} is in {want_unit!r}"
+                    f"{ew}.unit = {short(entry['unit'])}, but a {mode} draw of {name} is in {want_unit!r}"
                 )
             own = _as_number(entry.get("nominal"))
             if own is not None:
@@ -206,7 +206,7 @@ class RandomizationSpec:
                     raise RandomizationError(f"{ew}.nominal is only allowed with mode: absolute (a scale "
                                              "draw multiplies the plant's default)")
                 if not (isinstance(own, (int, float)) and not isinstance(own, bool) and math.isfinite(own)):
-                    raise RandomizationError(f"{ew}.nominal must be a finite number in {units[name]}, got {own!r}")
+                    raise RandomizationError(f"{ew}.nominal = {short(own)}; allowed a finite number in {units[name]}")
                 own = float(own)
             d = ParameterDistribution(name, dist, mode, low, high, want_unit, str(entry["source"]), own)
             nom = getattr(nominal, name) if own is None else own
@@ -224,20 +224,14 @@ class RandomizationSpec:
     @classmethod
     def from_yaml(cls, path: Any, params_cls: type) -> "RandomizationSpec":
         """Load a YAML file (a path or an importlib.resources Traversable)."""
+        from hydro_envs.yamlio import YamlError, load_yaml
+
         if isinstance(path, (str, os.PathLike)):
             path = Path(path)
         try:
-            text = path.read_text(encoding="utf-8")
-        except OSError as exc:
-            raise RandomizationError(f"cannot read randomisation spec {path}: {exc}") from exc
-        except UnicodeDecodeError as exc:
-            raise RandomizationError(
-                f"randomisation spec {path} is not UTF-8 text (a binary file?): {exc.reason} at byte {exc.start}"
-            ) from exc
-        try:
-            data = yaml.safe_load(text)
-        except yaml.YAMLError as exc:
-            raise RandomizationError(f"randomisation spec {path} is not valid YAML: {exc}") from exc
+            data = load_yaml(path, what="randomisation spec")
+        except YamlError as exc:
+            raise RandomizationError(str(exc)) from None
         return cls.from_mapping(data, params_cls, str(path))
 
     # ------------------------------------------------------------------ use

@@ -92,6 +92,17 @@ class PlantSpec:
     #: viscous friction): set to 0 they leave viscous friction alone, the plant a benchmark
     #: compares with to measure what dry friction costs (``friction_share``)
     dry_friction_parameters: tuple[str, ...] = ()
+    #: plausibility bounds of measured records for what the parameters do not give
+    #: (:mod:`hydro_envs.data.checks`): the largest median sample time [s] that still resolves
+    #: the plant's dynamics (a coarser one is most likely ms read as s), and for a plant without
+    #: a stroke / pressure parameter or a pressure-area force bound, its stroke [m], absolute
+    #: pressure [Pa] and force [N] bounds; ``regular_clock=False``: the logger has no fixed clock
+    #: (neither jitter nor gaps are checked, each window is fitted on its own time stamps)
+    max_sample_time: float | None = None
+    max_stroke: float | None = None
+    max_pressure: float | None = None
+    max_force: float | None = None
+    regular_clock: bool = True
 
     def __post_init__(self) -> None:
         if not _NAME_RE.fullmatch(self.name):
@@ -104,6 +115,10 @@ class PlantSpec:
         missing = [i for i in self.inputs if i not in names]
         if missing:
             raise ValueError(f"plant {self.name!r}: inputs {missing} are not channels {names}")
+        for f in ("max_sample_time", "max_stroke", "max_pressure", "max_force"):
+            v = getattr(self, f)
+            if v is not None and not (isinstance(v, (int, float)) and 0 < v < float("inf")):
+                raise ValueError(f"plant {self.name!r}: {f} = {v!r}; allowed a finite number > 0 or None")
 
     # ------------------------------------------------------------------ lazy parts
     @property

@@ -79,6 +79,8 @@ __all__ = [
 class ArxError(ValueError):
     """Bad data or orders for an ARX estimate (the message says which and why)."""
 
+    exit_code = 1  # the command line's code for data that cannot give a result (hydro_envs.cli_errors)
+
 
 #: 004 eq (32): identified open-loop ARX of the rodless-cylinder position loop (sample
 #: time not printed in the extracted text). Coefficients in the q^-1 convention above.

@@ -10,8 +10,11 @@ runs it, returning a result mapping with ``parameters``, ``std_errors``, ``units
 This module imports only the standard library at import time (``hydro --help`` stays fast);
 each method imports numpy/scipy and the identification modules when it runs.
 
-Exit codes: 0 success, 1 the data cannot give the model (format error, too few points,
-unidentifiable parameters; the message says why), 2 usage errors.
+Errors follow the command line's convention (:mod:`hydro_envs.cli_errors`): one line, no
+traceback. Exit codes: 0 success, 1 the data cannot give the model (too few points,
+unidentifiable parameters; the message says why), 2 bad input or usage (an argument, a record
+refused by its plant's plausibility checks, an output that would overwrite an input or an
+existing file without ``--force``).
 """
 
 from __future__ import annotations
@@ -89,6 +92,8 @@ def _add_methods(p: argparse.ArgumentParser) -> None:
         mp.add_argument("--json", action="store_true",
                         help="print one JSON object with parameters, std_errors, units, metrics "
                         "(and, for arx, frf and greybox, the fit-quality flag 'quality')")
+        mp.add_argument("--force", action="store_true",
+                        help="replace an existing --emit-ranges file (an input file is never replaced)")
 
 
 def _add_ranges_options(mp: argparse.ArgumentParser) -> None:
@@ -135,7 +140,7 @@ def _emit_ranges(name: str, args: argparse.Namespace, res: dict[str, Any]) -> No
         fmap[a.strip()] = b.strip()
     desc = f"hydro identify {name}" + (f" --model {args.model}" if name == "friction" else "") \
         + (" (weighted)" if res.get("weighted") else "")
-    out = ranges.write_spec_from_result(path, res, plant, method=name, field_map=fmap or None,
+    out = ranges.write_spec_from_result(path, res, plant, method=name, field_map=fmap or None,  # atomic
                                         k=args.ranges_k, data_file=str(args.data), fit_description=desc)
     res["ranges_file"] = str(out)
     res["ranges_plant"] = plant
@@ -154,17 +159,27 @@ def _add_record_options(mp: argparse.ArgumentParser) -> None:
 
 
 def _record_kwargs(args: argparse.Namespace) -> dict[str, Any]:
-    """Keyword arguments of ``load_measured`` from the parsed loader options."""
+    """Keyword arguments of ``load_measured`` from the parsed loader options: every record, in
+    every format, is checked against its plant's registry entry before a fit."""
     from hydro_envs.data.cli_args import record_kwargs
 
     kw = record_kwargs(args)
     if kw.get("column_map") is None and getattr(args, "record_map_file", None):
         kw["column_map"] = args.record_map_file
-    # plausibility checks: always on a foreign record (the loader's default) or when a check
-    # option is given; a file in the package's own SI format is read as written
-    if not (kw["allow_gaps"] or kw["max_jitter"] is not None or kw["stroke"] is not None):
-        kw["check"] = None
     return kw
+
+
+def _check_outputs(args: argparse.Namespace) -> None:
+    """``--emit-ranges`` checked before the work: a YAML file that is no input and, without
+    ``--force``, does not exist yet."""
+    path = getattr(args, "emit_ranges", None)
+    if not path:
+        return
+    from hydro_envs.outputs import check_output_file
+
+    inputs = [getattr(args, "data", None), getattr(args, "record_map_file", None), getattr(args, "record_map", None)]
+    check_output_file(path, flag="--emit-ranges", inputs=[i for i in inputs if i], force=bool(getattr(args, "force", False)),
+                      suffixes=(".yaml", ".yml"))
 
 
 def _contiguous(data: Any, args: argparse.Namespace) -> Any:
@@ -176,10 +191,12 @@ def _contiguous(data: Any, args: argparse.Namespace) -> Any:
 
 
 def units_note(data: Any) -> list[str]:
-    """The note that a header without units was read in the registered (SI) units."""
+    """The reader's notes: a header without units read in the registered (SI) units, a sidecar
+    beside the file that was not used."""
     assumed = getattr(data, "units_assumed", ())
-    return [f"the header gives no unit for {len(assumed)} column(s); read as the registered SI "
-            f"units: {', '.join(assumed)}"] if assumed else []
+    out = [f"the header gives no unit for {len(assumed)} column(s); read as the registered SI "
+           f"units: {', '.join(assumed)}"] if assumed else []
+    return out + list(getattr(data, "notes", ()))
 
 
 def _longest_segment(data: Any, notes: list[str]) -> Any:
@@ -244,25 +261,17 @@ def _print_text(res: Mapping[str, Any]) -> None:
 _GATED = ("arx", "frf", "greybox")
 
 
-def _err(msg: str) -> None:
-    print(f"hydro identify: error: {msg}", file=sys.stderr)
-
-
 def _cmd_identify(args: argparse.Namespace) -> int:
+    """Run the chosen method; errors propagate to the command line's one-line convention
+    (:func:`hydro_envs.cli_errors.guarded`)."""
+    from hydro_envs.cli_errors import CliError
+
     name = getattr(args, "method", None)
     if name is None:
-        _err("choose a method: " + ", ".join(METHODS))
-        return EXIT_USAGE
+        raise CliError("choose a method: " + ", ".join(METHODS))
     method = METHODS[name]
-    try:
-        res = dict(method.run(args))
-    except FileNotFoundError as e:
-        _err(str(e))
-        return EXIT_FAIL
-    except (ValueError, KeyError) as e:  # MeasuredDataError, IdentificationError are ValueErrors
-        msg = e.args[0] if isinstance(e, KeyError) and e.args else str(e)
-        _err(f"{type(e).__name__}: {msg}")
-        return EXIT_FAIL
+    _check_outputs(args)
+    res = dict(method.run(args))
     res.setdefault("method", name)
     record_notes = getattr(args, "record_notes", None)
     if record_notes:
@@ -274,8 +283,7 @@ def _cmd_identify(args: argparse.Namespace) -> int:
     try:
         _emit_ranges(name, args, res)
     except ValueError as e:  # RangesError, RandomizationError
-        _err(f"--emit-ranges: {type(e).__name__}: {e}")
-        return EXIT_FAIL
+        raise CliError(f"--emit-ranges: {e}") from None
     if getattr(args, "json", False):
         from hydro_envs.jsonutil import to_jsonable
 
@@ -287,8 +295,9 @@ def _cmd_identify(args: argparse.Namespace) -> int:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Standalone entry point: ``python -m identification.cli METHOD ...``."""
-    parser = argparse.ArgumentParser(prog="python -m identification.cli",
-                                     description="identification methods of hydro-envs")
+    from hydro_envs.cli_errors import Parser, guarded
+
+    parser = Parser(prog="python -m identification.cli", description="identification methods of hydro-envs")
     _add_methods(parser)
     try:
         args = parser.parse_args(argv)
@@ -298,7 +307,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     if getattr(args, "method", None) is None:
         parser.print_help()
         return EXIT_USAGE
-    return _cmd_identify(args)
+    return guarded("python -m identification.cli", _cmd_identify, args)
 
 
 # ======================================================================================
@@ -325,13 +334,15 @@ def _friction_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--pressure-dependent", action="store_true",
                    help="add k_p * p to the Coulomb/static level (static models)")
     p.add_argument("--area", type=float, default=None, metavar="M2",
-                   help="piston area [m^2] (default: the file's piston_area metadata; "
-                   "servo_cylinder: else the plant's nominal value)")
+                   help="piston area [m^2] that the pressure acts on (servo_cylinder: the annulus). "
+                   "Geometry is never assumed: --area, --bore or the file's piston_area metadata is required")
     p.add_argument("--bore", type=float, default=None, metavar="M",
-                   help="seal_friction: cylinder bore [m], area = pi bore^2 / 4 (e.g. 0.025 or "
-                   "0.0257 for the EvaZillen rigs); --bore, --area or geometry in the file is "
-                   "required. The logger's irregular clock (10-17 ms steps, pauses) is accepted: "
-                   "each stroke window is fitted on its own time stamps")
+                   help="cylinder bore [m]: area = pi bore^2 / 4 (seal_friction, e.g. 0.025 or 0.0257 for the "
+                   "EvaZillen rigs) or pi (bore^2 - rod^2) / 4 with --rod (servo_cylinder, a double-rod cylinder). "
+                   "The seal bench's irregular clock (10-17 ms steps, pauses) is accepted: each stroke window is "
+                   "fitted on its own time stamps")
+    p.add_argument("--rod", type=float, default=None, metavar="M",
+                   help="servo_cylinder with --bore: piston rod diameter [m]")
     p.add_argument("--sign-velocity", type=float, default=0.0, metavar="V",
                    help="fit tanh(v/V) instead of sign(v) (match a simulator's regularisation)")
     p.add_argument("--unweighted", action="store_true",
@@ -344,49 +355,93 @@ def _friction_arguments(p: argparse.ArgumentParser) -> None:
                    "the original analysis; 5 for the every-third-row test subset)")
 
 
-def _check_seal_record(data: Any, args: argparse.Namespace) -> None:
-    """The registry's position and pressure checks of a seal-friction record.
+#: plausible cylinder bores and rods [m] and piston areas [m^2]: 1 mm to 1 m (a value outside is
+#: most likely given in mm or mm^2)
+_BORE_RANGE = (1e-3, 1.0)
+_AREA_RANGE = (1e-7, 1.0)
 
-    Positions are checked against ``--stroke`` (the rig's stroke; the registry has none for this
-    test bench). The sampling is not checked: the logger's clock is irregular and each stroke
-    window is fitted on its own time stamps.
-    """
-    from hydro_envs import registry
-    from hydro_envs.data.checks import check_record
 
-    check_record(data, registry.get("seal_friction"), stroke=getattr(args, "record_stroke", None),
-                 max_jitter=math.inf, path=args.data)
+def _geometry_value(flag: str, value: float | None, unit: str, lo: float, hi: float) -> float | None:
+    """``value`` if it is a plausible bore / rod [m] or area [m^2], else a one-line error naming the
+    flag, the value, the allowed range and (for a value in mm or mm^2) the SI value meant."""
+    from hydro_envs.cli_errors import CliError
+
+    if value is None:
+        return None
+    if not (math.isfinite(value) and lo <= value <= hi):
+        scale, sub = (1e-6, "mm^2") if unit == "m^2" else (1e-3, "mm")
+        hint = (f"; given in {sub}? {value:g} {sub} is {value * scale:g} {unit}"
+                if math.isfinite(value) and value > hi and lo <= value * scale <= hi else "")
+        raise CliError(f"{flag} = {value:g} {unit}; allowed {lo:g} to {hi:g} {unit} (SI units){hint}")
+    return value
+
+
+def _check_geometry_flags(args: argparse.Namespace) -> None:
+    """``--area``, ``--bore``, ``--rod``: each plausible, and a consistent combination (before any work)."""
+    from hydro_envs.cli_errors import CliError
+
+    _geometry_value("--area", args.area, "m^2", *_AREA_RANGE)
+    _geometry_value("--bore", args.bore, "m", *_BORE_RANGE)
+    _geometry_value("--rod", args.rod, "m", *_BORE_RANGE)
+    if args.bore is not None and args.area is not None:
+        raise CliError(f"give --bore ({args.bore:g} m) or --area ({args.area:g} m^2), not both")
+    if args.rod is not None and (args.plant != "servo_cylinder" or args.bore is None):
+        raise CliError(f"--rod = {args.rod:g} m: only with --bore, for the double-rod servo_cylinder")
+    if args.plant == "servo_cylinder" and args.bore is not None:
+        if args.rod is None:
+            raise CliError(f"--bore = {args.bore:g} m: servo_cylinder is a double-rod cylinder, the pressure acts on "
+                           "the annulus; give --rod M too (or --area M2 of the annulus)")
+        if not args.rod < args.bore:
+            raise CliError(f"--rod = {args.rod:g} m; allowed below --bore = {args.bore:g} m")
+
+
+def _servo_area(args: argparse.Namespace, data: Any) -> tuple[float, str]:
+    """The annulus area of a servo-cylinder record and a note on where it came from: ``--area``,
+    ``--bore`` with ``--rod``, or the file's ``piston_area`` metadata; never assumed."""
+    from hydro_envs.cli_errors import CliError
+
+    if args.area is not None:
+        return float(args.area), ""
+    if args.bore is not None:
+        return math.pi * (args.bore**2 - args.rod**2) / 4.0, ""
+    if "piston_area" in data.metadata:
+        try:
+            area = float(data.metadata["piston_area"])
+        except ValueError:
+            raise CliError(f"{args.data}: metadata piston_area = {data.metadata['piston_area']!r}; allowed a number "
+                           "in m^2") from None
+        _geometry_value(f"{args.data}: metadata piston_area", area, "m^2", *_AREA_RANGE)
+        return area, f"piston area {area:g} m^2 from the file's piston_area metadata"
+    raise CliError(f"{args.data}: the piston area is unknown -- the record carries no geometry (no piston_area "
+                   "metadata); give --area M2 (the annulus) or --bore M with --rod M")
 
 
 def _friction_run(args: argparse.Namespace) -> dict[str, Any]:
     import numpy as np
+
+    from hydro_envs.cli_errors import CliError
 
     from identification.constant_velocity import friction_points_from_square_wave
     from identification.seal_friction import load_seal_friction, seal_friction_points
     from identification import friction as fr
     from hydro_envs.data.measured import load_measured
 
-    for flag, value, unit in (("--area", args.area, "m^2"), ("--bore", args.bore, "m")):
-        if value is not None and not (np.isfinite(value) and value > 0):
-            raise ValueError(f"{flag} = {value} {unit}: the piston {flag[2:]} must be a finite number > 0 {unit}")
+    _check_geometry_flags(args)
     if args.plant == "servo_cylinder":
-        from hydro_envs.plants.servo_cylinder.params import ServoCylinderParams
-
         data = load_measured(args.data, plant="servo_cylinder", required=("u", "x", "p1", "p2"),
                              **_record_kwargs(args))
-        area = args.area
-        if area is None:
-            area = float(data.metadata.get("piston_area", ServoCylinderParams().piston_area))
-        args.record_notes = units_note(data)
+        area, note = _servo_area(args, data)
+        args.record_notes = units_note(data) + ([note] if note else [])
         pts = friction_points_from_square_wave(data, area)
     else:
-        if args.bore is not None and args.area is not None:
-            raise ValueError(f"give --bore ({args.bore} m) or --area ({args.area} m^2), not both")
-        data = load_seal_friction(args.data, drop_rows=args.drop_rows, bore=args.bore)
-        _check_seal_record(data, args)
+        data = load_seal_friction(args.data, drop_rows=args.drop_rows, bore=args.bore,
+                                  stroke=getattr(args, "record_stroke", None))
+        args.record_notes = units_note(data)
         if args.area is None and "piston_area" not in data.metadata:
-            raise ValueError(f"{args.data}: the piston area is unknown -- the file carries no "
-                             "geometry; give --bore M (e.g. 0.025) or --area M2")
+            raise CliError(f"{args.data}: the piston area is unknown -- the file carries no "
+                           "geometry; give --bore M (e.g. 0.025) or --area M2")
+        if args.area is None:
+            _geometry_value("piston_area (file metadata)", float(data.metadata["piston_area"]), "m^2", *_AREA_RANGE)
         pts = seal_friction_points(data, piston_area=args.area)
         area = pts.meta["piston_area"]
     res: dict[str, Any] = {"method": "friction", "plant": args.plant, "model": args.model,
@@ -455,7 +510,10 @@ def _refuse_clamped(params: Mapping[str, float], se: Mapping[str, float], units:
         s = se.get(k, float("nan"))
         scale = abs(s) if s is not None and math.isfinite(s) and s > 0 else 1.0
         if abs(v) <= 1e-9 * max(scale, 1.0):
-            raise ValueError(
+            from identification.friction.data import UnidentifiableError
+
+            raise UnidentifiableError(
+                [k],
                 f"{k} = {v:.3g} {units.get(k, '')} is clamped at its bound 0 (std error {s:.3g}): "
                 f"the data do not determine it; model {model!r} is not supported by these data "
                 "-- fit a model without it (e.g. --model coulomb)")

@@ -86,6 +86,8 @@ __all__ = [
 class FrfError(ValueError):
     """Bad data or options for a frequency-response estimate or fit."""
 
+    exit_code = 1  # the command line's code for data that cannot give a result (hydro_envs.cli_errors)
+
 
 def _series(name: str, x: Any) -> np.ndarray:
     a = np.asarray(x, dtype=np.float64)

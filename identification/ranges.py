@@ -157,11 +157,10 @@ def ranges_from_fit(
 
 
 def _dump(path: str | os.PathLike[str], data: Mapping[str, Any], header: str) -> Path:
-    p = Path(path)
-    p.parent.mkdir(parents=True, exist_ok=True)
+    from hydro_envs.outputs import atomic_write
+
     text = yaml.safe_dump(dict(data), sort_keys=False, width=1000)
-    p.write_text("".join(f"# {ln}\n" for ln in header.splitlines()) + text)
-    return p
+    return atomic_write(Path(path), "".join(f"# {ln}\n" for ln in header.splitlines()) + text)
 
 
 def write_ranges(path: str | os.PathLike[str], mapping: Mapping[str, Any], params_cls: type) -> Path:
@@ -281,19 +280,38 @@ def write_preset(path: str | os.PathLike[str], mapping: Mapping[str, Any], heade
 
 
 def load_preset(path: str | os.PathLike[str], params_cls: type) -> Any:
-    """Parameter set of a preset file (fields not listed keep their defaults)."""
-    data = yaml.safe_load(Path(path).read_text())
+    """Parameter set of a preset file (fields not listed keep their defaults), read with
+    :func:`hydro_envs.yamlio.load_yaml` (duplicate keys and alias bombs refused); every entry is
+    ``{value: number, unit: the field's unit, source: text}``."""
+    from hydro_envs.yamlio import YamlError, load_yaml, number, short
+
+    try:
+        data = load_yaml(path, what="preset")
+    except YamlError as exc:
+        raise RangesError(str(exc)) from None
     where = f"preset {path}"
     if not isinstance(data, Mapping) or data.get("plant") != params_cls.plant:
-        raise RangesError(f"{where}: 'plant' must be {params_cls.plant!r}")
+        got = data.get("plant") if isinstance(data, Mapping) else data
+        raise RangesError(f"{where}: plant = {short(got)}; allowed {params_cls.plant!r}")
+    unknown = sorted(set(map(str, data)) - {"plant", "name", "source", "parameters", "note"})
+    if unknown:
+        raise RangesError(f"{where}: unknown key(s) {unknown}; allowed name, note, parameters, plant, source")
     meta = _field_meta(params_cls)
     values = {}
-    for f, entry in (data.get("parameters") or {}).items():
+    pars = data.get("parameters") or {}
+    if not isinstance(pars, Mapping):
+        raise RangesError(f"{where}: parameters = {short(pars)}; allowed a mapping of field -> {{value, unit, source}}")
+    for f, entry in pars.items():
         if f not in meta:
             raise RangesError(f"{where}: unknown parameter {f!r} of {params_cls.__name__}")
+        if not isinstance(entry, Mapping) or "value" not in entry:
+            raise RangesError(f"{where}: parameters.{f} = {short(entry)}; allowed {{value: V, unit: U, source: S}}")
         if entry.get("unit") != meta[f]["unit"]:
-            raise RangesError(f"{where}: {f}: unit {entry.get('unit')!r}, expected {meta[f]['unit']!r}")
-        if not str(entry.get("source", "")).strip():
+            raise RangesError(f"{where}: {f}: unit {short(entry.get('unit'))}, expected {meta[f]['unit']!r}")
+        if not isinstance(entry.get("source"), str) or not entry["source"].strip():
             raise RangesError(f"{where}: {f}: empty source")
-        values[f] = float(entry["value"])
+        try:
+            values[f] = number(entry["value"], f"parameters.{f}.value", where)
+        except YamlError as exc:
+            raise RangesError(str(exc)) from None
     return dataclasses.replace(params_cls(), **values)

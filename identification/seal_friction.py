@@ -62,6 +62,8 @@ def load_seal_friction(
     *,
     bore: float | None = SEAL_BORE,
     drop_rows: int = 15,
+    stroke: float | None = None,
+    check: bool = True,
 ) -> MeasuredData:
     """Load a seal-friction record as plant ``seal_friction`` (channels ``x, p_gauge, F_load``, SI).
 
@@ -84,7 +86,9 @@ def load_seal_friction(
 
     The logger's clock is irregular (10-17 ms steps, pauses); the record is kept as sampled --
     the stroke analysis (:func:`seal_friction_points`) fits each window on its own time stamps
-    and needs no uniform clock.
+    and needs no uniform clock. Either format is then checked against the plant's registry entry
+    (:func:`hydro_envs.data.checks.check_record`: positions against ``stroke`` [m], else the
+    bench's bound; pressures, forces, the median step; ``check=False`` skips it).
     """
     p = Path(path)
     if not p.is_file():
@@ -101,10 +105,10 @@ def load_seal_friction(
         raise MeasuredDataError(p, "file is empty")
     area = None if bore is None else math.pi * bore**2 / 4.0
     if first == "#" or first.isalpha():
-        data = load_measured(p, plant=SEAL_FRICTION_PLANT)
+        data = load_measured(p, plant=SEAL_FRICTION_PLANT, check=False)
         if area is not None:
             data.metadata.setdefault("piston_area", repr(area))
-        return data
+        return _checked(data, p, stroke, check)
     arr, linenos = _parse_raw_seal(p, text)
     if drop_rows < 0:
         raise ValueError(f"drop_rows must be >= 0, got {drop_rows}")
@@ -122,7 +126,7 @@ def load_seal_friction(
             f"{t_ms[i - 1]!r} on line {linenos[i - 1]}; time must be strictly increasing",
             line=linenos[i], column="time [ms]")
     t = (t_ms - t_ms[0]) * 1e-3
-    return MeasuredData(
+    return _checked(MeasuredData(
         plant=SEAL_FRICTION_PLANT,
         t=t,
         channels={"x": arr[:, 4] * 1e-3, "p_gauge": arr[:, 5] * 1e5, "F_load": arr[:, 6]},
@@ -135,7 +139,17 @@ def load_seal_friction(
             "t0_ms": repr(float(t_ms[0])),
             **({} if bore is None else {"bore": repr(bore), "piston_area": repr(area)}),
         },
-    )
+    ), p, stroke, check)
+
+
+def _checked(data: MeasuredData, path: Path, stroke: float | None, check: bool) -> MeasuredData:
+    """``data`` after the registry's plausibility checks of a seal-friction record."""
+    if check:
+        from hydro_envs import registry
+        from hydro_envs.data.checks import check_record
+
+        check_record(data, registry.get(SEAL_FRICTION_PLANT), stroke=stroke, max_jitter=math.inf, path=path)
+    return data
 
 
 def seal_friction_points(

@@ -130,6 +130,8 @@ JITTER_TOLERANCE = 1e-3
 class SliderIdentificationError(ValueError):
     """The data cannot identify the slider parameters (message says why and what to do)."""
 
+    exit_code = 1  # the command line's code for data that cannot give a result (hydro_envs.cli_errors)
+
 
 @dataclasses.dataclass
 class SliderIdentification:

@@ -278,7 +278,8 @@ def test_friction_metrics_of_rollouts():
     track = bm.Rollout(y, r, acts, z, z, np.zeros(1, dtype=bool), np.zeros((1, 3)), dt)
     hold_r = np.full((steps, 1), 2.0)
     hold_y = hold_r.copy()
-    hold_y[150:] += 1e-4 * np.array([1.0, -1.0] * 75)[:, None]  # +-1e-4 hunting in the last half
+    hold_y[120:] += 1e-4 * np.array([1.0, -1.0] * 90)[:, None]  # +-1e-4 hunting in the hold window
+    # (the last half of the hold less the 60 ms preview guard: samples 120..239)
     step = bm.Rollout(hold_y, hold_r, acts, z, z, np.zeros(1, dtype=bool), np.zeros((1, 3)), dt)
     m = bm.friction_metrics(track, step)
     assert m["reversal_error"][0] == pytest.approx(0.3)
@@ -367,3 +368,58 @@ def test_draws_come_from_a_given_randomisation_spec(tmp_path):
     assert all(set(d) == {"coulomb_friction"} and 5.0 <= d["coulomb_friction"] <= 6.0 for d in draws)
     default = draw_parameters("hydro_envs/RodlessCylinder-v0", "in", 6, seed=0)
     assert len(default[0]) > 1
+
+
+def test_a_second_run_into_one_out_is_refused_unless_force(tmp_path, capsys):
+    out = tmp_path / "out"
+    args = ["benchmark", "--env", SERVO, "--controllers", "pid", "--n", "2", "--steps", "20", "--no-figures",
+            "--out", str(out)]
+    assert hydro_main(args) == 0
+    first = {p.name: p.read_bytes() for p in out.iterdir()}
+    capsys.readouterr()
+    assert hydro_main(args[:-2] + ["--seed", "1", "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "--out" in err and "--force" in err and "pid ..." not in err  # refused before any controller ran
+    assert {p.name: p.read_bytes() for p in out.iterdir()} == first
+    assert hydro_main(args[:-2] + ["--seed", "1", "--out", str(out), "--force"]) == 0
+    assert {p.name: p.read_bytes() for p in out.iterdir()} != first
+
+
+def test_a_full_disk_leaves_no_complete_looking_result(tmp_path, monkeypatch):
+    import errno
+
+    import hydro_envs.outputs as outs
+
+    names = ["pid", "zero"]
+    rng = np.random.default_rng(0)
+    episodes = {c: {k: rng.uniform(0.1, 1.0, 4) for k, _ in bm.METRICS if k != "cvar10_rmse"} for c in names}
+    summary = {c: bm.summarize(episodes[c], 0, 4) for c in names}
+    t = 1e-3 * np.arange(100)
+    res = bm.BenchmarkResult(SERVO, "in", 4, 0, [{}] * 4, episodes, summary, {c: 1 for c in names}, {},
+                             {c: (np.sin(t), np.sin(t)) for c in names}, 1e-3)
+    real = outs._commit
+    calls = []
+
+    def commit(tmp, target):  # the disk fills while the third file (the summary CSV) is committed
+        calls.append(target.name)
+        if len(calls) == 3:
+            raise OSError(errno.ENOSPC, "No space left on device")
+        real(tmp, target)
+
+    monkeypatch.setattr(outs, "_commit", commit)
+    (tmp_path / "servo_cylinder_in.md").write_text("an earlier result\n")
+    with pytest.raises(OSError, match=r"cannot write .*servo_cylinder_in\.csv: No space left on device"):
+        bm.write_outputs(res, tmp_path, figures=False)
+    # no temp file, no 0-byte CSV, no new .md or .json beside a missing CSV: the earlier file is back
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["servo_cylinder_in.md"]
+    assert (tmp_path / "servo_cylinder_in.md").read_text() == "an earlier result\n"
+    monkeypatch.undo()
+
+    def full_write(self, name, data, *, encoding="utf-8"):
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(outs.Staged, "write", full_write)
+    out = tmp_path / "second"
+    with pytest.raises(OSError, match="No space left"):
+        bm.write_outputs(res, out, figures=False)
+    assert list(out.iterdir()) == []

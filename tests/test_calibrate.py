@@ -152,7 +152,7 @@ def test_seal_friction_cli_needs_a_target_plant_then_calibrates_it(tmp_path):
     base = ["friction", "--plant", "seal_friction", "--data", str(SEAL_FILE), "--bore", "0.0257",
             "--drop-rows", "5", "--model", "coulomb", "--emit-ranges", str(tmp_path / "s.yaml")]
     code, _, err = _cli(base)
-    assert code == 1 and "--ranges-plant" in err and "no env" in err
+    assert code == 2 and "--ranges-plant" in err and "no env" in err
     code, out, err = _cli(base + ["--ranges-plant", "rodless_cylinder", "--json"])
     assert code == 0, err
     res = json.loads(out)
@@ -172,7 +172,7 @@ def test_arx_flag_refuses_with_a_reason(tmp_path):
                  + "".join(f"{a!r},{b!r},{c!r}\n" for a, b, c in zip(t.tolist(), u.tolist(), y.tolist())))
     code, _, err = _cli(["arx", "--plant", "servo_cylinder", "--data", str(p), "--input", "u", "--output", "x",
                          "--orders", "1", "2", "1", "--emit-ranges", str(tmp_path / "a.yaml")])
-    assert code == 1 and "not parameters of a plant" in err
+    assert code == 2 and "not parameters of a plant" in err
     assert not (tmp_path / "a.yaml").exists()
 
 
@@ -221,12 +221,13 @@ def test_frf_needs_an_explicit_map_then_calibrates(tmp_path):
     _, y, _ = signal.dlsim((*sysd[:4], 1.0 / fs), u)
     p = tmp_path / "msd.csv"
     t = np.arange(u.size) / fs
-    p.write_text("# plant: servo_cylinder\nt [s],u [V],x [m]\n"
+    # a force input [N]: the slider's channel f (a servo valve's u [V] of +-4 kV is refused as implausible)
+    p.write_text("# plant: slider\nt [s],f [N],x [m]\n"
                  + "".join(f"{a!r},{b!r},{c_!r}\n" for a, b, c_ in zip(t.tolist(), u.tolist(), y.ravel().tolist())))
-    base = ["frf", "--plant", "servo_cylinder", "--data", str(p), "--input", "u", "--output", "x",
+    base = ["frf", "--plant", "slider", "--data", str(p), "--input", "f", "--output", "x",
             "--emit-ranges", str(tmp_path / "f.yaml"), "--ranges-plant", "shaking_table"]
     code, _, err = _cli(base)
-    assert code == 1 and "not parameters of a plant" in err
+    assert code == 2 and "not parameters of a plant" in err
     code, text, err = _cli(base + ["--ranges-map", "mass=platform_mass", "--json"])
     assert code == 0, err
     res = json.loads(text)

@@ -318,7 +318,7 @@ def test_cli_json_and_report(tmp_path, capsys):
         assert (tmp_path / "rep" / png).stat().st_size > 1000
 
 
-def test_cli_refuses_poor_data_with_exit_code_3(tmp_path, capsys):
+def test_cli_refuses_poor_data_with_exit_code_1(tmp_path, capsys):
     from hydro_envs.cli import main
 
     spec = diagnosis_plant("slider")
@@ -326,11 +326,30 @@ def test_cli_refuses_poor_data_with_exit_code_3(tmp_path, capsys):
     short = Record(case.fit.dt, case.fit.inputs[:1500], {k: v[:1500] for k, v in case.fit.channels.items()})
     _write(tmp_path / "short.csv", short, spec)
     rc = main(["diagnose", "--plant", "slider", "--data", str(tmp_path / "short.csv"), "--json"])
-    assert rc == 3
-    d = json.loads(capsys.readouterr().out)
+    assert rc == 1  # a failed check: the data cannot support a conclusion
+    cap = capsys.readouterr()
+    d = json.loads(cap.out)
     assert d["verdict"] is None and "too short" in d["error"]
+    assert cap.err.startswith("hydro diagnose: error: ") and len(cap.err.splitlines()) == 1
     rc = main(["diagnose", "--plant", "nope", "--data", str(tmp_path / "short.csv")])
     assert rc == 2
+
+
+def test_cli_checks_out_before_the_work(tmp_path, capsys):
+    from hydro_envs.cli import main
+
+    spec = diagnosis_plant("slider")
+    _write(tmp_path / "fit.csv", _slider_case().fit, spec)
+    taken = tmp_path / "taken.txt"
+    taken.write_text("keep\n")
+    full = tmp_path / "full"
+    full.mkdir()
+    (full / "old.md").write_text("old\n")
+    for out, word in ((taken, "is a file"), (full, "--force")):
+        rc = main(["diagnose", "--plant", "slider", "--data", str(tmp_path / "fit.csv"), "--out", str(out)])
+        err = capsys.readouterr().err
+        assert rc == 2 and word in err and "Traceback" not in err, err
+    assert taken.read_text() == "keep\n" and (full / "old.md").read_text() == "old\n"
 
 
 @pytest.mark.slow

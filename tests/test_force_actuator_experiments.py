@@ -7,7 +7,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from hydro_envs.data.measured import load_measured
+from hydro_envs.data.measured import MeasuredDataError, load_measured
 from hydro_envs.plants.force_actuator import model as fa
 from hydro_envs.plants.force_actuator import experiments as fe
 
@@ -122,7 +122,10 @@ def test_files_load(tmp_path, hanging):
     assert np.allclose(d["i"], r["i"]) and np.allclose(d["f"], r["f"], atol=1e-6)
     assert np.std(r["f"] - r["f_true"]) == pytest.approx(2.0, rel=0.1)
     h = fe.hanging_mass_test(masses=(0.0, 5.0), currents=(0.01,), path=tmp_path / "hang.csv")
-    dh = load_measured(h["path"], allow_extra=True)
+    with pytest.raises(MeasuredDataError, match="gap"):  # one run after the other, a step apart: gaps
+        load_measured(h["path"], allow_extra=True)
+    dh = load_measured(h["path"], allow_extra=True, allow_gaps=True)
+    assert len(dh.segments) == 2  # one segment per run (2 masses x 1 current)
     assert {"i", "f", "v", "load"} <= set(dh.names)
     assert np.all(np.diff(dh.t) > 0)
     assert np.allclose(h["velocity"], hanging["velocity"][4:7:2])

@@ -587,19 +587,44 @@ def test_cli_identify_friction_json_and_text(tmp_path, capsys):
     assert 0 < out["metrics"]["E"] < 3.0 and out["parameters"]["n_units"] == 50
 
 
+def test_cli_friction_geometry_is_never_assumed(tmp_path, capsys):
+    import dataclasses
+    import math
+
+    from hydro_envs.data.measured import write_measured
+
+    run = run_friction_experiment(seed=0, amplitudes=[2.0, 2.5, 3.0, 3.5], travel_fraction=0.7)
+    with_area = write_measured(tmp_path / "with.csv", run.data)
+    meta = {k: v for k, v in run.data.metadata.items() if k != "piston_area"}
+    bare = write_measured(tmp_path / "bare.csv", dataclasses.replace(run.data, metadata=meta))
+    base = ["identify", "friction", "--plant", "servo_cylinder", "--model", "coulomb_viscous", "--json"]
+    assert hydro_main(base + ["--data", str(bare)]) == 2
+    err = capsys.readouterr().err
+    assert "--area" in err and "--bore" in err and "piston area is unknown" in err and len(err.splitlines()) == 1
+    assert hydro_main(base + ["--data", str(bare), "--bore", "0.04"]) == 2
+    assert "--rod" in capsys.readouterr().err
+    assert hydro_main(base + ["--data", str(bare), "--bore", "0.04", "--rod", "0.05"]) == 2
+    assert "--rod = 0.05 m; allowed below --bore" in capsys.readouterr().err
+    assert hydro_main(base + ["--data", str(bare), "--bore", "0.04", "--rod", "0.02"]) == 0
+    assert json.loads(capsys.readouterr().out)["area"] == pytest.approx(math.pi / 4 * (0.04**2 - 0.02**2))
+    assert hydro_main(base + ["--data", str(with_area)]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["area"] == run.params.piston_area and any("piston_area metadata" in n for n in out["notes"])
+
+
 def test_cli_identify_errors(tmp_path, capsys):
     bad = tmp_path / "bad.csv"
     bad.write_text("# plant: servo_cylinder\nt [s],u [V],x [m],p1 [Pa]\n0,0,0,1e5\n1,0,0,1e5\n")
-    assert hydro_main(["identify", "friction", "--plant", "servo_cylinder", "--data", str(bad)]) == 1
+    assert hydro_main(["identify", "friction", "--plant", "servo_cylinder", "--data", str(bad)]) == 2  # bad input
     assert "p2" in capsys.readouterr().err
     assert hydro_main(["identify", "friction", "--plant", "servo_cylinder", "--data",
-                       str(tmp_path / "missing.csv")]) == 1
+                       str(tmp_path / "missing.csv")]) == 2
     assert "not found" in capsys.readouterr().err
     # only fast strokes: the Stribeck dip is unidentifiable -> exit 1 with the reason
     fast = tmp_path / "fast.csv"
     run_friction_experiment(STABLE, amplitudes=[2.0, 2.5, 3.0, 3.5], travel_fraction=0.7,
                                path=fast)
-    assert hydro_main(["identify", "friction", "--plant", "servo_cylinder", "--data", str(fast)]) == 1
+    assert hydro_main(["identify", "friction", "--plant", "servo_cylinder", "--data", str(fast)]) == 1  # failed check
     err = capsys.readouterr().err
     assert "F_s" in err and "v_s" in err
     assert hydro_main(["identify", "friction", "--plant", "warp_drive", "--data", str(fast)]) == 2

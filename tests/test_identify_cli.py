@@ -30,12 +30,13 @@ def test_identify_arx_recovers_coefficients(tmp_path, capsys):
     # y[k] = 1.5 y[k-1] - 0.7 y[k-2] + 1.0 u[k-1] + 0.5 u[k-2] + e[k]
     y = signal.lfilter([0.0, 1.0, 0.5], [1.0, -1.5, 0.7], u) + signal.lfilter([1.0], [1.0, -1.5, 0.7], 0.01 * rng.standard_normal(n))
     f = tmp_path / "arx.csv"
-    write_measured(f, dt * np.arange(n), {"f": u, "x": y}, plant="slider")
+    # y in cm as x [m]: within the slider's stroke (a record beyond it is refused as mm under [m])
+    write_measured(f, dt * np.arange(n), {"f": u, "x": 0.01 * y}, plant="slider")
     res = _run(capsys, ["identify", "arx", "--plant", "slider", "--data", str(f), "--input", "f",
                         "--output", "x", "--orders", "2", "2", "1", "--json"])
     p = res["parameters"]
     assert p["a1"] == pytest.approx(-1.5, abs=0.01) and p["a2"] == pytest.approx(0.7, abs=0.01)
-    assert p["b1"] == pytest.approx(1.0, abs=0.02) and p["b2"] == pytest.approx(0.5, abs=0.02)
+    assert 100 * p["b1"] == pytest.approx(1.0, abs=0.02) and 100 * p["b2"] == pytest.approx(0.5, abs=0.02)
     assert res["metrics"]["heldout_fit_free_run"] > 90
 
 

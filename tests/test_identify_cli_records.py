@@ -114,3 +114,17 @@ def test_allow_gaps_is_passed_to_the_loader(tmp_path, capsys):
     assert res["metrics"]["n_samples"] < 1400
     assert res["parameters"]["b1"] == pytest.approx(1.0, abs=1e-5)
     assert res["parameters"]["b2"] == pytest.approx(0.5, abs=1e-5)
+
+
+def test_sidecar_beside_the_data_is_not_used_and_a_note_says_so(tmp_path, capsys, slider_record):
+    p, t, force, x = slider_record
+    si = tmp_path / "run.csv"
+    write_measured(si, t, {"f": force, "x": x}, plant="slider")
+    ref = _run(capsys, ["identify", "slider", "--data", str(si), "--stribeck", "none", "--json"])
+    (tmp_path / "run.yaml").write_text("units: {x: mm}\n")  # read as mm the positions shrink 1000 x
+    got = _run(capsys, ["identify", "slider", "--data", str(si), "--stribeck", "none", "--json"])
+    assert got["parameters"] == ref["parameters"]
+    assert any("run.yaml lies beside the data and was not used" in n for n in got["notes"])
+    named = _run(capsys, ["identify", "slider", "--data", str(si), "--stribeck", "none", "--json", "--map-file",
+                          str(tmp_path / "run.yaml")])
+    assert named["parameters"]["mass"] > 100 * ref["parameters"]["mass"]  # used when named

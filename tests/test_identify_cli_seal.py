@@ -99,4 +99,15 @@ def test_nonpositive_geometry_is_refused_naming_the_flag(flag, value, capsys):
     code = hydro(["identify", "friction", "--plant", "seal_friction", "--data", str(record), flag, value,
                   "--model", "coulomb"])
     err = capsys.readouterr().err
-    assert code != 0 and f"{flag} = " in err and "must be a finite number > 0" in err
+    assert code == 2 and f"{flag} = " in err and "allowed" in err and len(err.splitlines()) == 1
+
+
+@pytest.mark.parametrize("flag,value,meant", [("--bore", "25", "0.025 m"), ("--area", "490", "0.00049 m^2")])
+def test_geometry_in_mm_is_refused_naming_the_si_value(flag, value, meant, capsys):
+    from hydro_envs.cli import main as hydro
+
+    record = Path(__file__).parent / "data" / "seal_friction_oring" / "O-ring_5bar_3cycles.csv"
+    code = hydro(["identify", "friction", "--plant", "seal_friction", "--data", str(record), flag, value,
+                  "--model", "coulomb"])
+    err = capsys.readouterr().err
+    assert code == 2 and f"{flag} = {value} " in err and meant in err, err

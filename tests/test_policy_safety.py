@@ -139,3 +139,101 @@ def test_trusted_export_gives_the_same_actions_without_pickles(pickle_run, tmp_p
     assert np.array_equal(full.normalize(obs), small.normalize(obs))
     # the loaded compact policy exposes model.policy like an SB3 model
     assert set(small.model.policy.state_dict()) == set(full.model.policy.state_dict())
+
+
+# ---- the statistics: required, checked, bound to their weights (issue 53) ------------------------
+
+PRETRAINED = Path(__file__).resolve().parents[1] / "agents" / "pretrained" / "servo_cylinder" / "ppo_s0"
+
+
+def _copy(tmp_path, name="run"):
+    import shutil
+
+    dst = tmp_path / name
+    shutil.copytree(PRETRAINED, dst)
+    return dst
+
+
+def _npz(run, **over):
+    with np.load(run / OBS_NORM_FILE) as z:
+        vals = {k: z[k] for k in z.files}
+    vals.update(over)
+    np.savez(run / OBS_NORM_FILE, **vals)
+
+
+def test_statistics_are_required_when_trained_with_normalisation(tmp_path):
+    run = _copy(tmp_path)
+    (run / OBS_NORM_FILE).unlink()
+    with pytest.raises(ValueError, match=r"obs_normalization\.npz: missing; the policy was trained with observation "
+                       "normalisation"):
+        load_trained(run)
+    cfg = (run / CONFIG_FILE).read_text().replace("norm_obs: true", "norm_obs: false")
+    (run / CONFIG_FILE).write_text(cfg)
+    assert load_trained(run).obs_normalizer is None  # a run without normalisation needs none
+
+
+@pytest.mark.parametrize("over,match", [
+    ({"mean": np.zeros(1), "var": np.ones(1)}, r"mean has shape \(1,\); allowed \(11,\)"),
+    ({"var": np.zeros(11)}, r"var\[0\] = 0; allowed >= 1e-06"),
+    ({"mean": np.full(11, np.nan)}, "finite arrays"),
+    ({"clip_obs": np.asarray(0.0)}, "clip_obs = 0.0; allowed a finite number > 0"),
+    ({"policy_sha256": np.asarray("0" * 64)}, "written with other weights than policy.pt"),
+])
+def test_bad_statistics_are_refused_naming_the_file(tmp_path, over, match):
+    run = _copy(tmp_path)
+    _npz(run, **over)
+    with pytest.raises(ValueError, match=match) as e:
+        load_trained(run)
+    assert OBS_NORM_FILE in str(e.value) or "finite arrays" in str(e.value)
+
+
+def test_bad_weights_and_run_files_are_one_line_errors(tmp_path):
+    run = _copy(tmp_path, "pt")
+    (run / POLICY_FILE).write_bytes(b"\x80\x04 garbage")
+    with pytest.raises(ValueError, match=r"policy\.pt: not a weights file \(UnpicklingError") as e:
+        load_trained(run)
+    assert "\n" not in str(e.value) and "weights_only set to False" not in str(e.value)
+    run = _copy(tmp_path, "args")
+    (run / ARGS_FILE).write_text("{")
+    with pytest.raises(ValueError, match=r"args\.json: not valid JSON"):
+        load_trained(run)
+    run = _copy(tmp_path, "cfg")
+    (run / CONFIG_FILE).write_text(f"{ENV}:\n  policy: MlpPolicy\n  policy: MlpPolicy\n")
+    with pytest.raises(ValueError, match="duplicate key 'policy'"):
+        load_trained(run)
+
+
+def test_weights_and_statistics_are_written_as_one_unit(tmp_path, monkeypatch):
+    import errno
+    import hashlib
+
+    from agents import policies
+
+    pol = load_trained(PRETRAINED)
+    dest = tmp_path / "dest"
+    policies.write_compact(pol.model.policy, pol.obs_normalizer, dest)
+    assert sorted(p.name for p in dest.iterdir()) == [OBS_NORM_FILE, POLICY_FILE]
+    with np.load(dest / OBS_NORM_FILE) as z:
+        assert str(z["policy_sha256"]) == hashlib.sha256((dest / POLICY_FILE).read_bytes()).hexdigest()
+    before = {p.name: p.read_bytes() for p in dest.iterdir()}
+
+    def full(*a, **k):
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(policies.ObsNormalizer, "_write", full)
+    with pytest.raises(OSError, match=rf"cannot write {dest / OBS_NORM_FILE}: No space left"):
+        policies.write_compact(pol.model.policy, pol.obs_normalizer, dest)
+    assert {p.name: p.read_bytes() for p in dest.iterdir()} == before  # the old pair, untouched, no temp folder
+    fresh = tmp_path / "fresh"
+    with pytest.raises(OSError):
+        policies.write_compact(pol.model.policy, pol.obs_normalizer, fresh)
+    assert list(fresh.iterdir()) == []  # no policy.pt without its statistics
+    monkeypatch.undo()
+    # a torn pair (new weights beside older statistics) is refused on loading
+    other = _copy(tmp_path, "torn")
+    policies.write_compact(pol.model.policy, pol.obs_normalizer, other)
+    state = __import__("torch").load(other / POLICY_FILE, weights_only=True)
+    state[next(iter(state))] = state[next(iter(state))] + 1.0
+    __import__("torch").save(state, other / POLICY_FILE)
+    with pytest.raises(ValueError, match="written with other weights"):
+        load_trained(other)

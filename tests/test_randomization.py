@@ -295,7 +295,7 @@ def test_yaml_python_object_tag_is_rejected(tmp_path):
 
 
 def test_yaml_errors(tmp_path):
-    with pytest.raises(RandomizationError, match="cannot read"):
+    with pytest.raises(RandomizationError, match="missing.yaml: randomisation spec not found"):
         load_randomization("servo_cylinder", ServoCylinderParams, tmp_path / "missing.yaml")
     with pytest.raises(RandomizationError, match="not valid YAML"):
         load_randomization("servo_cylinder", ServoCylinderParams, _write(tmp_path, "plant: [unclosed\n"))

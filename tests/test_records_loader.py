@@ -124,15 +124,22 @@ def test_mat_file_product_and_constants(tmp_path):
     assert d.metadata["source.f"] == "gtau*vir"
 
 
-def test_yaml_sidecar_is_found_next_to_the_file(tmp_path):
+def test_yaml_sidecar_is_used_only_when_named(tmp_path):
     t = _clock()
     si = _servo_si(t)
     p = _text(tmp_path / "run.csv", None, [t * 1e3, si["x"] * 1e3], ";")
-    (tmp_path / "run.yaml").write_text(
-        "columns: [time, pos]\nmap:\n  t: {from: time, unit: ms}\n  x: pos\nunits: {x: mm}\n")
-    d = load_measured(p, plant=SERVO, required=("x",))
+    side = tmp_path / "run.yaml"
+    side.write_text("columns: [time, pos]\nmap:\n  t: {from: time, unit: ms}\n  x: pos\nunits: {x: mm}\n")
+    with pytest.raises(MeasuredDataError, match=r"run\.yaml lies beside the data and was not used.*--map-file run\.yaml"):
+        load_measured(p, plant=SERVO, required=("x",))
+    d = load_measured(p, plant=SERVO, required=("x",), column_map=side)
     _assert_close(d["x"], si["x"])
     _assert_close(d.t, t)
+    q = write_measured(tmp_path / "own.csv", t, {"x": si["x"]}, plant=SERVO)
+    (tmp_path / "own.yaml").write_text("units: {x: mm}\n")
+    d = load_measured(q, plant=SERVO, required=("x",))  # own format: read as written, the sidecar noted
+    _assert_close(d["x"], si["x"])
+    assert len(d.notes) == 1 and "own.yaml" in d.notes[0] and "not used" in d.notes[0]
 
 
 def test_mat_v73_is_refused_with_conversion_hint(tmp_path):
@@ -284,3 +291,89 @@ def test_a_header_without_units_is_read_as_si_and_says_so(tmp_path):
     g = tmp_path / "units.csv"
     g.write_text("# plant: servo_cylinder\nt [s],u [V],x [m],p1 [Pa],p2 [Pa]\n0,0,0.03,5e6,5e6\n0.001,0,0.03,5e6,5e6\n")
     assert load_measured(g).units_assumed == () and units_note(load_measured(g)) == []
+
+
+# ---- units checked against the plant's physics (issue 53) -------------------------------------
+
+def _own(tmp_path, t, name="own.csv", meta=None, **over):
+    si = dict(_servo_si(t), **over)
+    return write_measured(tmp_path / name, t, si, plant=SERVO, metadata=meta or {})
+
+
+@pytest.mark.parametrize("unit,scale", [("bar", 1e5), ("MPa", 1e6), ("kPa", 1e3)])
+def test_pressure_in_another_unit_under_pa_is_refused_by_name(tmp_path, unit, scale):
+    t = _clock()
+    si = _servo_si(t)
+    p = _own(tmp_path, t, p1=si["p1"] / scale, p2=si["p2"] / scale)
+    with pytest.raises(MeasuredDataError, match=r"column 'p1': values .* Pa; allowed a largest absolute pressure of at "
+                       r"least 50662.5 Pa .*they look like .*, not Pa; declare the unit 'p1 \[") as e:
+        load_measured(p)
+    assert e.value.column == "p1" and unit in str(e.value).split("look like")[1].split(", not Pa")[0]
+    assert len(load_measured(_own(tmp_path, t, name="ok.csv", p1=np.full(N, 1.2e5), p2=np.full(N, 1.1e5)))) == N
+
+
+def test_declared_header_unit_is_converted_then_checked(tmp_path):
+    t = _clock()
+    si = _servo_si(t)
+    rows = "\n".join(f"{a!r},{b!r},{c!r},{d!r},{e!r}" for a, b, c, d, e in
+                     zip((t * 1e3).tolist(), si["u"].tolist(), (si["x"] * 1e3).tolist(), (si["p1"] / 1e5).tolist(),
+                         (si["p2"] / 1e5).tolist()))
+    p = tmp_path / "declared.csv"
+    p.write_text(f"# plant: {SERVO}\nt [ms],u [V],x [mm],p1 [bar],p2 [bar]\n{rows}\n")
+    d = load_measured(p)
+    _assert_close(d.t, t)
+    _assert_close(d["x"], si["x"])
+    np.testing.assert_allclose(d["p1"], si["p1"], rtol=1e-13)
+
+
+def test_gauge_pressure_in_bar_under_pa_is_refused(tmp_path):
+    t = _clock()
+    p = write_measured(tmp_path / "seal.csv", t, {"x": 0.01 + 0 * t, "p_gauge": 5.0 + 0 * t, "F_load": 10 + 0 * t},
+                       plant="seal_friction")
+    with pytest.raises(MeasuredDataError, match=r"column 'p_gauge'.*look like bar or MPa, not Pa; declare the unit 'p_gauge \[bar\]'"):
+        load_measured(p)
+    ok = write_measured(tmp_path / "seal_ok.csv", t, {"x": 0.01 + 0 * t, "p_gauge": 5e5 + 0 * t,
+                                                       "F_load": 10 + 0 * t}, plant="seal_friction")
+    assert len(load_measured(ok)) == N
+
+
+def test_ms_under_s_is_refused_against_sample_rate_and_dynamics(tmp_path):
+    t = _clock(jitter=0)
+    with pytest.raises(MeasuredDataError, match=r"column 't': median step 1 s contradicts the file's '# sample_rate: "
+                       r"1000' \(a step of 0.001 s\); the times are 1000 x too large: most likely ms under an \[s\] "
+                       r"header; declare the unit 't \[ms\]'"):
+        load_measured(_own(tmp_path, t * 1e3, meta={"sample_rate": "1000"}))
+    with pytest.raises(MeasuredDataError, match=r"column 't': median step 1 s; allowed at most 0.02 s for plant "
+                       r"'servo_cylinder'.*most likely ms under an \[s\] header"):
+        load_measured(_own(tmp_path, t * 1e3, name="nometa.csv"))
+    assert len(load_measured(_own(tmp_path, t, name="ok.csv", meta={"sample_rate": "1 kHz"}))) == N
+    assert len(load_measured(_own(tmp_path, 10 * t, name="slow.csv", meta={"sample_rate": "100"}))) == N
+    with pytest.raises(MeasuredDataError, match=r"metadata sample_rate = 'fast'; allowed a number > 0 in Hz"):
+        load_measured(_own(tmp_path, t, name="bad.csv", meta={"sample_rate": "fast"}))
+
+
+def test_absurd_forces_velocities_and_commands_are_refused(tmp_path):
+    t = _clock()
+    f = 20 * np.sin(40 * t)
+    x = 0.05 + 0.01 * np.sin(20 * t)
+    with pytest.raises(MeasuredDataError, match=r"column 'f', row \d+ .*: f = .*e\+30\d N; allowed \|f\| <= 1e\+06 N"):
+        load_measured(write_measured(tmp_path / "f.csv", t, {"f": 1e300 * f, "x": x}, plant="slider"))
+    assert len(load_measured(write_measured(tmp_path / "f_ok.csv", t, {"f": 1e3 * f, "x": x}, plant="slider"))) == N
+    with pytest.raises(MeasuredDataError, match=r"column 'u'.*u = .* V; allowed \|u\| <= 1000 V"):
+        load_measured(_own(tmp_path, t, u=np.full(N, 5e3)))
+    ls = {c.name: np.full(N, 1.0) for c in __import__("hydro_envs.data", fromlist=["channels_for"]).channels_for("load_sensing")}
+    ls.update(p_s=np.full(N, 2e7), p_l=np.full(N, 1e7), p_ls=np.full(N, 1e7), xa=np.full(N, 0.1), a_cv=np.full(N, 1e-5),
+              f_sol=np.full(N, 10.0))
+    ls["va"] = np.full(N, 0.2)
+    assert len(load_measured(write_measured(tmp_path / "ls.csv", t, ls, plant="load_sensing"))) == N
+    ls["va"] = np.full(N, 1e6)
+    with pytest.raises(MeasuredDataError, match=r"column 'va'.*allowed \|va\| <= .* m/s \(5 x the stroke"):
+        load_measured(write_measured(tmp_path / "ls_bad.csv", t, ls, plant="load_sensing"))
+
+
+def test_bench_without_a_stroke_parameter_uses_the_registry_bound(tmp_path):
+    t = _clock()
+    rec = {"x": 0.036 + 0 * t, "p_gauge": 5e5 + 0 * t, "F_load": 10 + 0 * t}
+    assert len(load_measured(write_measured(tmp_path / "ok.csv", t, rec, plant="seal_friction"))) == N
+    with pytest.raises(MeasuredDataError, match=r"position 36 m is more than 5 x the stroke 1 m"):
+        load_measured(write_measured(tmp_path / "mm.csv", t, dict(rec, x=36.0 + 0 * t), plant="seal_friction"))

@@ -18,7 +18,8 @@ def add_record_arguments(parser: argparse.ArgumentParser) -> None:
     g = parser.add_argument_group("measured record")
     g.add_argument("--map", dest="record_map", default=None, metavar="MAP",
                    help="column map 'channel=expr[unit],...' (e.g. 't=time[ms],x=qm[m],f=gtau*vir[N]') "
-                        "or a YAML sidecar file; default: the file's own columns (or FILE.yaml next to it)")
+                        "or a YAML sidecar file; default: the file's own columns (a FILE.yaml beside the data is used only "
+                        "when named here or with --map-file; a note says it was not)")
     g.add_argument("--units", dest="record_units", default=None, metavar="UNITS",
                    help="units of the file's columns 'channel=unit,...' (e.g. 'x=mm,p1=bar(g)'); "
                         "converted once to SI on loading")
@@ -31,8 +32,8 @@ def add_record_arguments(parser: argparse.ArgumentParser) -> None:
     g.add_argument("--max-jitter", dest="record_max_jitter", type=float, default=None, metavar="REL",
                    help="accepted relative sample-time irregularity (default 1e-3)")
     g.add_argument("--stroke", dest="record_stroke", type=float, default=None, metavar="M",
-                   help="the rig's stroke [m] for the position check (default: the plant's stroke parameter; plants "
-                        "without one, such as the seal-friction bench, are checked only when it is given)")
+                   help="the rig's stroke [m] for the position check (default: the plant's stroke parameter, or the "
+                        "registry's largest stroke of a bench without one, 1 m for the seal-friction bench)")
 
 
 def record_kwargs(args: argparse.Namespace) -> dict[str, Any]:

@@ -122,13 +122,14 @@ def parse_units(spec: str | Mapping[str, str] | None, path: Any = None) -> dict[
 
 
 def load_sidecar(path: Path) -> dict[str, Any]:
-    """Read a YAML sidecar (``columns``, ``map``, ``units``, ``delimiter``) with ``yaml.safe_load``."""
-    import yaml
+    """Read a YAML sidecar (``columns``, ``map``, ``units``, ``delimiter``) with :func:`hydro_envs.yamlio.load_yaml`
+    (bounded, duplicate keys refused)."""
+    from hydro_envs.yamlio import YamlError, load_yaml, short
 
     try:
-        doc = yaml.safe_load(path.read_text(encoding="utf-8"))
-    except (UnicodeDecodeError, yaml.YAMLError) as e:
-        raise MeasuredDataError(path, f"column-map sidecar is not readable YAML text: {e}") from None
+        doc = load_yaml(path, what="column-map sidecar")
+    except YamlError as e:
+        raise MeasuredDataError(None, str(e)) from None
     if not isinstance(doc, dict):
         raise MeasuredDataError(path, "column-map sidecar must be a YAML mapping with keys columns, map, units")
     bad = set(doc) - {"columns", "map", "units", "delimiter"}
@@ -136,7 +137,14 @@ def load_sidecar(path: Path) -> dict[str, Any]:
         raise MeasuredDataError(path, f"column-map sidecar: unknown key(s) {sorted(map(str, bad))}; allowed: columns, map, units, delimiter")
     cols = doc.get("columns")
     if cols is not None and not (isinstance(cols, list) and all(isinstance(c, str) for c in cols)):
-        raise MeasuredDataError(path, "column-map sidecar: 'columns' must be a list of names")
+        raise MeasuredDataError(path, f"column-map sidecar: columns = {short(cols)}; allowed a list of names")
+    for key in ("map", "units"):
+        if doc.get(key) is not None and not isinstance(doc[key], dict):
+            raise MeasuredDataError(path, f"column-map sidecar: {key} = {short(doc[key])}; allowed a mapping")
+    if doc.get("delimiter") is not None and doc["delimiter"] not in ("comma", "semicolon", "tab", "whitespace",
+                                                                      ",", ";", "\t"):
+        raise MeasuredDataError(path, f"column-map sidecar: delimiter = {short(doc['delimiter'])}; allowed comma, "
+                                "semicolon, tab, whitespace")
     return doc
 
 

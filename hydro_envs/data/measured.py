@@ -23,17 +23,24 @@ CSV (any suffix except ``.parquet`` / ``.pq``), UTF-8 (a byte-order mark is acce
    customary. Blank lines before the header are ignored.
 2. Exactly one header row, comma-separated. The first column is ``t`` (time in s); the
    others are channel names of the plant, each at most once, in any order. A header cell
-   may carry its unit in square brackets, ``x [m]``; if given it must equal the registered
-   unit exactly (case-sensitive: ``mPa`` is not ``MPa``). No unit: the registered one is
-   assumed. Columns that are not channels of the plant are rejected (unless the reader
-   passes ``allow_extra=True``).
+   may carry its unit in square brackets, ``x [m]``: the registered unit, or one that
+   converts to it (``x [mm]``, ``p1 [bar]``, ``t [ms]``; :mod:`hydro_envs.data.units`,
+   case-sensitive: ``mPa`` is not ``MPa``), converted once on reading and noted in the
+   metadata as ``unit.NAME``; an unknown unit or one of another dimension is refused. No
+   unit: the registered one is assumed (readers say so). Writers write the registered units.
+   Columns that are not channels of the plant are rejected (unless the reader passes
+   ``allow_extra=True``).
 3. Then one row per sample, same number of cells as the header, every cell a finite
    decimal number (``1``, ``-2.5``, ``3e-4``; no NaN, inf, empty cells or thousands
    separators). Time is strictly increasing. At least 2 rows. Blank lines are allowed only
    at the end of the file. Nothing is dropped or repaired on reading.
-4. Values are SI as registered for the plant (pressures absolute in Pa, positions in m,
-   valve commands in V). Writers use Python's shortest round-trip ``repr`` of each float,
-   so a write/read cycle is bit-exact.
+4. Values are in the header's units, SI as registered where none is given (pressures
+   absolute in Pa, positions in m, valve commands in V). Writers use Python's shortest
+   round-trip ``repr`` of each float, so a write/read cycle is bit-exact.
+5. Every record read is checked against its plant's registry entry before it is returned
+   (:mod:`hydro_envs.data.checks`: positions within the stroke, pressures in a plausible band,
+   the sample time against ``# sample_rate:`` and the plant's dynamics, gaps, bounds on
+   forces and velocities), whatever its format.
 
 Parquet (suffix ``.parquet`` or ``.pq``, needs ``pyarrow``): the same column names, float64
 (integers are accepted on reading), no nulls; the units are stored as JSON under the
@@ -85,7 +92,7 @@ def load_measured(
     column_map: str | Mapping[str, Any] | os.PathLike[str] | None = None,
     units: str | Mapping[str, str] | None = None,
     delimiter: str | None = None,
-    check: bool | None = None,
+    check: bool = True,
     allow_gaps: bool = False,
     stroke: float | None = None,
     max_jitter: float | None = None,
@@ -93,21 +100,25 @@ def load_measured(
     """Read, convert to SI and validate a record of ``plant``.
 
     A format-v1 file (CSV with a ``t`` header, or parquet; see the module docstring) is read
-    strictly when neither ``column_map`` nor ``units`` is given and no sidecar
-    ``<file>.yaml`` exists. Otherwise, and always for ``.mat`` files, the file is read as a
-    foreign record (:mod:`hydro_envs.data.foreign`): ``column_map`` is a string
-    ``"t=time,x=qm[mm],f=gtau*vir"``, a mapping, or the path of a YAML sidecar; ``units`` a
-    string ``"x=mm,p1=bar(g)"`` or a mapping; ``delimiter`` one of ``comma``, ``semicolon``,
-    ``tab``, ``whitespace`` (sniffed by default). Units are converted once to the plant's SI
-    units; foreign records need a unit for every channel.
+    strictly when neither ``column_map``, ``units`` nor ``delimiter`` is given. Otherwise, and
+    always for ``.mat`` files, the file is read as a foreign record
+    (:mod:`hydro_envs.data.foreign`): ``column_map`` is a string ``"t=time,x=qm[mm],f=gtau*vir"``,
+    a mapping, or the path of a YAML sidecar; ``units`` a string ``"x=mm,p1=bar(g)"`` or a
+    mapping; ``delimiter`` one of ``comma``, ``semicolon``, ``tab``, ``whitespace`` (sniffed by
+    default). Units are converted once to the plant's SI units; foreign records need a unit for
+    every channel.
+
+    A sidecar is used only when named: a ``<file>.yaml`` lying beside the data is not read, and
+    :attr:`MeasuredData.notes` says that it was not (pass it as ``column_map`` to use it).
 
     ``plant`` defaults to the file's ``# plant:`` metadata. ``required`` lists the channels
-    that must be present (default: all the plant's channels). ``check`` runs the plausibility
-    checks of :mod:`hydro_envs.data.checks` (default: on for foreign records, off for
-    format-v1 files); ``allow_gaps`` turns gaps into :attr:`MeasuredData.segments` instead of
-    an error; ``max_jitter`` (relative, default ``1e-3``) is the accepted sample-time
-    irregularity; ``stroke`` [m] overrides the plant's default stroke in the position check.
-    Raises :class:`MeasuredDataError` on any violation.
+    that must be present (default: all the plant's channels). The plausibility checks of
+    :mod:`hydro_envs.data.checks` run on every record, whatever its format (``check=False``
+    skips them: for tests of the file format itself, never before a fit); ``allow_gaps`` turns
+    gaps into :attr:`MeasuredData.segments` instead of an error; ``max_jitter`` (relative,
+    default ``1e-3``) is the accepted sample-time irregularity; ``stroke`` [m] overrides the
+    plant's default stroke in the position check. Raises :class:`MeasuredDataError` on any
+    violation.
     """
     p = Path(path)
     if not p.exists():
@@ -115,26 +126,35 @@ def load_measured(
     if not p.is_file():
         raise MeasuredDataError(p, "not a regular file")
     sidecar = None
+    notes: list[str] = []
     if isinstance(column_map, (str, os.PathLike)) and str(column_map).lower().endswith((".yaml", ".yml")):
         sidecar = Path(column_map)
         if not sidecar.is_file():
             raise MeasuredDataError(sidecar, "column-map sidecar not found")
         column_map = None
-    elif column_map is None and units is None:
+    elif column_map is None:
         for cand in (p.with_suffix(".yaml"), p.with_suffix(".yml")):
             if cand.is_file() and cand != p:
-                sidecar = cand
+                notes.append(f"{cand} lies beside the data and was not used (a column map is used only when "
+                             f"named: --map-file {cand.name})")
                 break
     suffix = p.suffix.lower()
     foreign = suffix in MAT_SUFFIXES or column_map is not None or units is not None or sidecar is not None \
         or delimiter is not None
-    if not foreign:
-        data = _load_parquet(p, plant, required, allow_extra) if _is_parquet(p) else _load_csv(p, plant, required, allow_extra)
-    else:
-        if _is_parquet(p):
-            raise MeasuredDataError(p, "a column map or units are not supported for parquet files; write them in format v1")
-        data = _load_foreign(p, plant, required, allow_extra, column_map, units, delimiter, sidecar)
-    if check if check is not None else foreign:
+    try:
+        if not foreign:
+            data = _load_parquet(p, plant, required, allow_extra) if _is_parquet(p) else _load_csv(p, plant, required, allow_extra)
+        else:
+            if _is_parquet(p):
+                raise MeasuredDataError(p, "a column map or units are not supported for parquet files; write them in format v1")
+            data = _load_foreign(p, plant, required, allow_extra, column_map, units, delimiter, sidecar)
+    except MeasuredDataError as exc:
+        if notes and not foreign:
+            raise MeasuredDataError(exc.path, f"{str(exc).removeprefix(f'{exc.path}: ')} (note: {notes[0]})",
+                                    line=exc.line, column=exc.column) from None
+        raise
+    data.notes = tuple(notes)
+    if check:
         from hydro_envs.data.checks import JITTER_TOL, check_record
         from hydro_envs.registry import get
 

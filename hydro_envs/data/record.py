@@ -54,6 +54,9 @@ class MeasuredData:
     #: columns whose header gave no unit, read in the registered unit ("x [m]", ...); readers
     #: report them (nothing is assumed silently)
     units_assumed: tuple[str, ...] = ()
+    #: what the reader noticed and did not use (a column-map sidecar beside the file); readers
+    #: print them
+    notes: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         self.t = np.asarray(self.t, dtype=np.float64)

@@ -59,10 +59,14 @@ def _check_columns(
     required: Iterable[str] | None,
     allow_extra: bool,
     where: Callable[[int], str],
+    conversions: dict[str, Any] | None = None,
 ) -> tuple[dict[str, str], list[str]]:
     """Validate the column list; return units per column and the canonical column order.
 
-    ``where(j)`` describes column ``j`` (0-based) for messages.
+    ``where(j)`` describes column ``j`` (0-based) for messages. With ``conversions`` (a dict
+    filled here: column -> :class:`hydro_envs.data.units.Conversion`), a header unit that
+    converts to the registered one (``x [mm]``, ``p1 [bar]``, ``t [ms]``) is accepted and its
+    conversion recorded; without it (the writer) the unit must be the registered one.
     """
     table = _plant_table(path, plant)
     registered = {c.name: c for c in table}
@@ -112,7 +116,16 @@ def _check_columns(
                     column=name,
                 )
             expected = None
-        if unit is not None and expected is not None and unit != expected:
+        if unit is not None and expected is not None and unit != expected and conversions is not None:
+            from hydro_envs.data.units import UnitError, conversion
+
+            meaning = registered[name].meaning if name in registered else ""
+            try:
+                conversions[name] = conversion(unit, expected, column=name,
+                                               gauge_channel="gauge" in (name + " " + meaning).lower())
+            except UnitError as exc:
+                raise MeasuredDataError(path, f"{where(j)}: {exc}", column=name) from None
+        elif unit is not None and expected is not None and unit != expected:
             raise MeasuredDataError(
                 path,
                 f"{where(j)}: column {name!r} is given in [{unit}] but "

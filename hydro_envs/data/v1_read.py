@@ -152,6 +152,7 @@ def _load_csv(
     hunits = [u for _, u in parsed]
 
     plant_name = _resolve_plant(path, plant, metadata.pop("plant", None))
+    conversions: dict = {}
     units, order = _check_columns(
         path,
         plant_name,
@@ -160,6 +161,7 @@ def _load_csv(
         required,
         allow_extra,
         lambda j: f"line {hline}, header column {j + 1}",
+        conversions,
     )
     assumed = tuple(f"{n} [{units[n]}]" for n, u in zip(names, hunits) if u is None and units.get(n))
 
@@ -184,7 +186,7 @@ def _load_csv(
         linenos = list(range(hline + 1, hline + 1 + len(data_lines)))
     else:
         arr, linenos = _parse_rows_slow(path, data_lines, hline, names)
-    columns = [np.ascontiguousarray(arr[:, j]) for j in range(ncol)]
+    columns = _convert(names, [np.ascontiguousarray(arr[:, j]) for j in range(ncol)], conversions, metadata)
     _check_values(
         path,
         names,
@@ -194,6 +196,17 @@ def _load_csv(
     out = _build(path, plant_name, names, columns, units, order, metadata)
     out.units_assumed = assumed  # said, not silent: readers report it (identify notes)
     return out
+
+
+def _convert(names: Sequence[str], columns: list[np.ndarray], conversions: dict, metadata: dict[str, str]) -> list[np.ndarray]:
+    """Columns converted to SI where the header declared another unit (noted as ``unit.NAME``)."""
+    for j, name in enumerate(names):
+        conv = conversions.get(name)
+        if conv is not None:
+            columns[j] = np.asarray(conv.apply(columns[j]), dtype=np.float64)
+            if conv.note:
+                metadata[f"unit.{name}"] = conv.note
+    return columns
 
 
 def _row_regex(ncol: int) -> re.Pattern[str]:
@@ -291,6 +304,7 @@ def _load_parquet(
         )
     hunits = [file_units.get(n) for n in names]
     plant_name = _resolve_plant(path, plant, metadata.pop("plant", None))
+    conversions: dict = {}
     units, order = _check_columns(
         path,
         plant_name,
@@ -299,6 +313,7 @@ def _load_parquet(
         required,
         allow_extra,
         lambda j: f"column {j + 1}",
+        conversions,
     )
     columns = []
     for j, name in enumerate(names):
@@ -320,6 +335,7 @@ def _load_parquet(
                 column=name,
             )
         columns.append(np.asarray(col.to_numpy(), dtype=np.float64))
+    columns = _convert(names, columns, conversions, metadata)
     _check_values(path, names, columns, lambda i: (f"data row {i + 1}", i + 1))
     out = _build(path, plant_name, names, columns, units, order, metadata)
     out.units_assumed = tuple(f"{n} [{units[n]}]" for n, u in zip(names, hunits) if u is None and units.get(n))

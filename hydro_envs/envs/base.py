@@ -21,6 +21,14 @@ spaces and the sensor channels. Everything else lives here once:
   a single env reset with seed ``s + i`` bit for bit;
 * stepping: the plant's compiled ``step_serial`` for the single env (entering a parallel
   region costs more than a whole env step), ``step_parallel`` for vector envs;
+* bounded and finite: a parameter set that needs more than :data:`MAX_SUBSTEPS` RK4 sub-steps
+  per env step (its stiffness bound times the worst-case local refinement) is refused at make
+  or reset (:class:`SubstepLimitError`, a ``ValueError`` naming the copy, the count and the
+  parameters off nominal) instead of a step that never returns; a state or reward that is not
+  finite after a step raises :class:`NonFiniteStateError` naming the copy, the states and the
+  parameters (checked every step on the rewards, which every state reaches, and on every state
+  every :data:`FINITE_CHECK_EVERY` steps; ``PlantBatch.check_finite = False`` lets a caller that
+  scores non-finite copies itself, the benchmark and the soak test, step on);
 * :class:`BatchedEnv` (a ``gymnasium.Env`` that is a view on a batch of one) and
   :class:`BatchedVectorEnv` (a ``gymnasium.vector.VectorEnv`` with NEXT_STEP or SAME_STEP
   autoreset and per-copy truncation).
@@ -61,6 +69,10 @@ __all__ = [
     "PRESSURE_FACTOR",
     "NORMALISED_LIMIT",
     "VELOCITY_FACTOR",
+    "MAX_SUBSTEPS",
+    "FINITE_CHECK_EVERY",
+    "SubstepLimitError",
+    "NonFiniteStateError",
 ]
 
 #: a state pressure may lie in [0, PRESSURE_FACTOR x the plant's pressure parameter] (its supply
@@ -73,6 +85,33 @@ NORMALISED_LIMIT = 2.0
 #: tasks bound the load's velocity by VELOCITY_FACTOR x the plant's own speed bound (its
 #: no-load velocity, or the speed its RK4 sub-step count is sized for)
 VELOCITY_FACTOR = 2.0
+#: most RK4 sub-steps per env step and copy (the stiffness bound's count times the worst-case
+#: local refinement of a plant stepped with ``rk4_advance_lookahead``): about 1000 x a nominal
+#: plant's cost (0.4 ms per copy and step); a parameter set that needs more is stiffer than the
+#: plant is built for (the ends of some allowed ranges need 1e5-1e7)
+MAX_SUBSTEPS = 1000
+#: env steps between full finiteness checks of every state (the rewards are checked every step)
+FINITE_CHECK_EVERY = 32
+
+
+class SubstepLimitError(ValueError):
+    """A parameter set needs more than :data:`MAX_SUBSTEPS` RK4 sub-steps per env step."""
+
+
+class NonFiniteStateError(ArithmeticError):
+    """A plant state or reward is NaN or infinite after a step (the command line's exit code 1)."""
+
+    exit_code = 1
+
+
+def params_off_nominal(p: PhysicalParams, limit: int = 6) -> str:
+    """``name=value`` of the parameters of ``p`` that differ from its class's defaults (for messages)."""
+    nominal = type(p)()
+    diff = [f"{n}={getattr(p, n):.6g}" for n in p.names() if getattr(p, n) != getattr(nominal, n)]
+    if not diff:
+        return "the nominal parameters"
+    more = f" and {len(diff) - limit} more" if len(diff) > limit else ""
+    return "parameters " + ", ".join(diff[:limit]) + more
 
 
 def check_positive_int(name: str, value: Any) -> int:
@@ -226,6 +265,11 @@ class PlantBatch:
     state_limit_parameters: ClassVar[Mapping[str, str]] = {"xv": "spool_stroke"}
     #: states a reset may not set (internal filter realisations without a physical meaning)
     fixed_states: ClassVar[tuple[str, ...]] = ()
+    #: for a plant stepped with ``rk4_advance_lookahead``: its compiled ``(P_row, h) -> m``, the
+    #: fine steps per sub-step at the worst case (the kernels' ``m``); counts in the sub-step cap
+    refinement_bound: ClassVar[Any] = None
+    #: whether a step checks that every state and reward is finite (module docstring)
+    check_finite: bool = True
 
     def __init__(
         self,
@@ -278,6 +322,7 @@ class PlantBatch:
         self.params: list[PhysicalParams] = [self.base_params] * n
         self.rngs: list[np.random.Generator | None] = [None] * n
         self._reset_params: PhysicalParams = self.base_params
+        self._steps_unchecked = 0
         self.select_step_kernel()
 
     def select_step_kernel(self) -> None:
@@ -327,9 +372,49 @@ class PlantBatch:
         return spaces.Box(-1.0, 1.0, (self.action_dim,), dtype=np.float32)
 
     # ------------------------------------------------------------------ generic
-    def substeps_for(self, p: PhysicalParams) -> int:
-        """RK4 sub-steps per env step for parameter set ``p`` (stiffness bound)."""
-        return substeps_from_stiffness(self.plant.stiffness_modes(p), self.dt, self.safety)[0]
+    def substeps_for(self, p: PhysicalParams, row: np.ndarray | None = None) -> int:
+        """RK4 sub-steps per env step for parameter set ``p`` (stiffness bound); raises
+        :class:`SubstepLimitError` when they, times the worst-case local refinement, exceed
+        :data:`MAX_SUBSTEPS`. ``row``: ``p.to_array()`` when the caller has it."""
+        n, h, mode = substeps_from_stiffness(self.plant.stiffness_modes(p), self.dt, self.safety)
+        if n > MAX_SUBSTEPS:
+            raise SubstepLimitError(
+                f"{self.plant_spec.name}: {params_off_nominal(p)} need {n} RK4 sub-steps per env step (stiffness "
+                f"mode {mode!r}); allowed at most {MAX_SUBSTEPS}: stiffer than the plant is built for")
+        bound = self.refinement_bound
+        if bound is not None:
+            m = int(getattr(bound, "py_func", bound)(p.to_array() if row is None else row, h))
+            if n * m > MAX_SUBSTEPS:
+                raise SubstepLimitError(
+                    f"{self.plant_spec.name}: {params_off_nominal(p)} need up to {n * m} RK4 sub-steps per env step "
+                    f"({n} sub-steps, each refined up to {m} x where a local mode is stiff); allowed at most "
+                    f"{MAX_SUBSTEPS}: stiffer than the plant is built for")
+        return n
+
+    def assert_finite(self) -> None:
+        """Raise :class:`NonFiniteStateError` naming the first copy whose state or reward is not
+        finite (its states, step count and parameters)."""
+        self._steps_unchecked = 0
+        bad = ~(np.all(np.isfinite(self.Y), axis=1) & np.isfinite(self.reward))
+        if not bad.any():
+            return
+        i = int(np.flatnonzero(bad)[0])
+        names = [n for n, v in zip(self.plant.STATE_NAMES, self.Y[i]) if not math.isfinite(v)]
+        what = (f"state {', '.join(f'{n} = {float(self.Y[i, self.plant.STATE_NAMES.index(n)])!r}' for n in names[:4])}"
+                if names else f"reward = {float(self.reward[i])!r}")
+        more = f" ({int(bad.sum())} copies in all)" if bad.sum() > 1 else ""
+        raise NonFiniteStateError(
+            f"{self.plant_spec.name} copy {i}: {what} after step {int(self.K[i])} with {params_off_nominal(self.params[i])}"
+            f"{more}; the plant is not finite there (report the parameters)")
+
+    def _check_step(self) -> None:
+        """The finiteness check after a step: the rewards every step, every state every
+        :data:`FINITE_CHECK_EVERY` steps."""
+        r = self.reward
+        total = float(r[0]) if r.shape[0] == 1 else float(np.add.reduce(r))
+        self._steps_unchecked += 1
+        if not math.isfinite(total) or self._steps_unchecked >= FINITE_CHECK_EVERY:
+            self.assert_finite()
 
     def hold_params(self, names: Iterable[str], *, warn: bool = True) -> None:
         """Take ``names`` out of the randomisation: they keep their ``base_params`` values.
@@ -503,9 +588,14 @@ class PlantBatch:
         if options.get("params"):
             p = self.params_cls.from_mapping(options["params"], base=p)
         self._reset_params = p
+        row = p.to_array()
+        try:
+            nsub = self.substeps_for(p, row)
+        except SubstepLimitError as exc:
+            raise SubstepLimitError(f"copy {i}: {exc}") from None
         self.params[i] = p
-        self.P[i] = p.to_array()
-        self.NSUB[i] = self.substeps_for(p)
+        self.P[i] = row
+        self.NSUB[i] = nsub
         self.reset_task(i, rng, p, options)
         self.K[i] = 0
         self.U[i] = 0.0
@@ -525,6 +615,8 @@ class PlantBatch:
             self.step_and_observe()
         else:
             self.step_then_observe()
+        if self.check_finite:
+            self._check_step()
 
     def step_then_observe(self) -> None:
         """:meth:`apply_actions`, step every copy (``step_kernel``), count the step in ``K`` and

@@ -187,6 +187,7 @@ class ForceActuatorBatch(PlantBatch):
 
     plant_spec = SPEC
     plant = plant
+    refinement_bound = staticmethod(plant.dahl_friction_refinement)  # the kernels' m: counts in the sub-step cap
     params_cls = ForceActuatorParams
     dt = DT
     episode_steps_default = EPISODE_STEPS

@@ -194,6 +194,7 @@ class LoadSensingBatch(PlantBatch):
 
     plant_spec = SPEC
     plant = plant
+    refinement_bound = staticmethod(plant.local_mode_refinement)  # the kernels' m: counts in the sub-step cap
     params_cls = LoadSensingParams
     dt = DT
     episode_steps_default = EPISODE_STEPS

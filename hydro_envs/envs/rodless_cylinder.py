@@ -135,6 +135,7 @@ class RodlessCylinderBatch(CylinderTrackingBatch):
 
     plant_spec = SPEC
     plant = plant
+    refinement_bound = staticmethod(plant.local_mode_refinement)  # the kernels' m: counts in the sub-step cap
     params_cls = RodlessCylinderParams
     dt = DT
     episode_steps_default = EPISODE_STEPS

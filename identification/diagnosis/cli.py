@@ -5,8 +5,10 @@
 
 ``--base`` is a YAML preset (``configs/plants/*.yaml`` format: ``plant:`` and ``parameters:``)
 or omitted for the plant's nominal parameters with every catalogue effect at its null value.
-Exit codes: 0 done (any verdict: named, none, ambiguous, unexplained), 2 usage / bad input, 3 the
-data cannot support a conclusion or the base model cannot be fitted to them.
+``--out`` is checked before the work: a folder (created), empty unless ``--force``, never a file.
+Errors follow the command line's convention (:mod:`hydro_envs.cli_errors`): one line, no
+traceback. Exit codes: 0 done (any verdict: named, none, ambiguous, unexplained), 1 the data
+cannot support a conclusion or the base model cannot be fitted to them, 2 usage / bad input.
 """
 
 from __future__ import annotations
@@ -16,7 +18,7 @@ import json
 import sys
 from typing import Any
 
-EXIT_OK, EXIT_USAGE, EXIT_DATA = 0, 2, 3
+EXIT_OK, EXIT_DATA, EXIT_USAGE = 0, 1, 2
 
 
 def add_diagnose_parser(subparsers: Any) -> argparse.ArgumentParser:
@@ -36,7 +38,9 @@ def add_diagnose_parser(subparsers: Any) -> argparse.ArgumentParser:
     p.add_argument("--base", metavar="CONFIG", help="YAML parameter preset of the base model")
     p.add_argument("--effects", help="comma-separated catalogue effects to consider (default: all applicable)")
     p.add_argument("--max-effects", type=int, default=3, metavar="N")
-    p.add_argument("--out", metavar="DIR", help="write a report (markdown + PNG figures) here")
+    p.add_argument("--out", metavar="DIR", help="write a report (markdown + PNG figures) into this folder "
+                   "(created; an existing non-empty folder only with --force)")
+    p.add_argument("--force", action="store_true", help="write into a non-empty --out folder")
     p.add_argument("--json", action="store_true", help="print one JSON object (verdict, effects, candidates)")
     from hydro_envs.data.cli_args import add_record_arguments
 
@@ -53,44 +57,44 @@ def _load_base(path: str, plant: str):
 
 
 def _cmd_diagnose(args: argparse.Namespace) -> int:
-    from hydro_envs.data.measured import MeasuredDataError, load_measured
-    from hydro_envs.params import ParameterError
-    from hydro_envs.data.cli_args import record_kwargs
-    from identification.diagnosis import DiagnosisDataError, DiagnosisFitError, diagnose, diagnosis_plant, record_from_measured
-    from identification.ranges import RangesError
-
+    """Run the diagnosis; an error is one line (and, with ``--json``, a JSON object with it)."""
     try:
-        spec = diagnosis_plant(args.plant)
-    except KeyError as e:
-        print(f"hydro diagnose: {e.args[0]}", file=sys.stderr)
-        return EXIT_USAGE
-    try:
-        import hydro_envs.plants  # noqa: F401  (registers the plants' channels)
-
-        def load(path):
-            return record_from_measured(load_measured(path, plant=args.plant, required=spec.required,
-                                                      **record_kwargs(args)), spec)
-
-        records = [load(p) for p in args.data]
-        holdout = [load(p) for p in args.holdout] if args.holdout else None
-        base = _load_base(args.base, args.plant) if args.base else None
-        effects = [e.strip() for e in args.effects.split(",")] if args.effects else None
-        progress = None if args.json else (lambda m: print(m, flush=True))
-        res = diagnose(spec, records, holdout, base=base, effects=effects, max_effects=args.max_effects,
-                       progress=progress)
-    except (MeasuredDataError, ParameterError, RangesError, ValueError, OSError) as e:
-        if isinstance(e, DiagnosisDataError):
-            msg = f"the data cannot support a conclusion: {e}"
-            code = EXIT_DATA
-        elif isinstance(e, DiagnosisFitError):
-            msg, code = str(e), EXIT_DATA
-        else:
-            msg, code = str(e), EXIT_USAGE
+        return _diagnose(args)
+    except Exception as e:
         if args.json:
+            from hydro_envs.cli_errors import exit_code_for
+
+            msg = " ".join(str(e).split())
+            if exit_code_for(e) == EXIT_DATA and not msg.startswith("the data"):
+                msg = f"the data cannot support a conclusion: {msg}"
             print(json.dumps({"verdict": None, "error": msg}))
-        else:
-            print(f"hydro diagnose: {msg}", file=sys.stderr)
-        return code
+        raise
+
+
+def _diagnose(args: argparse.Namespace) -> int:
+    from hydro_envs.data.cli_args import record_kwargs
+    from hydro_envs.data.measured import load_measured
+    from hydro_envs.outputs import check_output_dir
+    from identification.diagnosis import diagnose, diagnosis_plant, record_from_measured
+
+    spec = diagnosis_plant(args.plant)
+    if args.out:
+        check_output_dir(args.out, force=bool(args.force), inputs=[*args.data, *(args.holdout or [])])
+    import hydro_envs.plants  # noqa: F401  (registers the plants' channels)
+
+    def load(path):
+        data = load_measured(path, plant=args.plant, required=spec.required, **record_kwargs(args))
+        for note in data.notes:
+            print(f"hydro diagnose: note: {note}", file=sys.stderr)
+        return record_from_measured(data, spec)
+
+    records = [load(p) for p in args.data]
+    holdout = [load(p) for p in args.holdout] if args.holdout else None
+    base = _load_base(args.base, args.plant) if args.base else None
+    effects = [e.strip() for e in args.effects.split(",")] if args.effects else None
+    progress = None if args.json else (lambda m: print(m, flush=True))
+    res = diagnose(spec, records, holdout, base=base, effects=effects, max_effects=args.max_effects,
+                   progress=progress)
     if args.out:
         from identification.diagnosis.report import write_report
 

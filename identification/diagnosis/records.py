@@ -30,6 +30,8 @@ __all__ = ["DiagnosisError", "DiagnosisDataError", "DiagnosisFitError", "Record"
 class DiagnosisError(ValueError):
     """The diagnosis cannot reach a verdict (the message says why and what is needed)."""
 
+    exit_code = 1  # the command line's code for data that cannot give a result (hydro_envs.cli_errors)
+
 
 class DiagnosisDataError(DiagnosisError):
     """The data cannot support a diagnosis (the message says why and what is needed)."""

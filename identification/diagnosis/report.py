@@ -15,6 +15,7 @@ from __future__ import annotations
 import json
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -99,21 +100,30 @@ def _fig_traces(path: Path, res: DiagnosisResult, spec: DiagnosisPlant, records:
 def write_report(res: DiagnosisResult, spec: DiagnosisPlant, records: Sequence[Record],
                  holdout: Sequence[Record] | None, out_dir: str | Path) -> Path:
     """Write ``report.md``, ``result.json`` and the figures into ``out_dir``; return the
-    markdown path."""
+    markdown path. The files are committed together (:class:`hydro_envs.outputs.Staged`): a
+    failed write (a full disk) leaves none of them."""
+    from hydro_envs.outputs import Staged
+
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
+    with Staged(out) as stage:
+        return _write_report(stage, res, spec, records, holdout, out)
+
+
+def _write_report(stage: Any, res: DiagnosisResult, spec: DiagnosisPlant, records: Sequence[Record],
+                  holdout: Sequence[Record] | None, out: Path) -> Path:
     data = list(records)
     before = residual_maps(spec, res.base_model, data, res.sigma)
     after = residual_maps(spec, res.final_model, data, res.sigma)
     figs = {}
     try:
-        _fig_maps(out / "residual_maps.png", before, after)
-        _fig_spectrum(out / "residual_spectrum.png", before, after)
-        _fig_traces(out / "traces.png", res, spec, list(holdout) if holdout else data)
+        _fig_maps(stage.path("residual_maps.png"), before, after)
+        _fig_spectrum(stage.path("residual_spectrum.png"), before, after)
+        _fig_traces(stage.path("traces.png"), res, spec, list(holdout) if holdout else data)
         figs = {"residual maps": "residual_maps.png", "residual spectrum": "residual_spectrum.png",
                 "held-out traces": "traces.png"}
     except ImportError:  # matplotlib is an optional extra
-        pass
+        stage.discard()
     lines = [f"# Diagnosis of `{res.plant}`", "", f"**Verdict: {res.verdict}**"
              + (f" ({res.ambiguous})" if res.ambiguous else ""), ""]
     if res.reason:
@@ -173,8 +183,7 @@ def write_report(res: DiagnosisResult, spec: DiagnosisPlant, records: Sequence[R
     for title, f in figs.items():
         lines += [f"## {title.capitalize()}", "", f"![{title}]({f})", ""]
     lines.append(f"Run time: {res.seconds:.1f} s.")
-    md = out / "report.md"
-    md.write_text("\n".join(lines) + "\n", encoding="utf-8")
-    (out / "result.json").write_text(json.dumps(res.to_json_dict(), allow_nan=False, indent=1), encoding="utf-8")
+    md = stage.write("report.md", "\n".join(lines) + "\n")
+    stage.write("result.json", json.dumps(res.to_json_dict(), allow_nan=False, indent=1))
     return md
 

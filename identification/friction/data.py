@@ -22,6 +22,8 @@ __all__ = ['IdentificationError', 'InsufficientDataError', 'UnidentifiableError'
 class IdentificationError(ValueError):
     """The data cannot give the requested model (base class)."""
 
+    exit_code = 1  # the command line's code for data that cannot give a result (hydro_envs.cli_errors)
+
 
 class InsufficientDataError(IdentificationError):
     """Too few (or too few distinct) data points for the number of parameters."""

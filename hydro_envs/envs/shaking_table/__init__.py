@@ -272,6 +272,7 @@ class ShakingTableBatch(PlantBatch):
 
     plant_spec = SPEC
     plant = plant
+    refinement_bound = staticmethod(plant.local_mode_refinement)  # the kernels' m: counts in the sub-step cap
     params_cls = ShakingTableParams
     dt = DT
     episode_steps_default = EPISODE_STEPS

@@ -18,4 +18,6 @@ SPEC = PlantSpec(
     params_class="LSCompensatorParams",
     experiments=("run_method1", "run_method2"),
     pressure_parameter="max_pressure",
+    # assumed: the 000 rigs are sampled at 10-20 kHz; coarser than 200 Hz misses the pilot pipe's waves
+    max_sample_time=0.005,
 )

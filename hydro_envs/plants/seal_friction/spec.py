@@ -13,4 +13,11 @@ SPEC = PlantSpec(
         Channel("p_gauge", "Pa", "chamber pressure above atmosphere (gauge), held constant"),
         Channel("F_load", "N", "load-cell force on the rod"),
     ),
+    # assumed: the bench's logger runs at 60-100 Hz with pauses (README), its rod travels less than
+    # 1 m (40 mm in the shipped records) against at most 10 kN at up to 500 bar gauge
+    max_sample_time=0.5,
+    max_stroke=1.0,
+    max_pressure=5e7,
+    max_force=1e4,
+    regular_clock=False,
 )

@@ -26,4 +26,6 @@ SPEC = PlantSpec(
     ),
     stroke_parameter="stroke",
     pressure_parameter="supply_pressure",
+    # assumed: 003 records at 1 kHz; coarser than 100 Hz misses the table's oil-column resonance
+    max_sample_time=0.01,
 )

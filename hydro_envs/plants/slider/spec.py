@@ -14,4 +14,7 @@ SPEC = PlantSpec(
     package="hydro_envs.plants.slider",
     params_class="SliderParams",
     stroke_parameter="stroke",
+    # assumed: a rigid axis recorded at 20 Hz or faster (EMPS: 1 kHz), driven by at most 1 MN
+    max_sample_time=0.05,
+    max_force=1e6,
 )
