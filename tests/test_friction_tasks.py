@@ -105,6 +105,14 @@ def test_rodless_slow_sine_friction_model_pays():
 
 
 
+def test_rodless_micro_steps_stiction_compensation_pays():
+    """Micro steps from rest: the identified breakaway level in the pressure target (by the
+    error's sign while the reference holds) beats the PID and the same loop without it."""
+    env = "hydro_envs/RodlessCylinderMicroPosition-v0"
+    assert _paired_ratio(env, "pid_dp_stiction", "pid") < 0.5
+    assert _paired_ratio(env, "pid_dp_stiction", "pid_dp") < 0.6
+
+
 def test_rodless_disturbance_observer_learns_each_draws_friction_online():
     """The observer of pid_dp_dob starts with no friction model: after one slow-sine episode its
     level lies between the draw's Coulomb friction and the Stribeck curve at the reference's mean

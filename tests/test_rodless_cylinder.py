@@ -108,10 +108,11 @@ def test_cross_field_relations_are_checked():
     with pytest.raises(ParameterError, match="valve_underlap"):
         RodlessCylinderParams(valve_underlap=2e-3)
     with pytest.raises(ParameterError, match="coulomb_friction"):
-        RodlessCylinderParams(static_friction=0.0, coulomb_friction=0.0)  # LuGre needs g > 0
+        RodlessCylinderParams(static_friction=10.0, coulomb_friction=0.0)  # the level must stay > 0 at speed
     with pytest.raises(ParameterError, match="supply_pressure"):
         RodlessCylinderParams(supply_pressure=9e4)
     RodlessCylinderParams(static_friction=0.0, coulomb_friction=0.0, bristle_stiffness=0.0)  # ok: static
+    RodlessCylinderParams(static_friction=0.0, coulomb_friction=0.0)  # ok: no dry friction, viscous only
 
 
 # ============================================================================ laws

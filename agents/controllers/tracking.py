@@ -80,6 +80,8 @@ class TrackingPID(BaseController):
 
 #: seconds between the observation's reference previews (obs[1] = r(t), obs[2..6] = r(t + 10 k ms))
 PREVIEW_DT = 0.01
+#: reference speed [m/s] below which :class:`PressureLoopPID` takes the reference as holding
+HOLD_SPEED = 1e-4
 
 
 class PressureLoopPID(TrackingPID):
@@ -97,11 +99,16 @@ class PressureLoopPID(TrackingPID):
       friction in the target). At a velocity reversal of the reference it swings the target
       pressure by ``2 F^ / A`` ahead of the motion, the pressure the axis otherwise has to build
       while it stands still. A subclass can override :meth:`friction_target` (an observer).
+    * ``hold_band`` [m] > 0: while the reference holds (``|v_ref| <`` :data:`HOLD_SPEED`) the target
+      is the model's breakaway level ``F^(0+)`` in the direction of the position error,
+      ``F^(0+) tanh(e / hold_band)``: a step from rest builds the breakaway pressure at once
+      instead of through the integral, and the target fades inside the band, so the axis is not
+      pushed back and forth about the level (the stiction compensation of micro-positioning).
     """
 
     def __init__(self, kp: float, ti: float, td: float, tf: float, *, stroke: float, k_q: float, area: float,
                  supply_pressure: float, k_dp: float, vff: bool = False, model: Any = None, preview: int = 1,
-                 **kwargs: Any) -> None:
+                 hold_band: float = 0.0, **kwargs: Any) -> None:
         super().__init__(kp, ti, td, tf, stroke=stroke, **kwargs)
         for name, val in (("k_q", k_q), ("area", area), ("supply_pressure", supply_pressure)):
             if not (np.isfinite(val) and val > 0):
@@ -111,7 +118,11 @@ class PressureLoopPID(TrackingPID):
         if preview not in range(len(PREVIEW_STEPS_OBS) - 1):
             raise ValueError(f"preview = {preview!r}; allowed 0..{len(PREVIEW_STEPS_OBS) - 2}")
         self.k_q, self.area, self.ps, self.k_dp = float(k_q), float(area), float(supply_pressure), float(k_dp)
-        self.vff, self.preview = bool(vff), int(preview)
+        if not (np.isfinite(hold_band) and hold_band >= 0):
+            raise ValueError(f"hold_band must be finite and >= 0 m, got {hold_band}")
+        if hold_band > 0 and model is None:
+            raise ValueError("hold_band > 0 needs a friction model (its breakaway level)")
+        self.vff, self.preview, self.hold_band = bool(vff), int(preview), float(hold_band)
         self._f = None if model is None else (model.predict if hasattr(model, "predict") else model)
 
     def preview_velocity(self, j: int, obs: np.ndarray) -> np.ndarray:
@@ -119,8 +130,18 @@ class PressureLoopPID(TrackingPID):
         return self.half * (obs[:, 2 + j] - obs[:, 1 + j]) / PREVIEW_DT
 
     def friction_target(self, v: np.ndarray, dp: np.ndarray, obs: np.ndarray) -> np.ndarray | float:
-        """Friction force [N] the pressure difference should carry at reference velocity ``v``."""
-        return 0.0 if self._f is None else np.asarray(self._f(v), dtype=float)
+        """Friction force [N] the pressure difference should carry at reference velocity ``v``
+        (and, with ``hold_band``, at the position error of a hold)."""
+        if self._f is None:
+            return 0.0
+        f = np.asarray(self._f(v), dtype=float)
+        if self.hold_band > 0.0:
+            e = obs[:, 0] * self.error_scale
+            up = np.asarray(self._f(np.full_like(v, HOLD_SPEED * 1e-6)), dtype=float)
+            down = -np.asarray(self._f(np.full_like(v, -HOLD_SPEED * 1e-6)), dtype=float)
+            breakaway = np.where(e >= 0.0, up, down) * np.tanh(e / self.hold_band)
+            f = np.where(np.abs(v) < HOLD_SPEED, breakaway, f)
+        return f
 
     def feedforward(self, obs: np.ndarray) -> np.ndarray:
         v = self.preview_velocity(self.preview, obs)

@@ -23,7 +23,9 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from hydro_envs.laws.stribeck_lugre import lugre_exponential_rate_bound
+from hydro_envs.laws.seal_friction import (
+    bristle_block_rate_bound, dissipative_fade_velocity, stribeck_slope_ratio_bound,
+)
 
 __all__ = ["piston_area", "speed_bound", "full_thrust", "smallest_chamber_volume", "local_mode_rates"]
 
@@ -73,7 +75,7 @@ def local_mode_rates(params: Any, orifice_rate_volume: float) -> dict[str, float
     (they share the velocity row of the Jacobian): viscous sigma, LuGre's ``2 sigma1`` and the
     Hunt-Crossley stop damping at full thrust ``alpha F_max``.
 
-    * ``friction_slip`` (LuGre): :func:`~hydro_envs.laws.stribeck_lugre.lugre_exponential_rate_bound`
+    * ``friction_slip`` (LuGre): :func:`~hydro_envs.laws.seal_friction.bristle_block_rate_bound`
       at the speed bound with the bristles deflected to ``F_s / sigma0``, viscous sigma and the
       stop damping on the slider;
     * ``friction_static`` (static curve): the regularised sign's slope ``F_s / v_eps``, the
@@ -87,9 +89,11 @@ def local_mode_rates(params: Any, orifice_rate_volume: float) -> dict[str, float
     rates = {"orifice": orifice_rate_volume / smallest_chamber_volume(params)}
     s0 = params.bristle_stiffness
     if s0 > 0.0:
-        rates["friction_slip"] = lugre_exponential_rate_bound.py_func(
-            speed_bound(params), params.static_friction / s0, params.coulomb_friction, params.static_friction,
-            s0, params.bristle_damping, damping, m)
+        v_d = dissipative_fade_velocity(params.bristle_damping, params.stribeck_velocity, params.coulomb_friction)
+        ratio = stribeck_slope_ratio_bound(params.coulomb_friction, params.static_friction, "exponential")
+        rates["friction_slip"] = bristle_block_rate_bound.py_func(
+            speed_bound(params), params.static_friction / s0, params.coulomb_friction, ratio, s0,
+            params.bristle_damping, v_d, damping, m, 1, 0.0)
         damping += 2.0 * params.bristle_damping
     else:
         rates["friction_static"] = (damping + params.static_friction / params.friction_sign_velocity

@@ -13,7 +13,7 @@ import numba as nb
 
 from hydro_envs.jit import njit_noalloc
 from hydro_envs.laws.friction import stribeck_exponential
-from hydro_envs.laws.stribeck_lugre import lugre_exponential_rate
+from hydro_envs.laws.seal_friction import bristle_dissipation, seal_friction, stribeck_curve_exponential
 from hydro_envs.plants.rodless_cylinder import model as rc
 from hydro_envs.plants.rodless_cylinder.model import rodless_cylinder_guard as guard
 from hydro_envs.plants.rodless_cylinder.model import rodless_cylinder_rhs as rhs
@@ -27,22 +27,27 @@ N_BODIES = 1
 
 @njit_noalloc
 def mech_terms(y, p):
-    """Carriage: kinetic energy, load potential and stop spring; port A (p_a - p_b) v; the
-    Stribeck friction (004 Table 2, memoryless) dissipates, while a LuGre bristle force (when
-    sigma0 > 0) is a port because it stores energy; stop damping dissipates."""
+    """Carriage: kinetic energy, load potential, stop spring and the energy ``sigma0 z^2 / 2`` of
+    the seals' bristles; port A (p_a - p_b) v; the seal friction (LuGre: its power less the
+    bristles' stored-energy rate, :func:`~hydro_envs.laws.seal_friction.bristle_dissipation`; or
+    the memoryless static curve of 004 Table 2) and stop damping dissipate."""
     pos = y[rc.Y]
     v = y[rc.V]
     u_st, d_st = stop_split(pos, v, 0.0, p[rc.I_L], p[rc.I_KSTOP], p[rc.I_ASTOP])
     e = 0.5 * p[rc.I_M] * v * v + p[rc.I_FL] * pos + u_st
     p_in = p[rc.D_AREA] * (y[rc.PA] - y[rc.PB]) * v
     sigma0 = p[rc.I_SIG0]
-    if sigma0 > 0.0:  # LuGre: the bristle force is a port (not pointwise passive)
-        dz = lugre_exponential_rate(v, y[rc.Z], p[rc.I_FC], p[rc.I_FS], p[rc.I_VS], sigma0)
-        p_in -= (sigma0 * y[rc.Z] + p[rc.I_SIG1] * dz) * v
-        d_f = p[rc.I_SIG2] * v * v
+    if sigma0 > 0.0:
+        z = y[rc.Z]
+        g = stribeck_curve_exponential(v, p[rc.I_FC], p[rc.I_FS], p[rc.I_VS]) if p[rc.I_FS] > 0.0 else 0.0
+        ff, dz = seal_friction(v, z, g, sigma0, p[rc.I_SIG1], p[rc.D_FADE], p[rc.I_SIG2], 1, 0.0)
+        e += 0.5 * sigma0 * z * z
+        d_f = bristle_dissipation(v, z, ff, dz, sigma0)
+        scale = abs(ff * v) + abs(sigma0 * z * dz)
     else:
         d_f = stribeck_exponential(v, p[rc.I_FC], p[rc.I_FS], p[rc.I_VS], p[rc.I_SIG2], p[rc.I_VEPS]) * v
-    return e, p_in, d_f + d_st, abs(d_f) + abs(d_st), u_st
+        scale = abs(d_f)
+    return e, p_in, d_f + d_st, scale + abs(d_st), u_st
 
 
 @njit_noalloc

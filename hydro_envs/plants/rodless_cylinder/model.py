@@ -35,7 +35,7 @@ Equations (numbers of 004)::
     p_P = p_s - R_s mdot_P(p_P)   (supply droop; R_s = 0, a constant p_s, in 004)
     S(x) = r^2 acos((r - x)/r) - (r - x) sqrt(r^2 - (r - x)^2)                 (2)
     xv'' = -w_v^2 xv - 2 zeta_v w_v xv' + k_v w_v^2 (u - 5 V)                  (28) + lag
-    F_f = sigma0 z + sigma1 z' + sigma v,  z' = v - sigma0 |v| z / g(v)       Table 2, Fig. 4
+    F_f = sigma0 z + sigma1(v) z' + sigma v,  z' = v - sigma0 |v| z / g(v)    Table 2, Fig. 4
     g(v) = F_c + (F_s - F_c) exp(-|v| / v_s)                                   Table 2, Fig. 3
 
 ``H = sum mdot_i T_i`` is the enthalpy flow (mass flow into the chamber times the upstream
@@ -94,7 +94,7 @@ from hydro_envs.laws.friction import stribeck_exponential, stribeck_exponential_
 from hydro_envs.laws.nozzle_fast import nozzle_mass_flow_fast, nozzle_mass_flow_slope_fast
 from hydro_envs.laws.orifice import circular_orifice_area, iso6358_mass_flow_laminar
 from hydro_envs.laws.pneumatic_chamber import chamber_pressure_rate, gas_internal_energy
-from hydro_envs.laws.stribeck_lugre import lugre_exponential_rate, lugre_exponential_rate_bound
+from hydro_envs.laws.seal_friction import bristle_block_rate_bound, seal_friction, stribeck_curve_exponential
 from hydro_envs.laws.valve import second_order_valve_acceleration
 from hydro_envs.sim.rk4 import STABLE_H_LAMBDA, local_substeps, worst_case_substeps
 from hydro_envs.sim.roots import brent_root
@@ -102,7 +102,7 @@ from hydro_envs.plants.rodless_cylinder.bounds import (
     local_mode_rates as _local_mode_rates, piston_area, smallest_chamber_volume, speed_bound,
 )
 from hydro_envs.plants.rodless_cylinder.params import (  # noqa: F401  (re-exported)
-    D_AREA, D_COEF, D_CRIT, D_INVK, D_KV, D_LOCAL, D_ORIFICE, D_PSIC, D_PSIL, D_SFULL, D_SQRTRTS,
+    D_AREA, D_COEF, D_CRIT, D_FADE, D_INVK, D_KV, D_LOCAL, D_ORIFICE, D_PSIC, D_PSIL, D_SFULL, D_SQRTRTS,
     ATM, I_ASTOP, I_BISO, I_CD, I_CISO, I_D, I_FC, I_FL, I_FLOW, I_FS, I_HW, I_K, I_KSTOP, I_L,
     I_M, I_MFLOOR, I_PE, I_PFLOOR, I_PS, I_R, I_RLAM, I_RP, I_SIG0, I_SIG1, I_SIG2, I_TS, I_UC,
     I_RSUP, I_ULAP, I_UMAX, I_VDA, I_VDB, I_VEPS, I_VMIN, I_VS, I_WV, I_XVM, I_ZV, N_FIELDS, N_PARAMS,
@@ -378,11 +378,12 @@ def _rhs(supply, y, u, p, dy):
     if y[MB] <= p[I_MFLOOR] and dmb < 0.0:
         dmb = 0.0
 
-    # seal friction: LuGre with the Table 2 curve as steady state, or the static curve
+    # seal friction: LuGre with the Table 2 curve as steady state (hydro_envs.laws.seal_friction),
+    # or the static curve
     sigma0 = p[I_SIG0]
     if sigma0 > 0.0:
-        dz = lugre_exponential_rate(v, y[Z], p[I_FC], p[I_FS], p[I_VS], sigma0)
-        f_friction = sigma0 * y[Z] + p[I_SIG1] * dz + p[I_SIG2] * v
+        g = stribeck_curve_exponential(v, p[I_FC], p[I_FS], p[I_VS]) if p[I_FS] > 0.0 else 0.0
+        f_friction, dz = seal_friction(v, y[Z], g, sigma0, p[I_SIG1], p[D_FADE], p[I_SIG2], 1, 0.0)
     else:
         dz = 0.0
         f_friction = stribeck_exponential(v, p[I_FC], p[I_FS], p[I_VS], p[I_SIG2], p[I_VEPS])
@@ -458,9 +459,13 @@ def _on_bumper(y, p):
 
 @nb.njit(cache=True, error_model="numpy", inline="always")
 def _lugre_rate(y, p):
-    """:func:`~hydro_envs.laws.stribeck_lugre.lugre_exponential_rate_bound` of the slider at
-    state ``y`` (velocity, bristle deflection; viscous sigma as the other damping)."""
-    return lugre_exponential_rate_bound(y[V], y[Z], p[I_FC], p[I_FS], p[I_SIG0], p[I_SIG1], p[I_SIG2], p[I_M])
+    """:func:`~hydro_envs.laws.seal_friction.bristle_block_rate_bound` of the slider at state
+    ``y`` (velocity, bristle deflection; the Coulomb level as the level's floor, viscous sigma as
+    the other damping; no bristle block without dry friction)."""
+    fc = p[I_FC]
+    ratio = (p[I_FS] - fc) / (math.e * fc) if fc > 0.0 else 0.0
+    return bristle_block_rate_bound(y[V], y[Z], fc, ratio, p[I_SIG0], p[I_SIG1], p[D_FADE], p[I_SIG2], p[I_M], 1,
+                                    0.0)
 
 
 @nb.njit(cache=True, error_model="numpy", inline="always")
@@ -477,7 +482,7 @@ def _crossed(y0, y, p):
 def local_mode_rate(y, p):
     """Upper estimate [1/s] of the locally refined modes at state ``y`` (:mod:`.bounds`): the
     flow law (:func:`orifice_rate`); the friction, i.e. the LuGre block of velocity and bristle
-    deflection (:func:`~hydro_envs.laws.stribeck_lugre.lugre_exponential_rate_bound`) or the
+    deflection (:func:`~hydro_envs.laws.seal_friction.bristle_block_rate_bound`) or the
     static curve's slope (:func:`static_friction_rate`); and, with the slider on a bumper, the
     worst case of all (``D_LOCAL``)."""
     if _on_bumper(y, p):

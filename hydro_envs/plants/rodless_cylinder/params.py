@@ -15,6 +15,7 @@ from typing import ClassVar
 
 from hydro_envs.laws.nozzle_fast import nozzle_flow_constants, nozzle_mass_flow_fast
 from hydro_envs.laws.orifice import circular_orifice_area, iso6358_mass_flow_laminar
+from hydro_envs.laws.seal_friction import dissipative_fade_velocity
 from hydro_envs.plants.rodless_cylinder.bounds import local_mode_rates
 from hydro_envs.params import ParameterError, PhysicalParams, physical
 
@@ -120,7 +121,9 @@ class RodlessCylinderParams(PhysicalParams):
         "sliding'; soft lip seals and sealing band); 0 selects the static curve",
     )
     bristle_damping: float = physical(
-        450.0, "N s/m", (0.0, 1e6), "assumed: LuGre sigma1 = 2 sqrt(sigma0 M), critically damped bristles"
+        450.0, "N s/m", (0.0, 1e6),
+        "assumed: LuGre sigma1 = 2 sqrt(sigma0 M), critically damped bristles; fades with speed as "
+        "exp(-(v/v_d)^2), v_d = v_s or less (hydro_envs.laws.seal_friction: keeps the law dissipative)",
     )
     friction_sign_velocity: float = physical(
         1e-3, "m/s", (1e-7, 0.1), "assumed: tanh sign of the static curve (used only if bristle_stiffness = 0)"
@@ -159,10 +162,11 @@ class RodlessCylinderParams(PhysicalParams):
                 f"{name}.static_friction = {self.static_friction} must be >= coulomb_friction = "
                 f"{self.coulomb_friction} (Stribeck: F_s >= F_c)"
             )
-        if self.bristle_stiffness > 0.0 and not self.coulomb_friction > 0.0:
+        if self.static_friction > 0.0 and not self.coulomb_friction > 0.0:
             raise ParameterError(
-                f"{name}.coulomb_friction must be > 0 when bristle_stiffness > 0 (LuGre needs g(v) > 0); "
-                "use bristle_stiffness = 0 for a friction-free carriage"
+                f"{name}.coulomb_friction = {self.coulomb_friction} must be > 0 when static_friction = "
+                f"{self.static_friction} > 0 (the friction level must stay positive at speed); set both to 0 "
+                "for a carriage without dry friction"
             )
         if not (self.pressure_floor < self.exhaust_pressure < self.supply_pressure):
             raise ParameterError(
@@ -191,7 +195,7 @@ class RodlessCylinderParams(PhysicalParams):
     # them would add about 0.8 s to an env's cold first step.
     derived_names: ClassVar[tuple[str, ...]] = (
         "piston_area", "crit", "psi_c", "psi_lam", "inv_k", "coef", "sqrt_rts", "k_v", "s_full", "orifice_rate",
-        "local_rate")
+        "local_rate", "micro_damping_velocity")
 
     def derived_columns(self) -> list[float]:
         constants = nozzle_flow_constants.py_func(self.heat_capacity_ratio, self.laminar_pressure_ratio)
@@ -205,6 +209,7 @@ class RodlessCylinderParams(PhysicalParams):
             s_full,
             orifice,
             max(local_mode_rates(self, orifice).values()),
+            dissipative_fade_velocity(self.bristle_damping, self.stribeck_velocity, self.coulomb_friction),
         ]
         return extra
 
@@ -232,8 +237,8 @@ class RodlessCylinderParams(PhysicalParams):
 ) = range(37)
 N_FIELDS = 37
 # derived columns appended by RodlessCylinderParams.to_array()
-(D_AREA, D_CRIT, D_PSIC, D_PSIL, D_INVK, D_COEF, D_SQRTRTS, D_KV, D_SFULL, D_ORIFICE, D_LOCAL) = range(
-    N_FIELDS, N_FIELDS + 11)
+(D_AREA, D_CRIT, D_PSIC, D_PSIL, D_INVK, D_COEF, D_SQRTRTS, D_KV, D_SFULL, D_ORIFICE, D_LOCAL, D_FADE) = range(
+    N_FIELDS, N_FIELDS + 12)
 N_PARAMS = N_FIELDS + len(RodlessCylinderParams.derived_names)
 assert RodlessCylinderParams.names()[I_VMIN] == "min_chamber_volume"
 assert RodlessCylinderParams.names()[I_SIG1] == "bristle_damping"

@@ -38,6 +38,7 @@ SPEC = PlantSpec(
     experiments=("constant_command_run", "small_signal_response"),
     stroke_parameter="stroke",
     pressure_parameter="supply_pressure",
+    dry_friction_parameters=("coulomb_friction", "static_friction"),
     # assumed: 004 samples at 1 kHz; coarser than 50 Hz misses the pneumatic spring's resonance
     max_sample_time=0.02,
 )
