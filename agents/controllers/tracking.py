@@ -123,6 +123,8 @@ class PressureLoopPID(TrackingPID):
         if hold_band > 0 and model is None:
             raise ValueError("hold_band > 0 needs a friction model (its breakaway level)")
         self.vff, self.preview, self.hold_band = bool(vff), int(preview), float(hold_band)
+        #: factor on the friction target (1: the model as identified; 0: the blind twin), for ablations
+        self.friction_scale = 1.0
         self._f = None if model is None else (model.predict if hasattr(model, "predict") else model)
 
     def preview_velocity(self, j: int, obs: np.ndarray) -> np.ndarray:
@@ -148,5 +150,6 @@ class PressureLoopPID(TrackingPID):
         out = v / self.k_q if self.vff else np.zeros(obs.shape[0])
         if self.k_dp > 0.0:
             dp = (obs[:, 8] - obs[:, 9]) * self.ps
-            out = out + self.k_dp * (self.friction_target(v, dp, obs) / self.area - dp) / self.ps
+            target = self.friction_scale * np.asarray(self.friction_target(v, dp, obs), dtype=float)
+            out = out + self.k_dp * (target / self.area - dp) / self.ps
         return out
