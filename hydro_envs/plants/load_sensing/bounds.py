@@ -24,6 +24,8 @@ from __future__ import annotations
 import math
 from typing import Any, Mapping
 
+from hydro_envs.laws.seal_friction import bristle_stiffness_bound, dissipative_fade_velocity
+
 __all__ = ["stiffness_modes", "local_mode_rates", "orifice_rate_coefficients"]
 
 
@@ -35,8 +37,10 @@ def stiffness_modes(p: Any, d: Mapping[str, float]) -> dict[str, float]:
       ``b_y / m_y``;
     * ``delivery_piston``: the oil spring of the delivery volume on piston 2,
       ``sqrt(beta A2^2 / (V_s m_y))``;
-    * ``load``: oil spring of the load line on the load with the actuator stop, plus the
-      friction's slope (tanh sign at v = 0, viscous) over M;
+    * ``load``: oil spring of the load line on the load with the actuator stop, plus viscous
+      friction over M;
+    * ``friction``: the load on its seals' bristles (LuGre with the Coulomb level, relaxation
+      capped, :func:`~hydro_envs.laws.seal_friction.bristle_stiffness_bound`);
     * ``ls_line``: RLC line with the spool's displacement (eq (17)-type bound) + R/L;
     * ``solenoid``: 1/tau.
     """
@@ -53,7 +57,11 @@ def stiffness_modes(p: Any, d: Mapping[str, float]) -> dict[str, float]:
         "delivery_piston": math.sqrt(beta * p.control_area_small**2 / (p.delivery_volume * p.control_mass)),
         "load": math.sqrt(beta * p.piston_area**2 / (p.line_volume * p.load_mass)
                           + p.actuator_stop_stiffness / p.load_mass)
-        + (p.actuator_coulomb / p.friction_sign_velocity + p.actuator_viscous) / p.load_mass,
+        + p.actuator_viscous / p.load_mass,
+        "friction": bristle_stiffness_bound(
+            p.actuator_coulomb, p.actuator_coulomb, 0.0, p.actuator_bristle_stiffness, p.actuator_bristle_damping,
+            dissipative_fade_velocity(p.actuator_bristle_damping, 1e-3, p.actuator_coulomb), p.actuator_viscous,
+            p.load_mass, 1, p.actuator_bristle_relaxation_cap, 2.0),
         "ls_line": math.sqrt(omega_ls2) + (d["ls_resistance"] + p.ls_damping_resistance) / d["ls_inductance"],
         "solenoid": 1.0 / p.solenoid_time_constant,
     }

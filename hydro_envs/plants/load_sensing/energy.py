@@ -10,7 +10,7 @@ from __future__ import annotations
 import numba as nb
 
 from hydro_envs.jit import njit_noalloc
-from hydro_envs.laws.friction import tanh_sign
+from hydro_envs.laws.seal_friction import bristle_dissipation, seal_friction
 from hydro_envs.plants.load_sensing import model as ls
 from hydro_envs.plants.load_sensing.model import load_sensing_guard as guard
 from hydro_envs.plants.load_sensing.model import load_sensing_rhs as rhs
@@ -27,7 +27,8 @@ def mech_terms(y, p):
     """Three bodies: the flow-compensator spool (000 eq (4)) on its spring and preload, the
     swash-plate control pistons on the bias spring, and the actuator with its load. Ports:
     pressure, solenoid and flow forces; dissipative: the spool's viscous friction, the control
-    pistons' damping, the actuator's viscous and Coulomb friction and stop damping."""
+    pistons' damping, the actuator's seal friction (LuGre; its bristles store energy) and stop
+    damping."""
     # flow-compensator spool, 000 eq (4)
     x = y[ls.X]
     v = y[ls.V]
@@ -49,11 +50,15 @@ def mech_terms(y, p):
     xa = y[ls.XA]
     va = y[ls.VA]
     u_a, d_a = stop_split(xa, va, 0.0, p[ls.I_STROKE], p[ls.I_KAS], 0.0)
-    e += 0.5 * p[ls.I_M] * va * va + p[ls.I_FL] * xa + u_a
+    z = y[ls.Z]
+    s0 = p[ls.I_SIG0]
+    e += 0.5 * p[ls.I_M] * va * va + p[ls.I_FL] * xa + u_a + 0.5 * s0 * z * z
     p_in += p[ls.I_AC] * (y[ls.PL] - p[ls.I_PT]) * va
-    d_act = (p[ls.I_BA] * va + p[ls.I_FCA] * tanh_sign(va, p[ls.I_VEPS])) * va
+    ff, dz = seal_friction(va, z, p[ls.I_FCA], s0, p[ls.I_SIG1], p[ls.D_FADE], p[ls.I_BA], 1, p[ls.I_ZCAP])
+    d_act = bristle_dissipation(va, z, ff, dz, s0)  # the seals' power less their bristles' stored-energy rate
     d = d_spool + d_s + d_piston + d_y + d_act + d_a
-    return e, p_in, d, abs(d_spool) + abs(d_s) + abs(d_piston) + abs(d_y) + abs(d_act) + abs(d_a), u_s + u_y + u_a
+    scale = abs(d_spool) + abs(d_s) + abs(d_piston) + abs(d_y) + abs(ff * va) + abs(s0 * z * dz) + abs(d_a)
+    return e, p_in, d, scale, u_s + u_y + u_a
 
 
 @njit_noalloc

@@ -28,6 +28,7 @@ State (SI, absolute pressures)::
     9      q_ls   m^3/s   LS pilot-line flow, load port -> FC spring chamber
     10     p_ls   Pa      FC spring-chamber pressure (end of the LS line)
     11     f_sol  N       electro-proportional force on the FC spool (adds to the spring)
+    12     z      m       bristle (pre-sliding) deflection of the actuator's seals (LuGre state)
 
 Inputs: ``u[0]`` solenoid force command [N] (first-order lag ``tau_sol``), ``u[1]`` CV
 flow area [m^2] (clipped to ``[0, cv_area_max]``).
@@ -41,7 +42,8 @@ Equations::
     V_s/beta p_s' = eps(y) D w_p - G_p (p_s - p_T) + A2 y' - q_PX - A x' - q_CV - q_RV
     q_CV = C_d a_CV sqrt(2/rho) max(rsqrt(p_s - p_l), 0)                  (meter-in CV + load check)
     V_l(xa)/beta p_l' = q_CV - A_c va - q_ls
-    M va' = A_c (p_l - p_T) - F_L - b_a va - F_c tanh(va/v_eps) + F_stop(xa)
+    M va' = A_c (p_l - p_T) - F_L - b_a va - F_s + F_stop(xa)
+    F_s = sigma0 z + sigma1(va) z',  z' = va - sigma0 |va| z / F_c      (LuGre seals, level F_c)
     L q_ls' + (R(T) + R_d) q_ls = p_l - p_ls                                000 eq (5) + damping restrictor
     (V_line + V_sc - A x)/beta p_ls' = q_ls + A x'                          000 eq (6)
     tau f_sol' = u0 - f_sol
@@ -61,7 +63,7 @@ import numpy as np
 
 from hydro_envs.jit import njit_noalloc
 from hydro_envs.laws.contact import end_stop_force
-from hydro_envs.laws.friction import tanh_sign
+from hydro_envs.laws.seal_friction import seal_friction
 from hydro_envs.laws.orifice import regularized_signed_sqrt, regularized_signed_sqrt_slope_bound
 from hydro_envs.plants.load_sensing import bounds as _bounds
 from hydro_envs.plants.load_sensing.params import (  # noqa: F401  (re-exported)
@@ -69,7 +71,7 @@ from hydro_envs.plants.load_sensing.params import (  # noqa: F401  (re-exported)
     D_LEAKRATE, D_LLS, D_LOCAL, D_RLS, D_VLINE, I_A1, I_A2, I_AC,
     I_ACVMAX, I_ASS, I_BA, I_BETA, I_BY, I_C40, I_CD, I_DLS, I_DP, I_DPTR, I_DS, I_F0, I_FB0, I_FCA, I_FL, I_FSMAX,
     I_GP, I_GRV, I_GX, I_K, I_KAS, I_KB, I_KSS, I_KYS, I_LLS, I_LPORT, I_M, I_MS, I_MY,
-    I_PFLOOR, I_PRV, I_PT, I_RD, I_RHO, I_STROKE, I_T, I_THETA, I_TSOL, I_VEPS, I_VG, I_VL0,
+    I_PFLOOR, I_PRV, I_PT, I_RD, I_RHO, I_SIG0, I_SIG1, I_STROKE, I_T, I_THETA, I_TSOL, I_VG, I_VL0, I_ZCAP, D_FADE,
     I_VS, I_VSC, I_VX0, I_W, I_WP, I_XLAP, I_XMAX, I_YMAX, LoadSensingParams, N_FIELDS, N_PARAMS,
     PLANT, _ATM, _BAR, _DERIVED, derived,
 )
@@ -94,10 +96,10 @@ __all__ = [
     "cv_area_for_velocity",
 ]
 
-STATE_NAMES = ("x", "v", "p_s", "p_x", "y", "vy", "p_l", "xa", "va", "q_ls", "p_ls", "f_sol")
-STATE_UNITS = ("m", "m/s", "Pa", "Pa", "m", "m/s", "Pa", "m", "m/s", "m^3/s", "Pa", "N")
-N_STATES = 12
-X, V, PS, PX, Y, VY, PL, XA, VA, QLS, PLS, FSOL = range(N_STATES)
+STATE_NAMES = ("x", "v", "p_s", "p_x", "y", "vy", "p_l", "xa", "va", "q_ls", "p_ls", "f_sol", "z")
+STATE_UNITS = ("m", "m/s", "Pa", "Pa", "m", "m/s", "Pa", "m", "m/s", "m^3/s", "Pa", "N", "m")
+N_STATES = 13
+X, V, PS, PX, Y, VY, PL, XA, VA, QLS, PLS, FSOL, Z = range(N_STATES)
 
 #: sensor outputs (noise-free): measured channel -> the state index it reads, and measured
 #: channel -> the state index whose time derivative it reads
@@ -176,7 +178,7 @@ def load_sensing_rhs(y, u, p, dy):
     if pl <= floor and dpl < 0.0:
         dpl = 0.0
     dy[PL] = dpl
-    f_fric = p[I_BA] * va + p[I_FCA] * tanh_sign(va, p[I_VEPS])
+    f_fric, dz = seal_friction(va, y[Z], p[I_FCA], p[I_SIG0], p[I_SIG1], p[D_FADE], p[I_BA], 1, p[I_ZCAP])
     f_astop = end_stop_force(xa, va, 0.0, p[I_STROKE], p[I_KAS], 0.0)
     dy[XA] = va
     dy[VA] = (p[I_AC] * (pl - pt) - p[I_FL] - f_fric + f_astop) * p[D_INV_M]
@@ -191,6 +193,7 @@ def load_sensing_rhs(y, u, p, dy):
 
     # ---- solenoid
     dy[FSOL] = (u[0] - fsol) * p[D_INV_TSOL]
+    dy[Z] = dz
 
 
 @njit_noalloc

@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import dataclasses
 import math
+
+from hydro_envs.laws.seal_friction import dissipative_fade_velocity
 from typing import ClassVar
 
 
@@ -158,7 +160,22 @@ class LoadSensingParams(PhysicalParams):
     load_force: float = physical(2.0e4, "N", (0.0, 1e6), "assumed: 20 kN load, 64 bar (randomised)")
     actuator_viscous: float = physical(3000.0, "N s/m", (0.0, 1e6), "assumed: seal + guide viscous friction")
     actuator_coulomb: float = physical(300.0, "N", (0.0, 1e5), "assumed: seal Coulomb friction")
-    friction_sign_velocity: float = physical(1e-3, "m/s", (1e-6, 0.1), "assumed: tanh sign, NOTES.md 1 mm/s")
+    actuator_bristle_stiffness: float = physical(
+        6e6, "N/m", (1e4, 1e10),
+        "assumed: LuGre sigma0 of the actuator's seals; pre-sliding displacement F_c/sigma0 = 50 um, "
+        "within the 10-100 um of elastomer hydraulic seals",
+    )
+    actuator_bristle_damping: float = physical(
+        1.5e5, "N s/m", (0.0, 1e8),
+        "assumed: LuGre sigma1 = 2 sqrt(sigma0 M), critically damped pre-sliding oscillation of the 1 t "
+        "load on the seals; fades with speed (hydro_envs.laws.seal_friction, fading velocity 1 mm/s or "
+        "less where that keeps the law dissipative)",
+    )
+    actuator_bristle_relaxation_cap: float = physical(
+        4000.0, "1/s", (0.0, 1e7),
+        "assumed (numerics): bristle relaxation faster than this is instantaneous, the quasi-static limit "
+        "of LuGre (hydro_envs.laws.seal_friction); LuGre exactly below |v| = cap F_c / sigma0 = 0.2 m/s",
+    )
     actuator_stop_stiffness: float = physical(1.0e8, "N/m", (1e4, 1e11), "assumed: steel stop")
     tank_pressure: float = physical(_ATM, "Pa", (0.0, 1e6), "assumed: tank at atmosphere")
     orifice_transition_pressure: float = physical(
@@ -188,7 +205,8 @@ class LoadSensingParams(PhysicalParams):
     derived_names: ClassVar[tuple[str, ...]] = (
         "spool_area", "viscous", "ls_inductance", "ls_resistance", "ls_line_volume", "k_meter", "k_flow_force",
         "local_rate", "drop_rate", "leak_rate", "inv_spool_mass", "inv_control_mass", "inv_control_stroke",
-        "delivery_stiffness", "inv_load_mass", "inv_ls_inductance", "inv_solenoid_time_constant")
+        "delivery_stiffness", "inv_load_mass", "inv_ls_inductance", "inv_solenoid_time_constant",
+        "micro_damping_velocity")
 
     def derived_columns(self) -> list[float]:
         d = derived(self)
@@ -201,12 +219,13 @@ N_FIELDS = len(_FIELDS)
     I_VG, I_T, I_RHO, I_BETA, I_DS, I_MS, I_K, I_F0, I_C40, I_XMAX, I_KSS, I_ASS, I_W, I_XLAP,
     I_LPORT, I_CD, I_THETA, I_FSMAX, I_TSOL, I_LLS, I_DLS, I_RD, I_VSC, I_DP, I_WP, I_GP, I_A1, I_A2,
     I_YMAX, I_MY, I_BY, I_FB0, I_KB, I_VX0, I_GX, I_KYS, I_VS, I_PRV, I_GRV, I_ACVMAX, I_AC,
-    I_STROKE, I_VL0, I_M, I_FL, I_BA, I_FCA, I_VEPS, I_KAS, I_PT, I_DPTR, I_PFLOOR,
-) = range(52)
-assert N_FIELDS == 52 and _FIELDS[I_PFLOOR] == "pressure_floor" and _FIELDS[I_FL] == "load_force"
+    I_STROKE, I_VL0, I_M, I_FL, I_BA, I_FCA, I_SIG0, I_SIG1, I_ZCAP, I_KAS, I_PT, I_DPTR, I_PFLOOR,
+) = range(54)
+assert N_FIELDS == 54 and _FIELDS[I_PFLOOR] == "pressure_floor" and _FIELDS[I_FL] == "load_force"
+assert _FIELDS[I_ZCAP] == "actuator_bristle_relaxation_cap"
 _DERIVED = LoadSensingParams.derived_names
 (D_A, D_C, D_LLS, D_RLS, D_VLINE, D_KM, D_KFF, D_LOCAL, D_DROPRATE, D_LEAKRATE, D_INV_MS, D_INV_MY, D_INV_YMAX,
- D_BETA_VS, D_INV_M, D_INV_LLS, D_INV_TSOL) = range(N_FIELDS, N_FIELDS + len(_DERIVED))
+ D_BETA_VS, D_INV_M, D_INV_LLS, D_INV_TSOL, D_FADE) = range(N_FIELDS, N_FIELDS + len(_DERIVED))
 N_PARAMS = N_FIELDS + len(_DERIVED)
 
 
@@ -240,4 +259,6 @@ def derived(params: LoadSensingParams) -> dict[str, float]:
     d["inv_load_mass"] = 1.0 / p.load_mass
     d["inv_ls_inductance"] = 1.0 / d["ls_inductance"]
     d["inv_solenoid_time_constant"] = 1.0 / p.solenoid_time_constant
+    #: micro-damping fading velocity: 1 mm/s (a Coulomb-only seal has no Stribeck velocity; assumed)
+    d["micro_damping_velocity"] = dissipative_fade_velocity(p.actuator_bristle_damping, 1e-3, p.actuator_coulomb)
     return d

@@ -28,6 +28,7 @@ SPEC = PlantSpec(
     ),
     stroke_parameter="stroke",
     pressure_parameter="relief_pressure",
+    dry_friction_parameters=("actuator_coulomb",),
     # assumed: the env runs at 1 kHz; coarser than 50 Hz misses the pump and compensator dynamics
     max_sample_time=0.02,
 )
