@@ -34,8 +34,8 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["FRICTION_KINDS", "PerCopyFriction", "friction_plants", "friction_points", "identified_friction",
-           "identify_on_draws"]
+__all__ = ["CREEP_SPEEDS", "FRICTION_KINDS", "PerCopyFriction", "creep_points", "friction_plants", "friction_points",
+           "identified_friction", "identify_on_draws"]
 
 FRICTION_KINDS = ("stribeck", "neural", "rbf")
 
@@ -83,10 +83,83 @@ def identified_friction(plant: str, kind: str = "stribeck") -> Any:
         v, f = pts
         if kind == "stribeck":
             return fit_friction(v, f, model=model, sign_velocity=v_eps)
-        return _fit_net(kind, v, f)
+        return _fit_net(kind, *_net_points(plant, v, f))
     if kind == "stribeck":
         return fit_friction(pts, model=model, sign_velocity=v_eps)
-    return _fit_net(kind, pts)
+    return _fit_net(kind, *_net_points(plant, np.asarray(pts.v, float), np.asarray(pts.force, float)))
+
+
+#: reference speeds [m/s] of the closed-loop creep test that extends the nets' data below the
+#: open-loop test's slowest steady plateau (per plant: about 0.05-0.5 of its Stribeck velocity)
+CREEP_SPEEDS = {"servo_cylinder": (0.5e-3, 1e-3, 2e-3, 4e-3), "rodless_cylinder": (0.3e-3, 0.6e-3, 1.2e-3, 2.4e-3)}
+
+
+def creep_points(plant: str, speeds: Any = None, *, travel: float = 0.2) -> tuple[np.ndarray, np.ndarray]:
+    """Friction points ``(v, F)`` at creep speeds, measured in closed loop on the nominal rig:
+    the plant's ``pid_vff`` tracks a ramp at each speed (both directions) across ``travel`` of
+    the stroke about the middle, and over the middle half of each ramp the mean velocity and the
+    mean pressure force ``A (p_1 - p_2)`` (the friction at steady speed, 002 eq (10) / 004 eq (1))
+    give one point. Below the speed where the open-loop test of 002 sec. 4 / 004 sec. 3 sticks
+    and slips the loop keeps the axis creeping, so the nets see the low-speed branch of the law
+    (and its sign) instead of extrapolating to it; where the loop itself sticks and slips, the
+    point is that cycle's mean force (below the steady curve). All ramps run as the copies of
+    one vector env."""
+    from gymnasium.envs.registration import load_env_creator
+    import gymnasium as gym
+
+    from agents.controllers import make_controller
+    from hydro_envs import registry
+
+    spec = registry.get(plant)
+    env_id = next(e.id for e in spec.envs if "SlowSine" in e.id)
+    speeds = np.asarray(CREEP_SPEEDS[plant] if speeds is None else speeds, dtype=float)
+    ramps = [(v, sg) for v in speeds for sg in (1.0, -1.0)]
+    cls = load_env_creator(gym.spec(env_id).vector_entry_point)
+    probe = cls(num_envs=1, randomize=False)
+    p, dt = probe._batch.base_params, probe._batch.dt
+    probe.close()
+    L = p.stroke
+    lengths = [int(round(travel * L / v / dt)) + 1 for v, _ in ramps]
+    steps = max(lengths)
+    venv = cls(num_envs=len(ramps), randomize=False, max_episode_steps=steps)
+    b = venv._batch
+    b.parallel = False  # eight copies: the serial kernel (a parallel region costs more to enter)
+    venv.reset(seed=0)
+    for i, ((v, sg), n) in enumerate(zip(ramps, lengths)):
+        ramp = 0.5 * L - sg * 0.5 * travel * L + sg * v * dt * np.arange(n)
+        ref = np.r_[ramp, np.full(steps + 60 - n, ramp[-1])]
+        mask = np.zeros(len(ramps), dtype=bool)
+        mask[i] = True
+        obs, _ = venv.reset(seed=0, options={"reset_mask": mask, "reference": ref,
+                                            "state": {b.position_name: float(ref[0])}})
+    area = spec.model.piston_area(p) if hasattr(spec.model, "piston_area") else p.piston_area
+    ip1, ip2 = b.pressure_indices
+    ctrl = make_controller(env_id, "pid_vff")
+    X = np.empty((steps, len(ramps)))
+    F = np.empty((steps, len(ramps)))
+    start = np.ones(len(ramps), dtype=bool)
+    for k in range(steps):
+        a, _ = ctrl.predict(obs, episode_start=start)
+        start[:] = False
+        obs, *_ = venv.step(a)
+        X[k] = b.Y[:, b.position_index]
+        F[k] = area * (b.Y[:, ip1] - b.Y[:, ip2])
+    venv.close()
+    vs, fs = [], []
+    for i, n in enumerate(lengths):
+        lo, hi = n // 4, 3 * n // 4
+        vs.append((X[hi - 1, i] - X[lo, i]) / ((hi - 1 - lo) * dt))
+        fs.append(float(np.mean(F[lo:hi, i])))
+    return np.array(vs), np.array(fs)
+
+
+def _net_points(plant: str, v: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The virtual test's points and, for a plant with a creep test (:data:`CREEP_SPEEDS`), the
+    creep points below them."""
+    if plant not in CREEP_SPEEDS:
+        return v, f
+    vc, fc = creep_points(plant)
+    return np.concatenate([np.asarray(v, float), vc]), np.concatenate([np.asarray(f, float), fc])
 
 
 def _fit_net(kind: str, points: Any, force: Any = None) -> Any:
