@@ -74,7 +74,7 @@ from typing import Any
 
 import numpy as np
 
-from agents.controllers.tracking import PressureLoopPID, TrackingPID
+from agents.controllers.tracking import FrictionObserver, PressureLoopPID, TrackingPID
 from hydro_envs.plants.rodless_cylinder.params import RodlessCylinderParams
 from hydro_envs.plants.rodless_cylinder.model import friction_compensation_gains, linearize_mid_stroke
 
@@ -209,52 +209,16 @@ class RodlessCalibratedPressureLoopController(RodlessPressureLoopController):
 
 
 
-class RodlessObserverPressureLoopController(RodlessPressureLoopController):
-    """:class:`RodlessPressureLoopController` whose friction target comes from a disturbance
-    observer on the force balance of eq (18) instead of an identification run.
-
-    While the reference slides (``|v_ref| > v_slide``) the force the air carries beyond the
-    inertia, ``F^_d = A (p_a - p_b) - M a_ref``, is the friction at ``v_ref``; the observer
-    low-passes ``F^_d sgn(v_ref)`` (time constant ``tau``) into a level ``F^_c`` per copy that
-    starts at 0 (no prior: it learns the sliding friction on the first stroke) and holds between
-    slides. The target is ``F^_c tanh(v_ref / v_slide)``. ``a_ref`` is the preview's second
-    difference, ``M`` the nominal moving mass."""
-
-    def __init__(self, *args: Any, mass: float, tau: float = 0.3, v_slide: float = 1e-3,
-                 **kwargs: Any) -> None:
-        for name, val in (("mass", mass), ("tau", tau), ("v_slide", v_slide)):
-            if not (np.isfinite(val) and val > 0):
-                raise ValueError(f"{name} must be finite and > 0, got {val}")
-        self.mass, self.tau, self.v_slide = float(mass), float(tau), float(v_slide)
-        kwargs.pop("model", None)  # the observer is the friction model
-        super().__init__(*args, model=None, **kwargs)
+class RodlessObserverPressureLoopController(FrictionObserver, RodlessPressureLoopController):
+    """:class:`RodlessPressureLoopController` whose friction target comes from the disturbance
+    observer :class:`~agents.controllers.tracking.FrictionObserver` on the force balance of
+    eq (18) instead of an identification run (``M`` the nominal moving mass)."""
 
     @classmethod
     def from_params(cls, params: RodlessCylinderParams | None = None,
                     **kwargs: Any) -> RodlessObserverPressureLoopController:
         p = params if params is not None else RodlessCylinderParams()
         return super().from_params(p, mass=p.mass, **kwargs)
-
-    @property
-    def level(self) -> np.ndarray:
-        """The observed sliding friction of every copy [N]."""
-        return self._fc
-
-    def _allocate(self, n: int) -> None:
-        super()._allocate(n)
-        self._fc = np.zeros(n)
-
-    def _reset_rows(self, mask: np.ndarray) -> None:
-        super()._reset_rows(mask)
-        self._fc[mask] = 0.0
-
-    def friction_target(self, v: np.ndarray, dp: np.ndarray, obs: np.ndarray) -> np.ndarray:
-        sliding = np.abs(v) > self.v_slide
-        if sliding.any():
-            a = (self._preview_velocity(2, obs) - self._preview_velocity(0, obs)) / (2.0 * PREVIEW_DT)
-            f_d = self.area * dp[sliding] - self.mass * a[sliding]  # eq (18) at the reference motion
-            self._fc[sliding] += (self.dt / self.tau) * (np.sign(v[sliding]) * f_d - self._fc[sliding])
-        return self._fc * np.tanh(v / self.v_slide)
 
 
 #: the plant these controllers are for (its registry name)

@@ -60,7 +60,7 @@ from typing import Any
 import numpy as np
 
 from agents.controllers.core import BaseController
-from agents.controllers.tracking import PREVIEW_DT, PressureLoopPID
+from agents.controllers.tracking import PREVIEW_DT, FrictionObserver, PressureLoopPID
 
 from hydro_envs.plants.servo_cylinder.params import ServoCylinderParams
 from hydro_envs.plants.servo_cylinder.model import hydraulic_natural_frequency, no_load_velocity
@@ -70,6 +70,7 @@ __all__ = [
     "K_DP",
     "CROSSOVER_RATIO",
     "ServoPIDController",
+    "ServoObserverController",
     "zero_friction",
     "ServoFlowController",
     "nominal_stribeck",
@@ -135,6 +136,19 @@ class ServoPIDController(PressureLoopPID):
         kwargs.setdefault("k_dp", t["k_dp"])
         return cls(t["kp"], t["ti"], t["td"], t["tf"], stroke=p.stroke, error_scale=error_scale, k_q=t["k_q"],
                    area=p.piston_area, supply_pressure=p.supply_pressure, vff=vff, model=model, **kwargs)
+
+
+class ServoObserverController(FrictionObserver, ServoPIDController):
+    """``pid_vff_dob``: :class:`ServoPIDController` with the velocity feed-forward and the friction
+    target of the on-line disturbance observer :class:`~agents.controllers.tracking.FrictionObserver`
+    (no identification run; the nominal moving mass; sliding above 0.1 mm/s, the friction
+    tasks' creep speeds being 0.2-1.6 mm/s). Blind twin: ``pid_vff``."""
+
+    @classmethod
+    def from_params(cls, params: ServoCylinderParams | None = None, **kwargs: Any) -> ServoObserverController:
+        p = params if params is not None else ServoCylinderParams()
+        kwargs.setdefault("v_slide", 1e-4)
+        return super().from_params(p, vff=True, mass=p.mass, **kwargs)
 
 
 def zero_friction(v: Any) -> np.ndarray:
@@ -252,6 +266,7 @@ def controllers() -> dict:
         "p": ProportionalPositionController,
         "pid": ServoPIDController.from_params,
         "pid_vff": lambda: ServoPIDController.from_params(vff=True),
+        "pid_vff_dob": ServoObserverController.from_params,
         "flow": ServoFlowController,
     }
     for kind in FRICTION_MODELS:

@@ -15,7 +15,7 @@ import numpy as np
 
 from agents.controllers.core import ANTI_WINDUP, BaseController, PIDCore
 
-__all__ = ["TrackingPID", "PressureLoopPID", "ANTI_WINDUP", "DT", "PREVIEW_DT"]
+__all__ = ["TrackingPID", "PressureLoopPID", "FrictionObserver", "ANTI_WINDUP", "DT", "PREVIEW_DT"]
 
 DT = 1e-3  # s, control period of the cylinder-tracking envs
 #: the observation's preview offsets [steps] after the current reference (obs[1])
@@ -153,3 +153,45 @@ class PressureLoopPID(TrackingPID):
             target = self.friction_scale * np.asarray(self.friction_target(v, dp, obs), dtype=float)
             out = out + self.k_dp * (target / self.area - dp) / self.ps
         return out
+
+
+class FrictionObserver:
+    """Mixin for :class:`PressureLoopPID`: the friction target from a disturbance observer on the
+    axis' force balance instead of an identified model (an on-line, adaptive compensator).
+
+    While the reference slides (``|v_ref| > v_slide``) the force the fluid carries beyond the
+    inertia, ``F^_d = A (p_1 - p_2) - M a_ref``, is the friction at ``v_ref``; the observer
+    low-passes ``F^_d sgn(v_ref)`` (time constant ``tau``) into a level ``F^_c`` per copy that
+    starts at 0 (no prior: it learns the sliding friction on the first stroke) and holds between
+    slides. The target is ``F^_c tanh(v_ref / v_slide)``. ``a_ref`` is the preview's second
+    difference, ``mass`` [kg] the nominal moving mass."""
+
+    def __init__(self, *args: Any, mass: float, tau: float = 0.3, v_slide: float = 1e-3, **kwargs: Any) -> None:
+        for name, val in (("mass", mass), ("tau", tau), ("v_slide", v_slide)):
+            if not (np.isfinite(val) and val > 0):
+                raise ValueError(f"{name} must be finite and > 0, got {val}")
+        self.mass, self.tau, self.v_slide = float(mass), float(tau), float(v_slide)
+        kwargs.pop("model", None)  # the observer is the friction model
+        super().__init__(*args, model=None, **kwargs)
+
+    @property
+    def level(self) -> np.ndarray:
+        """The observed sliding friction of every copy [N]."""
+        return self._fc
+
+    def _allocate(self, n: int) -> None:
+        super()._allocate(n)  # type: ignore[misc]
+        self._fc = np.zeros(n)
+
+    def _reset_rows(self, mask: np.ndarray) -> None:
+        super()._reset_rows(mask)  # type: ignore[misc]
+        self._fc[mask] = 0.0
+
+    def friction_target(self, v: np.ndarray, dp: np.ndarray, obs: np.ndarray) -> np.ndarray:
+        sliding = np.abs(v) > self.v_slide
+        if sliding.any():
+            pv = self.preview_velocity  # type: ignore[attr-defined]
+            a = (pv(2, obs) - pv(0, obs)) / (2.0 * PREVIEW_DT)
+            f_d = self.area * dp[sliding] - self.mass * a[sliding]  # type: ignore[attr-defined]
+            self._fc[sliding] += (self.dt / self.tau) * (np.sign(v[sliding]) * f_d - self._fc[sliding])  # type: ignore[attr-defined]
+        return self._fc * np.tanh(v / self.v_slide)
