@@ -1,6 +1,10 @@
-r"""The main job (``make demo``, ``hydro demo``): identify, calibrate, train, benchmark.
+r"""The main job (``make demo``, ``hydro demo``): identify, calibrate, train, benchmark -- on a task
+where friction decides.
 
-One script that walks through what the suite is for, on ``ServoCylinderPosition-v0`` (seed 002):
+One script that walks through what the suite is for, on the servo cylinder of seed 002 creeping
+through velocity reversals (``hydro_envs/ServoCylinderSlowSine-v0``: 0.2-1.6 mm/s, below the seals'
+Stribeck velocity, on a 1 um scale; the PID's ``friction_share``, the share of its squared error
+that dry friction causes, is about 0.6):
 
 1. **Identify** the friction of the "rig" -- the nominal servo cylinder seen through realistic
    sensors (0.03 mm encoder, 20 kPa pressure noise low-passed at 50 Hz,
@@ -10,28 +14,27 @@ One script that walks through what the suite is for, on ``ServoCylinderPosition-
    ``A (p_1 - p_2)`` per plateau, eq (10)), and fit the Stribeck law 002 eq (1) by nonlinear
    least squares (:func:`identification.friction.fit_friction`). The fit is printed beside the
    rig's true values, with standard errors.
-2. **Calibrate** the classical controllers: the PID with load-pressure feedback from the plant's
-   linearisation without dry friction (:func:`agents.controllers.servo_cylinder.pid_tuning`), and
-   the same loop with the Stribeck law just identified in its pressure target
-   (:class:`agents.controllers.tracking.PressureLoopPID`). The identified friction is checked against the training randomisation ranges
-   (``configs/randomization/servo_cylinder.yaml``): the learned agent must have seen the rig.
-3. **Train** a PPO (default; ``--algo sac`` also works) agent with domain randomisation
-   (:func:`agents.train.train`, ``agents/configs/<algo>.yml``, the batched-kernel SB3 adapter,
-   rich progress bar). ``--pretrained`` skips training and uses the small baseline shipped in
-   ``agents/pretrained/`` (see :mod:`agents.pretrain`).
-4. **Benchmark** PID, PID + identified friction feedforward and the learned agent on the same
-   ``--n`` (20) frozen, seeded parameter draws from the training ranges (``in``) and on draws
-   beyond them (``out``) (:func:`agents.benchmark.run_benchmark`), print the table, write
-   markdown, CSV and figures (box plots per metric, example traces, the friction fit) to
+2. **Calibrate** the classical controllers: the PID with load-pressure feedback and velocity
+   feed-forward from the plant's linearisation without dry friction
+   (:func:`agents.controllers.servo_cylinder.pid_tuning`; ``pid_vff``, blind to friction), and the
+   same loop with the Stribeck law just identified in its pressure target
+   (:class:`agents.controllers.tracking.PressureLoopPID`; ``pid_vff_identified``). The identified
+   friction is checked against the training randomisation ranges: the learned agent must have
+   seen the rig.
+3. **Train** a residual PPO agent with domain randomisation (:func:`agents.train.train`,
+   ``agents/configs/residual/ppo.yml``: a learned correction of at most 1 % of the valve command on
+   top of ``pid_vff``, :mod:`agents.residual`; the batched-kernel SB3 adapter, rich progress bar).
+   ``--pretrained`` skips training and uses the shipped agent (``agents/pretrained/``).
+4. **Benchmark** the PID, ``pid_vff``, ``pid_vff_identified`` and the agent on the same ``--n``
+   (20) frozen, seeded parameter draws from the training ranges (``in``) and beyond them
+   (``out``) (:func:`agents.benchmark.run_benchmark`): every controller is also run on the same
+   draws without dry friction, which gives its ``friction_share``. The tables are printed, and
+   markdown, CSV and figures (box plots per metric, example traces, the friction fit) written to
    ``--out``.
-
-Measured on the 2-core development machine (see the README): the whole job takes about four
-minutes after the one-off install and numba compilation.
 
 Usage::
 
-    python -m agents.demo [--out runs/demo] [--algo ppo|sac] [--timesteps N] [--n 20]
-                          [--seed 0] [--pretrained] [--quick]
+    python -m agents.demo [--out runs/demo] [--timesteps N] [--n 20] [--seed 0] [--pretrained] [--quick]
 """
 
 from __future__ import annotations
@@ -45,10 +48,15 @@ from typing import Any, Callable, Sequence  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-ENV_ID = "hydro_envs/ServoCylinderPosition-v0"
-DEFAULT_TIMESTEPS = {"ppo": 1_000_000, "sac": 60_000}
+ENV_ID = "hydro_envs/ServoCylinderSlowSine-v0"
+DEFAULT_TIMESTEPS = {"ppo": 400_000, "sac": 60_000}
 QUICK_TIMESTEPS = {"ppo": 65_536, "sac": 12_000}
-FF_NAME = "pid_ff_identified"
+#: the agent's training config: residual PPO on top of pid_vff (agents/configs/residual/ppo.yml)
+RESIDUAL_CONFIG = Path(__file__).resolve().parent / "configs" / "residual" / "ppo.yml"
+#: the shipped agent of the demo's task (python -m agents.demo --out DIR, then export_compact)
+PRETRAINED_AGENT = Path(__file__).resolve().parent / "pretrained" / "demo" / "ppo_residual_s0"
+BLIND_TWIN = "pid_vff"
+FF_NAME = "pid_vff_identified"
 FF_SPEC = "identified:stribeck"  # policy_loader key of the calibrated feedforward controller
 STRIBECK_FIELDS = (  # fit parameter -> ServoCylinderParams field, unit, display scale
     ("F_c", "coulomb_friction", "N", 1.0),
@@ -161,13 +169,15 @@ def friction_figure(fit: Any, points: Any, truth: Any, path: Path) -> Path | Non
 
 # ------------------------------------------------------------------ 2. calibrate
 def calibrated_controllers(fit: Any) -> tuple[Any, Any, dict[str, float]]:
-    """``(pid, pid_ff, tuning)``: the PID from the nominal linearisation and the same PID with
-    the feedforward of the identified friction law."""
+    """``(pid_vff, pid_vff_identified, tuning)``: the PID with velocity feed-forward from the
+    nominal linearisation and the same loop with the identified friction law in its pressure
+    target."""
     from agents.controllers.servo_cylinder import ServoPIDController, pid_tuning
     from hydro_envs.plants.servo_cylinder.params import ServoCylinderParams
 
     p = ServoCylinderParams()
-    return (ServoPIDController.from_params(p), ServoPIDController.from_params(p, model=fit), pid_tuning(p))
+    return (ServoPIDController.from_params(p, vff=True), ServoPIDController.from_params(p, vff=True, model=fit),
+            pid_tuning(p))
 
 
 # ------------------------------------------------------------------ 3. train
@@ -182,47 +192,53 @@ def free_run_name(out: Path, base: str) -> str:
 
 
 def train_agent(algo: str, timesteps: int, seed: int, out: Path, progress_bar: bool = True) -> Path:
-    """:func:`agents.train.train` with randomisation into ``out/<algo>_seed<seed>`` (or the next
-    free name, :func:`free_run_name`); returns the run folder."""
+    """:func:`agents.train.train` of the residual agent (:data:`RESIDUAL_CONFIG`; PPO only) with
+    randomisation into ``out/<algo>_residual_seed<seed>`` (or the next free name,
+    :func:`free_run_name`); returns the run folder."""
     from agents.train import train
 
-    return train(ENV_ID, algo, timesteps=timesteps, seed=seed, randomize=True, out=out,
-                 name=free_run_name(Path(out), f"{algo}_seed{seed}"), progress_bar=progress_bar, eval_freq=0,
-                 n_eval_episodes=8, torch_threads=1)
+    config = RESIDUAL_CONFIG if algo == "ppo" else None
+    return train(ENV_ID, algo, timesteps=timesteps, seed=seed, randomize=True, out=out, config=config,
+                 name=free_run_name(Path(out), f"{algo}_residual_seed{seed}"), progress_bar=progress_bar,
+                 eval_freq=0, n_eval_episodes=8, torch_threads=1)
 
 
 def pretrained_run(algo: str = "ppo") -> Path:
-    """The shipped baseline of the servo env (``agents/pretrained/``)."""
-    from agents.pretrain import pretrained_dir
-
-    return pretrained_dir(ENV_ID, algo)
+    """The shipped agent of the demo's task (:data:`PRETRAINED_AGENT`)."""
+    if algo != "ppo":
+        raise ValueError(f"--pretrained has a PPO agent only, not {algo!r}")
+    if not (PRETRAINED_AGENT / "policy.pt").is_file():
+        raise FileNotFoundError(f"{PRETRAINED_AGENT} has no policy; train one with python -m agents.demo")
+    return PRETRAINED_AGENT
 
 
 # ------------------------------------------------------------------ 4. benchmark
 def benchmark(agent_run: Path, algo: str, ff_controller: Any, n: int, seed: int, out: Path,
               params: str, progress: Callable[[str], None]):
-    """PID, PID + identified feedforward and the agent on ``n`` frozen draws of ``params``."""
+    """PID, its friction-blind twin with velocity feed-forward, the same with the identified
+    friction and the agent on ``n`` frozen draws of ``params``."""
     from agents.benchmark import _load_policy, run_benchmark
 
     def loader(spec: str) -> Any:  # the calibrated controller is built here, not by name
         return ff_controller if spec == FF_SPEC else _load_policy(spec)
 
-    specs = ["pid", f"{FF_NAME}=sb3:{FF_SPEC}", f"{algo}=sb3:{agent_run}"]
+    specs = ["pid", BLIND_TWIN, f"{FF_NAME}=sb3:{FF_SPEC}", f"{algo}=sb3:{agent_run}"]
     return run_benchmark(ENV_ID, specs, params=params, n=n, seed=seed, out_dir=out,
                          policy_loader=loader, progress=progress)
 
 
 SUMMARY_METRICS = (  # key, label, scale
-    ("rmse", "RMSE [mm]", 1e3),
-    ("max_error", "max error [mm]", 1e3),
+    ("rmse", "RMSE [um]", 1e6),
+    ("max_error", "max error [um]", 1e6),
     ("rmse_rel_pid", "RMSE / PID", 1.0),
-    ("overshoot", "overshoot [%]", 1.0),
-    ("settling_time", "settling [s]", 1.0),
+    ("friction_share", "friction share", 1.0),
+    ("reversal_error", "reversal error [um]", 1e6),
+    ("reversal_excess", "reversal excess [um]", 1e6),
     ("effort", "effort (RMS action)", 1.0),
     ("pressure_violations", "p-violation steps", 1.0),
     ("endstop_steps", "end-stop steps", 1.0),
     ("failed", "failure rate", 1.0),
-    ("cvar10_rmse", "CVaR10 RMSE [mm]", 1e3),
+    ("cvar10_rmse", "CVaR10 RMSE [um]", 1e6),
 )
 
 
@@ -247,15 +263,18 @@ def print_benchmark(res: Any, console: Any) -> None:
 
 
 def verdict(results: Sequence[Any], algo: str) -> list[str]:
-    """One honest sentence per parameter set: who has the lowest mean RMSE, by how much."""
+    """One honest sentence per parameter set: how much of the PID's error friction makes, and
+    what the identified friction and the agent do against the same loop blind to it."""
     lines = []
     for res in results:
-        rm = {c: s["rmse"][0] for c, s in res.summary.items()}
-        best = min(rm, key=rm.get)
-        rel = res.summary[algo]["rmse_rel_pid"]
-        lines.append(f"{res.params}: lowest mean RMSE {best} ({rm[best] * 1e3:.2f} mm); {algo} / PID paired "
-                     f"RMSE ratio {rel[0]:.2f} [{rel[1]:.2f}, {rel[2]:.2f}]; PID+identified FF / PID "
-                     f"{res.summary[FF_NAME]['rmse_rel_pid'][0]:.2f}")
+        s = res.summary
+        share = s["pid"]["friction_share"]
+        rel = {c: s[c]["rmse_rel_pid"] for c in (BLIND_TWIN, FF_NAME, algo)}
+        ff_twin = s[FF_NAME]["rmse"][0] / s[BLIND_TWIN]["rmse"][0]
+        lines.append(f"{res.params}: dry friction makes {share[0]:.2f} [{share[1]:.2f}, {share[2]:.2f}] of the PID's "
+                     f"squared error; RMSE / PID (paired): {BLIND_TWIN} {rel[BLIND_TWIN][0]:.2f}, {FF_NAME} "
+                     f"{rel[FF_NAME][0]:.2f} [{rel[FF_NAME][1]:.2f}, {rel[FF_NAME][2]:.2f}] ({ff_twin:.2f} x its blind "
+                     f"twin), {algo} {rel[algo][0]:.2f} [{rel[algo][1]:.2f}, {rel[algo][2]:.2f}]")
     return lines
 
 
@@ -306,8 +325,9 @@ def run(out: str | Path = "runs/demo", *, algo: str = "ppo", timesteps: int | No
     console.print(f"PID: omega_h = {tuning['omega_h']:.0f} rad/s at mid-stroke, crossover omega_c = "
                   f"{tuning['omega_c']:.1f} rad/s, K_p = {tuning['kp']:.1f} 1/m, T_i = {tuning['ti'] * 1e3:.0f} ms, "
                   f"T_d = {tuning['td'] * 1e3:.2f} ms, load-pressure gain k_dp = {tuning['k_dp']:g}")
-    console.print(f"{FF_NAME}: the same PID + the valve-command increment that delivers the reference "
-                  "velocity against the identified friction (hydro_envs.plants.servo_cylinder.compensation)")
+    console.print(f"{BLIND_TWIN}: the PID + velocity feed-forward, blind to friction; {FF_NAME}: the same loop "
+                  "with the identified friction in its load-pressure target (it swings the pressure ahead of "
+                  "each reversal)")
     for field, val, lo, hi, ok in inside_training_ranges(fit):
         console.print(f"  {field:>18} = {val:.4g}  training range [{lo:.4g}, {hi:.4g}]  "
                       + ("[green]inside[/green]" if ok else "[red]OUTSIDE: the agent never saw this rig[/red]"))
@@ -318,12 +338,13 @@ def run(out: str | Path = "runs/demo", *, algo: str = "ppo", timesteps: int | No
         stage.start(f"Train: skipped, using {'the shipped baseline' if agent_run is None else 'a given run'}")
         console.print(f"agent: {run_dir}")
     else:
-        stage.start(f"Train: {algo.upper()} for {timesteps:,} steps with domain randomisation")
+        stage.start(f"Train: residual {algo.upper()} for {timesteps:,} steps with domain randomisation")
         run_dir = train_agent(algo, timesteps, seed, out / "agents", progress_bar=progress_bar)
         console.print(f"run folder: {run_dir}")
     stage.done()
 
-    stage.start(f"Benchmark: PID vs PID+identified FF vs {algo.upper()} on {n} frozen draws")
+    stage.start(f"Benchmark: PID, {BLIND_TWIN}, {FF_NAME} and {algo.upper()} on {n} frozen draws (and without "
+                "dry friction)")
     results = []
     for ps in params:
         res = benchmark(run_dir, algo, pid_ff, n, seed, out, ps, progress=lambda m: console.print(f"  {m}"))
@@ -384,11 +405,13 @@ def add_cli(subparsers: Any) -> argparse.ArgumentParser:
     """Register ``hydro demo`` on an argparse subparsers object."""
     p = subparsers.add_parser(
         "demo",
-        help="the main job: identify friction, calibrate, train PPO, benchmark against PID",
-        description="The main job: identify the servo cylinder's friction from a virtual "
-        "constant-velocity test, calibrate PID and PID + friction feedforward, train PPO (or SAC) "
-        "with domain randomisation, benchmark all three on frozen parameter draws and write tables "
-        "and figures. --rollouts runs a quick look instead: randomised episodes under a P controller.",
+        help="the main job: identify friction, calibrate, train a residual agent, benchmark on a friction task",
+        description="The main job, on the servo cylinder creeping through reversals (a task where "
+        "friction decides): identify its friction from a virtual constant-velocity test, calibrate "
+        "the PID and the same loop with the identified friction, train a residual PPO agent with "
+        "domain randomisation, benchmark them on frozen parameter draws (with and without dry "
+        "friction) and write tables and figures. --rollouts runs a quick look instead: randomised "
+        "episodes under a P controller.",
     )
     _add_arguments(p)
     p.set_defaults(func=_run_args)

@@ -127,7 +127,8 @@ def test_batch_equals_rows_and_episode_start_resets():
     # episode_start resets the integrator (and the derivative memory) of that copy only
     c = ServoPIDController.from_params()
     o = np.zeros((2, 11))
-    o[:, 0] = 0.5  # constant 5 mm error
+    o[:, 1] = 5e-3 / (0.5 * L)  # reference 5 mm above the measured position: a constant 5 mm error
+    o[:, 0] = 0.5
     for _ in range(50):
         c.predict(o)
     assert np.all(c.integral > 0)

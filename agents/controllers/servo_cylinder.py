@@ -205,7 +205,7 @@ class ServoFlowController(BaseController):
 
     def _act(self, o: np.ndarray) -> np.ndarray:
         p = self.params
-        e = o[:, 0] * self.error_scale
+        e = self.half * (o[:, 1] - o[:, 7])  # r - x_meas, whatever the env's error_scale
         v_ref = self.half * (o[:, 2] - o[:, 1]) / PREVIEW_DT
         v_d = v_ref + self.omega_c * e + self.integral
         p_l = (o[:, 8] - o[:, 9]) * p.supply_pressure

@@ -1,6 +1,8 @@
 """Position PID for the cylinder-tracking observation layout (:mod:`hydro_envs.envs.cylinder_tracking`).
 
-Error ``obs[0] * error_scale``, measured position ``stroke/2 (obs[7] + 1)``; derivative on the
+Error ``stroke/2 (obs[1] - obs[7])`` (reference less measured position, both normalised by the
+half stroke: independent of the env's ``error_scale``, which only scales obs[0] for learned
+policies), measured position ``stroke/2 (obs[7] + 1)``; derivative on the
 measurement through a first-order filter ``tf``; integral with back-calculation (time constant
 ``tt``) or conditional anti-windup. Each plant's controller module tunes it
 (``from_params``).
@@ -72,8 +74,12 @@ class TrackingPID(BaseController):
         """Additive action before saturation (none here; see the subclasses)."""
         return np.zeros(obs.shape[0])
 
+    def position_error(self, obs: np.ndarray) -> np.ndarray:
+        """``r - x_meas`` [m] from the observation's reference and measured position."""
+        return self.half * (obs[:, 1] - obs[:, 7])
+
     def _act(self, obs: np.ndarray) -> np.ndarray:
-        e = obs[:, 0] * self.error_scale
+        e = self.position_error(obs)
         x = self.half * (obs[:, 7] + 1.0)
         return self.pid.step(e, x, self.feedforward(obs))
 
@@ -138,7 +144,7 @@ class PressureLoopPID(TrackingPID):
             return 0.0
         f = np.asarray(self._f(v), dtype=float)
         if self.hold_band > 0.0:
-            e = obs[:, 0] * self.error_scale
+            e = self.position_error(obs)
             up = np.asarray(self._f(np.full_like(v, HOLD_SPEED * 1e-6)), dtype=float)
             down = -np.asarray(self._f(np.full_like(v, -HOLD_SPEED * 1e-6)), dtype=float)
             breakaway = np.where(e >= 0.0, up, down) * np.tanh(e / self.hold_band)

@@ -172,10 +172,12 @@ FRICTION_REFERENCE = FrictionReference(frequency=(0.2, 0.4), amplitude=(0.2e-3, 
 FRICTION_STEPS = 8000
 #: a precision axis for the friction tasks: a 1 um linear scale instead of the 30 um encoder of 002
 FRICTION_SCALE = 1e-6
+#: error scale of the friction tasks' observation and reward [m]: their errors are tens of um
+FRICTION_ERROR_SCALE = 1e-4
 (
     ServoCylinderSlowSineBatch, ServoCylinderMicroPositionBatch,
     ServoCylinderSlowSineEnv, ServoCylinderSlowSineVectorEnv,
     ServoCylinderMicroPositionEnv, ServoCylinderMicroPositionVectorEnv,
 ) = friction_task_classes("ServoCylinder", ServoCylinderBatch, REF_BAND, "x", __name__,
                           steps=(FRICTION_STEPS, FRICTION_STEPS), ranges=FRICTION_REFERENCE,
-                          defaults={"position_quantization": FRICTION_SCALE})
+                          defaults={"position_quantization": FRICTION_SCALE, "error_scale": FRICTION_ERROR_SCALE})
