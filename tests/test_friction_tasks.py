@@ -155,3 +155,24 @@ def test_friction_identified_on_each_draw_recovers_its_coulomb_level():
         assert fit.parameters["F_c"] == pytest.approx(p.coulomb_friction, rel=0.03)
     f = m.predict(np.array([0.02, -0.02]))
     assert f[0] > 0 > f[1] and abs(f[1]) > f[0]
+
+
+@pytest.mark.parametrize("plant", ["servo_cylinder", "rodless_cylinder"])
+def test_presliding_test_recovers_the_bristle_stiffness(plant):
+    """The virtual pre-sliding test (the seals loaded slowly from rest) and the closed-form fit
+    of the LuGre loading branch return the rig's bristle stiffness within 8 %."""
+    from agents.controllers.friction_models import identified_presliding
+    from hydro_envs import registry
+
+    sigma0, f_b = identified_presliding(plant)
+    p = registry.get(plant).params_cls()
+    assert sigma0 == pytest.approx(p.bristle_stiffness, rel=0.08)
+    assert p.coulomb_friction < f_b <= 1.02 * p.static_friction
+
+
+def test_servo_lugre_feedforward_pays_over_the_static_law():
+    """The dynamic (LuGre) feed-forward, its pre-sliding identified on the rig, beats its blind
+    twin and the static Stribeck feed-forward on the creep task."""
+    env = "hydro_envs/ServoCylinderSlowSine-v0"
+    assert _paired_ratio(env, "pid_vff_lugre", "pid_vff") < 0.4
+    assert _paired_ratio(env, "pid_vff_lugre", "pid_vff_stribeck") < 0.9

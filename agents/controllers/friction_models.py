@@ -35,7 +35,7 @@ from typing import Any
 import numpy as np
 
 __all__ = ["CREEP_SPEEDS", "FRICTION_KINDS", "PerCopyFriction", "creep_points", "friction_plants", "friction_points",
-           "identified_friction", "identify_on_draws"]
+           "identified_friction", "identified_presliding", "identify_on_draws"]
 
 FRICTION_KINDS = ("stribeck", "neural", "rbf")
 
@@ -160,6 +160,20 @@ def _net_points(plant: str, v: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, n
         return v, f
     vc, fc = creep_points(plant)
     return np.concatenate([np.asarray(v, float), vc]), np.concatenate([np.asarray(f, float), fc])
+
+
+@functools.cache
+def identified_presliding(plant: str) -> tuple[float, float]:
+    """``(sigma0, F_b)``: the bristle stiffness [N/m] and breakaway force [N] identified on the
+    nominal rig's pre-sliding test (the plant controller module's ``presliding_points``,
+    :func:`identification.friction.bristle_stiffness_from_loading`)."""
+    from agents.controllers import controller_module
+    from identification.friction import bristle_stiffness_from_loading
+
+    mod = controller_module(plant)
+    if not hasattr(mod, "presliding_points"):
+        raise ValueError(f"plant = {plant!r} has no pre-sliding test")
+    return bristle_stiffness_from_loading(*mod.presliding_points())
 
 
 def _fit_net(kind: str, points: Any, force: Any = None) -> Any:

@@ -74,7 +74,7 @@ from typing import Any
 
 import numpy as np
 
-from agents.controllers.tracking import FrictionObserver, PressureLoopPID, TrackingPID
+from agents.controllers.tracking import FrictionObserver, LuGreFeedforward, PressureLoopPID, TrackingPID
 from hydro_envs.plants.rodless_cylinder.params import RodlessCylinderParams
 from hydro_envs.plants.rodless_cylinder.model import friction_compensation_gains, linearize_mid_stroke
 
@@ -221,6 +221,24 @@ class RodlessObserverPressureLoopController(FrictionObserver, RodlessPressureLoo
         return super().from_params(p, mass=p.mass, **kwargs)
 
 
+class RodlessLuGrePressureLoopController(LuGreFeedforward, RodlessPressureLoopController):
+    """``pid_dp_lugre``: :class:`RodlessPressureLoopController` with a LuGre friction target
+    (:class:`~agents.controllers.tracking.LuGreFeedforward`) identified on the rig: its steady state
+    the Stribeck law of the 004 sec. 3 constant-command test, its bristle stiffness from the
+    pre-sliding test (:func:`~hydro_envs.plants.rodless_cylinder.experiments.presliding_test`), its
+    micro-damping critical for the nominal mass. Blind twin: ``pid_dp``."""
+
+    @classmethod
+    def from_params(cls, params: RodlessCylinderParams | None = None,
+                    **kwargs: Any) -> RodlessLuGrePressureLoopController:
+        from agents.controllers.friction_models import identified_friction, identified_presliding
+
+        p = params if params is not None else RodlessCylinderParams()
+        sigma0, _ = identified_presliding(PLANT)
+        return super().from_params(p, stribeck=identified_friction(PLANT, "stribeck"), sigma0=sigma0,
+                                   sigma1=2.0 * np.sqrt(sigma0 * p.mass), **kwargs)
+
+
 #: the plant these controllers are for (its registry name)
 PLANT = "rodless_cylinder"
 
@@ -254,6 +272,7 @@ def controllers() -> dict:
             model=identified_friction(PLANT, "rbf")),
         "pid_dp_stribeck_cal": RodlessCalibratedPressureLoopController.from_params,
         "pid_dp_dob": RodlessObserverPressureLoopController.from_params,
+        "pid_dp_lugre": RodlessLuGrePressureLoopController.from_params,
         "pid_dp_stiction": lambda: RodlessPressureLoopController.from_params(
             model=identified_friction(PLANT, "stribeck"), hold_band=HOLD_BAND),
     }
@@ -265,6 +284,13 @@ def benchmark_adapter(env_id: str):
 
     return EnvAdapter(env_id, "position", "m", _STEP_REFERENCE.get(env_id), 2e-4, cyl_output, cyl_pressures,
                       cyl_stroke)
+
+
+def presliding_points():
+    """The pre-sliding test of the nominal rig: ``(x, F)`` of the seals' loading branch."""
+    from hydro_envs.plants.rodless_cylinder.experiments import presliding_test
+
+    return presliding_test()
 
 
 def friction_points(params: RodlessCylinderParams | None = None):

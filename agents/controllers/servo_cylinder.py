@@ -60,7 +60,7 @@ from typing import Any
 import numpy as np
 
 from agents.controllers.core import BaseController
-from agents.controllers.tracking import PREVIEW_DT, FrictionObserver, PressureLoopPID
+from agents.controllers.tracking import PREVIEW_DT, FrictionObserver, LuGreFeedforward, PressureLoopPID
 
 from hydro_envs.plants.servo_cylinder.params import ServoCylinderParams
 from hydro_envs.plants.servo_cylinder.model import hydraulic_natural_frequency, no_load_velocity
@@ -71,6 +71,7 @@ __all__ = [
     "CROSSOVER_RATIO",
     "ServoPIDController",
     "ServoObserverController",
+    "ServoLuGreController",
     "zero_friction",
     "ServoFlowController",
     "nominal_stribeck",
@@ -149,6 +150,24 @@ class ServoObserverController(FrictionObserver, ServoPIDController):
         p = params if params is not None else ServoCylinderParams()
         kwargs.setdefault("v_slide", 1e-4)
         return super().from_params(p, vff=True, mass=p.mass, **kwargs)
+
+
+class ServoLuGreController(LuGreFeedforward, ServoPIDController):
+    """``pid_vff_lugre``: :class:`ServoPIDController` with the velocity feed-forward and a LuGre
+    friction feed-forward (:class:`~agents.controllers.tracking.LuGreFeedforward`) identified on the
+    rig: its steady state the Stribeck law of the square-wave test, its bristle stiffness from
+    the pre-sliding test (:func:`~hydro_envs.plants.servo_cylinder.friction_test.presliding_test`,
+    :func:`identification.friction.bristle_stiffness_from_loading`), its micro-damping critical for
+    the nominal mass. Blind twin: ``pid_vff``."""
+
+    @classmethod
+    def from_params(cls, params: ServoCylinderParams | None = None, **kwargs: Any) -> ServoLuGreController:
+        from agents.controllers.friction_models import identified_friction, identified_presliding
+
+        p = params if params is not None else ServoCylinderParams()
+        sigma0, _ = identified_presliding(PLANT)
+        return super().from_params(p, vff=True, stribeck=identified_friction(PLANT, "stribeck"), sigma0=sigma0,
+                                   sigma1=2.0 * math.sqrt(sigma0 * p.mass), **kwargs)
 
 
 def zero_friction(v: Any) -> np.ndarray:
@@ -267,6 +286,7 @@ def controllers() -> dict:
         "pid": ServoPIDController.from_params,
         "pid_vff": lambda: ServoPIDController.from_params(vff=True),
         "pid_vff_dob": ServoObserverController.from_params,
+        "pid_vff_lugre": ServoLuGreController.from_params,
         "flow": ServoFlowController,
     }
     for kind in FRICTION_MODELS:
@@ -283,6 +303,13 @@ def benchmark_adapter(env_id: str):
 
     return EnvAdapter(env_id, "position", "m", _STEP_REFERENCE.get(env_id), 1e-4, cyl_output, cyl_pressures,
                       cyl_stroke)
+
+
+def presliding_points():
+    """The pre-sliding test of the nominal rig: ``(x, F)`` of the seals' loading branch."""
+    from hydro_envs.plants.servo_cylinder.friction_test import presliding_test
+
+    return presliding_test()
 
 
 def friction_points():

@@ -17,7 +17,8 @@ import numpy as np
 
 from agents.controllers.core import ANTI_WINDUP, BaseController, PIDCore
 
-__all__ = ["TrackingPID", "PressureLoopPID", "FrictionObserver", "ANTI_WINDUP", "DT", "PREVIEW_DT"]
+__all__ = ["TrackingPID", "PressureLoopPID", "FrictionObserver", "LuGreFeedforward", "ANTI_WINDUP", "DT",
+           "PREVIEW_DT"]
 
 DT = 1e-3  # s, control period of the cylinder-tracking envs
 #: the observation's preview offsets [steps] after the current reference (obs[1])
@@ -201,3 +202,46 @@ class FrictionObserver:
             f_d = self.area * dp[sliding] - self.mass * a[sliding]  # type: ignore[attr-defined]
             self._fc[sliding] += (self.dt / self.tau) * (np.sign(v[sliding]) * f_d - self._fc[sliding])  # type: ignore[attr-defined]
         return self._fc * np.tanh(v / self.v_slide)
+
+
+class LuGreFeedforward:
+    """Mixin for :class:`PressureLoopPID`: the friction target from a LuGre model driven by the
+    reference velocity instead of the static law -- a dynamic friction feed-forward.
+
+    ``stribeck``: the static fit (parameters ``F_c, F_s, v_s, F_v`` of 002 eq (1)) as the
+    model's steady state; ``sigma0`` [N/m] its bristle stiffness (identified on a pre-sliding
+    test); ``sigma1`` [N s/m] its micro-damping (fading over ``v_s``). Per copy the bristle state
+    ``z`` follows ``dz/dt = v - sigma0 |v| z / g(v)`` at the reference velocity (the exact update
+    over one control period at frozen ``v``), and the target is
+    ``sigma0 z + sigma1(v) dz/dt + F_v v``: at a reversal the target passes through zero over the
+    pre-sliding distance instead of flipping at once, and a reversal after a short stroke starts
+    from a partly loaded bristle."""
+
+    def __init__(self, *args: Any, stribeck: Any, sigma0: float, sigma1: float = 0.0, **kwargs: Any) -> None:
+        par = stribeck.parameters if hasattr(stribeck, "parameters") else dict(stribeck)
+        self.f_c, self.f_s, self.v_s = float(par["F_c"]), float(par["F_s"]), float(par["v_s"])
+        self.f_v = float(par.get("F_v", 0.0))
+        for name, val in (("sigma0", sigma0), ("F_c", self.f_c), ("v_s", self.v_s)):
+            if not (np.isfinite(val) and val > 0):
+                raise ValueError(f"{name} must be finite and > 0, got {val}")
+        self.sigma0, self.sigma1 = float(sigma0), float(sigma1)
+        kwargs.pop("model", None)
+        super().__init__(*args, model=lambda v: np.zeros_like(v), **kwargs)
+
+    def _allocate(self, n: int) -> None:
+        super()._allocate(n)  # type: ignore[misc]
+        self._z = np.zeros(n)
+
+    def _reset_rows(self, mask: np.ndarray) -> None:
+        super()._reset_rows(mask)  # type: ignore[misc]
+        self._z[mask] = 0.0
+
+    def friction_target(self, v: np.ndarray, dp: np.ndarray, obs: np.ndarray) -> np.ndarray:
+        g = self.f_c + (self.f_s - self.f_c) * np.exp(-np.abs(v) / self.v_s)
+        a = self.sigma0 * np.abs(v) / g
+        z_ss = np.sign(v) * g / self.sigma0
+        decay = np.exp(-a * self.dt)  # type: ignore[attr-defined]
+        self._z = z_ss + (self._z - z_ss) * decay
+        dz = v - a * self._z
+        s1 = self.sigma1 * np.exp(-((v / self.v_s) ** 2))
+        return self.sigma0 * self._z + s1 * dz + self.f_v * v

@@ -63,6 +63,8 @@ Too few points raise :class:`InsufficientDataError`.
 from identification.friction.data import IdentificationError, InsufficientDataError, UnidentifiableError, actuator_force, chamber_force, FrictionPoints, mean_absolute_error, rmse, nrmse
 from identification.friction.static import STATIC_MODELS, static_friction, FrictionFit, AsymmetricFrictionFit, fit_friction
 from identification.friction.graphical import GraphicalStribeck, graphical_stribeck
-from identification.friction.dynamic import DynamicFrictionFit, simulate_dahl, simulate_lugre, fit_dahl, fit_lugre
+from identification.friction.dynamic import (
+    DynamicFrictionFit, bristle_stiffness_from_loading, fit_dahl, fit_lugre, simulate_dahl, simulate_lugre,
+)
 
-__all__ = ['IdentificationError', 'InsufficientDataError', 'UnidentifiableError', 'actuator_force', 'chamber_force', 'FrictionPoints', 'mean_absolute_error', 'rmse', 'nrmse', 'STATIC_MODELS', 'static_friction', 'FrictionFit', 'AsymmetricFrictionFit', 'fit_friction', 'GraphicalStribeck', 'graphical_stribeck', 'DynamicFrictionFit', 'simulate_dahl', 'simulate_lugre', 'fit_dahl', 'fit_lugre']
+__all__ = ['IdentificationError', 'InsufficientDataError', 'UnidentifiableError', 'actuator_force', 'chamber_force', 'FrictionPoints', 'mean_absolute_error', 'rmse', 'nrmse', 'STATIC_MODELS', 'static_friction', 'FrictionFit', 'AsymmetricFrictionFit', 'fit_friction', 'GraphicalStribeck', 'graphical_stribeck', 'DynamicFrictionFit', 'simulate_dahl', 'simulate_lugre', 'fit_dahl', 'fit_lugre', 'bristle_stiffness_from_loading']

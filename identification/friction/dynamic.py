@@ -20,7 +20,8 @@ from hydro_envs.laws.friction import (
 from identification.friction.data import IdentificationError, InsufficientDataError, UnidentifiableError, _metrics
 from identification.friction.static import _covariance, fit_friction
 
-__all__ = ['DynamicFrictionFit', 'simulate_dahl', 'simulate_lugre', 'fit_dahl', 'fit_lugre']
+__all__ = ['DynamicFrictionFit', 'simulate_dahl', 'simulate_lugre', 'fit_dahl', 'fit_lugre',
+           'bristle_stiffness_from_loading']
 
 
 # ======================================================================================
@@ -357,3 +358,34 @@ def fit_lugre(
                       max_rel_std_error, 6)
     fit.n_sub = n_sub
     return fit
+
+
+def bristle_stiffness_from_loading(x: Any, force: Any) -> tuple[float, float]:
+    """``(sigma0, F_b)`` of the LuGre pre-sliding loading branch fitted to a record of the
+    deflection ``x`` [m] and friction force ``force`` [N] of a body loaded slowly from rest
+    (:func:`hydro_envs.plants.servo_cylinder.friction_test.presliding_test`).
+
+    At speeds far below the Stribeck velocity the level is the breakaway force ``F_b``, and the
+    rate law ``dz/dx = 1 - sigma0 z / F_b`` integrates to ``F = F_b (1 - exp(-sigma0 x / F_b))``
+    (x from rest, monotone loading); the slope at the start is ``sigma0``. Least squares on that
+    branch (:func:`scipy.optimize.least_squares`); :class:`InsufficientDataError` for fewer
+    than 10 samples or a record that does not load monotonically."""
+    x = np.asarray(x, dtype=float).reshape(-1)
+    f = np.asarray(force, dtype=float).reshape(-1)
+    if x.shape != f.shape:
+        raise ValueError(f"x has {x.size} samples, force {f.size}; they must be equal")
+    ok = np.isfinite(x) & np.isfinite(f) & (x > 0) & (f > 0)
+    x, f = x[ok], f[ok]
+    if x.size < 10 or np.any(np.diff(x) < 0):
+        raise InsufficientDataError("bristle_stiffness_from_loading needs >= 10 samples of monotone loading "
+                                    f"(x > 0, F > 0); got {x.size}")
+    fb0 = 1.05 * float(f.max())
+    k0 = float(np.polyfit(x[: max(3, x.size // 10)], f[: max(3, x.size // 10)], 1)[0])
+
+    def res(th):
+        s0, fb = np.exp(th)
+        return (fb * (1.0 - np.exp(-s0 * x / fb)) - f) / fb
+
+    sol = optimize.least_squares(res, np.log([max(k0, 1.0), fb0]), method="lm")
+    s0, fb = np.exp(sol.x)
+    return float(s0), float(fb)

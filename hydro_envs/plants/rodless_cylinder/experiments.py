@@ -26,7 +26,7 @@ from hydro_envs.plants.rodless_cylinder.spec import SPEC
 from hydro_envs.sim.simulate import simulate
 from hydro_envs.sim.stiffness import substeps_from_stiffness
 
-__all__ = ["constant_command_run", "small_signal_response", "closed_loop_m_sequence"]
+__all__ = ["constant_command_run", "small_signal_response", "closed_loop_m_sequence", "presliding_test"]
 
 
 def constant_command_run(params: RodlessCylinderParams, command: float, *, dt: float = 1e-3,
@@ -177,3 +177,21 @@ def closed_loop_m_sequence(
         kernels.step_serial(Y, U, P, dt, nsub, W, clamps)
     return {"t": np.arange(n) * dt, "u": u, "u_valve": u_valve, "y": y_true + noise, "y_true": y_true, "m": m,
             "clamps": np.array(int(clamps[0]))}
+
+
+def presliding_test(params: RodlessCylinderParams | None = None, *, command_offset: float = 0.03,
+                    duration: float = 2.0, dt: float = 1e-3) -> tuple[np.ndarray, np.ndarray]:
+    """The seals' pre-sliding loading branch (004 Fig. 4: "a small displacement before the
+    continuous sliding"), measured on the rig at rest: the valve held ``command_offset`` [V] off
+    its centre from rest at mid-stroke, so the pressure difference builds slowly; until the seals
+    break away the slider moves only by their elastic deflection. Returns ``(y - y0, A (p_a - p_b))``
+    [m, N] up to the largest force before breakaway (noise-free). Fitted by
+    :func:`identification.friction.bristle_stiffness_from_loading`."""
+    p = params if params is not None else RodlessCylinderParams()
+    y0 = rest_state(p, 0.5 * p.stroke)
+    n = int(round(duration / dt))
+    st = simulate(SPEC, p, np.full(n, p.command_centre + float(command_offset)), y0, dt)
+    x = st[:, Y] - st[0, Y]
+    f = piston_area(p) * (st[:, PA] - st[:, PB])
+    k = int(np.argmax(f)) + 1
+    return x[:k], f[:k]

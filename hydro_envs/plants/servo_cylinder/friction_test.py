@@ -24,16 +24,15 @@ leave an averaging window). With the defaults that is 68 periods from 0.05 V to 
 61 mm (never near the stops). ``period_max`` caps the long periods when a shorter test is
 wanted.
 
-*Finding on the nominal plant (documented in the tests):* up to 20 mm/s the Stribeck slope
-``-(F_s - F_c)/v_s e^{-v/v_s}`` (down to -2000 N s/m) exceeds the viscous damping
-(250 N s/m) and the valve's flow-pressure damping (critically lapped, no leakage: damping
-ratio ~1e-3), so the piston runs in a friction-induced limit cycle near the hydraulic
-frequency (~100 Hz, velocity swinging between ~0 and 2 v). The averaged force of such a
-window is the cycle average, not ``F_f(mean v)``: 1-1.6 N low at 3-10 mm/s, which biases a
-Stribeck fit (ideal sensors: F_s -6 %, v_s +22 %; F_c, F_v within 0.3 %). The points'
-``force_std`` exposes it (11-110 N in those windows, < 0.2 N from 25 to 80 mm/s). With the
-viscous damping raised to 2500 N s/m the sliding is stable at every speed and the method
-returns the plant's law exactly (tests).
+*Finding on the nominal plant (documented in the tests):* below about 18 mm/s the Stribeck
+slope ``-(F_s - F_c)/v_s e^{-v/v_s}`` (down to -2000 N s/m) exceeds the viscous damping
+(250 N s/m) and the valve's flow-pressure damping (critically lapped, no leakage), so the piston
+sticks and slips on its LuGre seals instead of sliding steadily. The averaged force of such a
+window is the cycle average, not ``F_f(mean v)`` (about 1 N low at 3-10 mm/s), which biases a
+Stribeck fit (F_s low, v_s high; F_c and F_v are well determined by the steady windows). The
+points' ``force_std`` exposes it (20 N at 3.3 mm/s to 85 N at 16.7 mm/s, below 0.2 N from 20 to
+80 mm/s). With the viscous damping raised to 2500 N s/m the sliding is stable at every speed and
+the method returns the plant's law exactly (tests).
 """
 
 from __future__ import annotations
@@ -61,6 +60,7 @@ __all__ = [
     "square_wave_command",
     "FrictionExperiment",
     "run_friction_experiment",
+    "presliding_test",
 ]
 
 
@@ -72,7 +72,7 @@ def simulate_servo_cylinder(
     y0: Any = None,
     x0: float | None = None,
 ) -> np.ndarray:
-    """States ``(n + 1, 6)`` (x, v, p1, p2, xv, vv; SI) under the held commands ``u[k]`` [V].
+    """States ``(n + 1, 7)`` (x, v, p1, p2, xv, vv, z; SI) under the held commands ``u[k]`` [V].
 
     Runs :func:`hydro_envs.sim.simulate`, the same RK4 kernel and sub-steps (from the
     stiffness bound) as the environments. ``y0`` defaults to
@@ -277,3 +277,20 @@ def run_friction_experiment(
         written = write_measured(path, data)
     return FrictionExperiment(data=data, schedule=sched, states=states, params=p, path=written,
                               clamps=int(clamps))
+
+
+def presliding_test(params: ServoCylinderParams | None = None, *, command: float = 3e-3, duration: float = 1.0,
+                    dt: float = 1e-3) -> tuple[np.ndarray, np.ndarray]:
+    """The seals' pre-sliding loading branch, measured on the rig at rest: a tiny constant valve
+    command ``command`` [V] (3 mV: the load pressure rises by about 0.2 MPa/s) from rest at
+    mid-stroke; until the seals break away the piston moves only by their bristles' elastic
+    deflection. Returns ``(x - x0, A (p1 - p2))`` [m, N] up to the first sample beyond the largest
+    force before breakaway (a precision scale and pressure transducers read these; noise-free
+    here). Fitted by :func:`identification.friction.bristle_stiffness_from_loading`."""
+    p = params if params is not None else ServoCylinderParams()
+    n = int(round(duration / dt))
+    st = simulate_servo_cylinder(p, np.full(n, float(command)), dt=dt)
+    x = st[:, sc.X] - st[0, sc.X]
+    f = p.piston_area * (st[:, sc.P1] - st[:, sc.P2])
+    k = int(np.argmax(f)) + 1  # the breakaway: the force drops (or stops rising) as the piston slips
+    return x[:k], f[:k]
