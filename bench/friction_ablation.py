@@ -26,7 +26,7 @@ from agents.controllers import make_controller  # noqa: E402
 
 #: task -> (env id, the best friction-aware controller of the task's benchmark)
 TASKS = {
-    "servo_cylinder_slow_sine": ("hydro_envs/ServoCylinderSlowSine-v0", "pid_vff_lugre"),
+    "servo_cylinder_slow_sine": ("hydro_envs/ServoCylinderSlowSine-v0", "pid_vff_lugre_observer"),
     "rodless_cylinder_slow_sine": ("hydro_envs/RodlessCylinderSlowSine-v0", "pid_dp_stribeck"),
     "rodless_cylinder_micro_position": ("hydro_envs/RodlessCylinderMicroPosition-v0", "pid_dp_stiction"),
 }

@@ -176,3 +176,32 @@ def test_servo_lugre_feedforward_pays_over_the_static_law():
     env = "hydro_envs/ServoCylinderSlowSine-v0"
     assert _paired_ratio(env, "pid_vff_lugre", "pid_vff") < 0.4
     assert _paired_ratio(env, "pid_vff_lugre", "pid_vff_stribeck") < 0.9
+
+
+def test_servo_lugre_observer_pays_over_the_feedforward():
+    """The observer correction of the bristle estimate by the position error beats the same
+    LuGre feed-forward without it (k_obs = 0) and its blind twin on the creep task."""
+    env = "hydro_envs/ServoCylinderSlowSine-v0"
+    assert _paired_ratio(env, "pid_vff_lugre_observer", "pid_vff_lugre") < 0.8
+
+
+def test_lugre_observer_without_gain_is_the_feedforward_and_a_lag_loads_the_bristle():
+    from agents.controllers import make_controller
+
+    env = "hydro_envs/ServoCylinderSlowSine-v0"
+    ff, ob = make_controller(env, "pid_vff_lugre"), make_controller(env, "pid_vff_lugre_observer")
+    ob.k_obs = 0.0
+    rng = np.random.default_rng(0)
+    obs = np.clip(rng.normal(0.0, 0.01, (3, 11)), -1, 1)
+    ff.reset(3), ob.reset(3)
+    for _ in range(5):
+        assert np.array_equal(ff.predict(obs)[0], ob.predict(obs)[0])
+    # a piston standing 2 um behind a held reference: the estimate grows towards F_s, then holds
+    ob = make_controller(env, "pid_vff_lugre_observer")
+    ob.reset(1)
+    hold = np.zeros((1, 11))
+    hold[0, 1:7] = 0.0
+    hold[0, 7] = -2e-6 / ob.half
+    f = [float(ob.friction_target(np.zeros(1), np.zeros(1), hold)[0]) for _ in range(2000)]
+    assert 0.0 < f[10] < f[50] <= f[-1] == f[-2]
+    assert ob._z[0] == pytest.approx(max(ob.f_s, ob.f_c) / ob.sigma0)  # the bristle's largest deflection

@@ -60,7 +60,7 @@ from typing import Any
 import numpy as np
 
 from agents.controllers.core import BaseController
-from agents.controllers.tracking import PREVIEW_DT, FrictionObserver, LuGreFeedforward, PressureLoopPID
+from agents.controllers.tracking import PREVIEW_DT, FrictionObserver, LuGreFeedforward, LuGreObserver, PressureLoopPID
 
 from hydro_envs.plants.servo_cylinder.params import ServoCylinderParams
 from hydro_envs.plants.servo_cylinder.model import hydraulic_natural_frequency, no_load_velocity
@@ -72,6 +72,7 @@ __all__ = [
     "ServoPIDController",
     "ServoObserverController",
     "ServoLuGreController",
+    "ServoLuGreObserverController",
     "zero_friction",
     "ServoFlowController",
     "nominal_stribeck",
@@ -168,6 +169,23 @@ class ServoLuGreController(LuGreFeedforward, ServoPIDController):
         sigma0, _ = identified_presliding(PLANT)
         return super().from_params(p, vff=True, stribeck=identified_friction(PLANT, "stribeck"), sigma0=sigma0,
                                    sigma1=2.0 * math.sqrt(sigma0 * p.mass), **kwargs)
+
+
+class ServoLuGreObserverController(LuGreObserver, ServoLuGreController):
+    """``pid_vff_lugre_observer``: :class:`ServoLuGreController` whose bristle estimate is corrected
+    by the position error (:class:`~agents.controllers.tracking.LuGreObserver`, gain
+    :data:`OBSERVER_GAIN`). Blind twin: ``pid_vff``."""
+
+    @classmethod
+    def from_params(cls, params: ServoCylinderParams | None = None,
+                    **kwargs: Any) -> ServoLuGreObserverController:
+        kwargs.setdefault("k_obs", OBSERVER_GAIN)
+        return super().from_params(params, **kwargs)  # type: ignore[return-value]
+
+
+#: LuGre observer gain [1/s] (assumed: 4 x below 2000 1/s, where loops on the slow-sine task's
+#: ``out`` draws diverge; with sigma0 ~ 2e6 N/m a 10 um lag builds the target at ~1e4 N/s)
+OBSERVER_GAIN = 500.0
 
 
 def zero_friction(v: Any) -> np.ndarray:
@@ -287,6 +305,7 @@ def controllers() -> dict:
         "pid_vff": lambda: ServoPIDController.from_params(vff=True),
         "pid_vff_dob": ServoObserverController.from_params,
         "pid_vff_lugre": ServoLuGreController.from_params,
+        "pid_vff_lugre_observer": ServoLuGreObserverController.from_params,
         "flow": ServoFlowController,
     }
     for kind in FRICTION_MODELS:

@@ -17,7 +17,7 @@ import numpy as np
 
 from agents.controllers.core import ANTI_WINDUP, BaseController, PIDCore
 
-__all__ = ["TrackingPID", "PressureLoopPID", "FrictionObserver", "LuGreFeedforward", "ANTI_WINDUP", "DT",
+__all__ = ["TrackingPID", "PressureLoopPID", "FrictionObserver", "LuGreFeedforward", "LuGreObserver", "ANTI_WINDUP", "DT",
            "PREVIEW_DT"]
 
 DT = 1e-3  # s, control period of the cylinder-tracking envs
@@ -236,12 +236,37 @@ class LuGreFeedforward:
         super()._reset_rows(mask)  # type: ignore[misc]
         self._z[mask] = 0.0
 
+    def bristle_correction(self, obs: np.ndarray) -> np.ndarray | float:
+        """Extra bristle rate [m/s] added to ``dz/dt`` (none here: a pure feed-forward)."""
+        return 0.0
+
     def friction_target(self, v: np.ndarray, dp: np.ndarray, obs: np.ndarray) -> np.ndarray:
         g = self.f_c + (self.f_s - self.f_c) * np.exp(-np.abs(v) / self.v_s)
         a = self.sigma0 * np.abs(v) / g
         z_ss = np.sign(v) * g / self.sigma0
         decay = np.exp(-a * self.dt)  # type: ignore[attr-defined]
-        self._z = z_ss + (self._z - z_ss) * decay
-        dz = v - a * self._z
+        corr = self.bristle_correction(obs)
+        self._z = z_ss + (self._z - z_ss) * decay + corr * self.dt  # type: ignore[attr-defined]
+        z_max = max(self.f_s, self.f_c) / self.sigma0
+        self._z = np.clip(self._z, -z_max, z_max)
+        dz = v - a * self._z + corr
         s1 = self.sigma1 * np.exp(-((v / self.v_s) ** 2))
         return self.sigma0 * self._z + s1 * dz + self.f_v * v
+
+
+class LuGreObserver(LuGreFeedforward):
+    """Mixin for :class:`PressureLoopPID`: :class:`LuGreFeedforward` with the observer correction
+    of Canudas de Wit, Olsson, Astrom and Lischinsky (IEEE TAC 40(3), 1995, sec. IV): the
+    bristle estimate follows ``dz^/dt = v - sigma0 |v| z^ / g(v) + k_obs e`` with ``e = r - x``
+    the measured position error, so a piston that lags (or sticks) loads the estimated bristle
+    further and the friction target grows until it moves; ``|z^|`` is held within the bristle's
+    largest deflection ``F_s / sigma0``. ``k_obs`` [1/s] the observer gain (0: the feed-forward)."""
+
+    def __init__(self, *args: Any, k_obs: float, **kwargs: Any) -> None:
+        if not (np.isfinite(k_obs) and k_obs >= 0):
+            raise ValueError(f"k_obs must be finite and >= 0 1/s, got {k_obs}")
+        self.k_obs = float(k_obs)
+        super().__init__(*args, **kwargs)
+
+    def bristle_correction(self, obs: np.ndarray) -> np.ndarray:
+        return self.k_obs * self.position_error(obs)  # type: ignore[attr-defined]
