@@ -13,28 +13,31 @@ from hydro_envs.envs.base import FINITE_CHECK_EVERY, MAX_SUBSTEPS, NonFiniteStat
 
 SERVO = "hydro_envs/ServoCylinderPosition-v0"
 RODLESS = "hydro_envs/RodlessCylinder-v0"
+#: servo parameters each inside its range that together need more sub-steps than the cap
+STIFF = {"mass": 0.05, "piston_area": 0.5}
 
 
 def test_a_parameter_set_needing_too_many_substeps_is_refused_at_make():
-    # mass 1e-6 kg lies in the declared range (0, ...] but needs 2.7e7 sub-steps per 1 ms step
-    with pytest.raises(SubstepLimitError, match=rf"servo_cylinder: parameters mass=1e-06 need \d+ RK4 sub-steps per env "
+    # each value at its range end steps (tests/test_range_ends.py), together they are too stiff:
+    # a 50 g piston on a 0.5 m^2 area needs ~1.2e5 sub-steps per 1 ms step (its end stop)
+    with pytest.raises(SubstepLimitError, match=rf"servo_cylinder: parameters mass=0.05, piston_area=0.5 need \d+ RK4 "
+                       rf"sub-steps per env "
                        rf"step .*allowed at most {MAX_SUBSTEPS}"):
-        gym.make(SERVO, randomize=False, params={"mass": 1e-6})
+        gym.make(SERVO, randomize=False, params=STIFF)
     assert gym.make(SERVO, randomize=False, params={"mass": 1.0}).unwrapped.n_substeps <= MAX_SUBSTEPS
 
 
 def test_the_local_refinement_counts_in_the_cap_and_a_reset_names_the_copy():
-    # stiff bristles (sigma0 1e8 N/m, 0.35 um pre-sliding) are refined locally in the stick mode;
-    # sub-steps times that refinement exceed the cap (a large static level no longer does: the
-    # family law's rate cap takes its relaxation as quasi-static, hydro_envs.laws.seal_friction)
-    with pytest.raises(SubstepLimitError, match=r"rodless_cylinder: parameters bristle_stiffness=1e\+08 need up to \d+ "
-                       r"RK4 sub-steps per env step \(\d+ sub-steps, each refined up to \d+ x"):
-        gym.make(RODLESS, randomize=False, params={"bristle_stiffness": 1e8})
+    # stiff bristles on a large bore are refined locally in the stick mode; sub-steps times
+    # that refinement exceed the cap
+    with pytest.raises(SubstepLimitError, match=r"rodless_cylinder: parameters bore=0.04, bristle_stiffness=3e\+07 need up "
+                       r"to \d+ RK4 sub-steps per env step \(\d+ sub-steps, each refined up to \d+ x"):
+        gym.make(RODLESS, randomize=False, params={"bore": 0.04, "bristle_stiffness": 3e7})
     venv = gym.make_vec(SERVO, num_envs=2, vectorization_mode="vector_entry_point", randomize=False)
     venv.reset(seed=0)
     mask = np.array([False, True])
-    with pytest.raises(SubstepLimitError, match=r"^copy 1: servo_cylinder: parameters mass=1e-06"):
-        venv.reset(options={"reset_mask": mask, "params": {"mass": 1e-6}})
+    with pytest.raises(SubstepLimitError, match=r"^copy 1: servo_cylinder: parameters mass=0.05"):
+        venv.reset(options={"reset_mask": mask, "params": STIFF})
     venv.reset(options={"reset_mask": mask, "params": {"mass": 2.0}})  # the env is still usable
     venv.close()
 
@@ -82,7 +85,7 @@ def test_benchmark_and_soak_draws_skip_sets_beyond_the_cap():
     b = env.unwrapped._batch
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        p = b.params_cls.from_mapping({"mass": 1e-6})
+        p = b.params_cls.from_mapping(STIFF)
     with pytest.raises(ValueError):  # SubstepLimitError is a ValueError: draw loops redraw on it
         b.substeps_for(p)
     assert issubclass(SubstepLimitError, ValueError) and not issubclass(SubstepLimitError, ParameterError)

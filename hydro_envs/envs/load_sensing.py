@@ -255,7 +255,7 @@ class LoadSensingBatch(PlantBatch):
         return observation_space()
 
     def reset_task(self, i: int, rng: np.random.Generator, p: LoadSensingParams, options: Mapping[str, Any]) -> None:
-        xa0 = rng.uniform(0.02, 0.10)
+        xa0 = min(rng.uniform(0.02, 0.10), 0.5 * p.stroke)  # 20-100 mm in, mid-stroke on a short one
         self.Y[i] = plant.standby_state(p, xa0)
         # settle at standby (CV closed, no force) so the episode starts from rest
         n_settle = int(round(SETTLE_TIME / DT))

@@ -30,6 +30,12 @@ RK4_REAL_STABILITY_LIMIT = 2.785293563405282  # the z < 0 with R(z) = 1: the rea
 DEFAULT_SAFETY = 0.8
 
 
+def second_order_pole_magnitude(omega: float, zeta: float) -> float:
+    """Largest pole magnitude [1/s] of ``s^2 + 2 zeta omega s + omega^2``: ``omega`` when the
+    pair is complex (``zeta <= 1``), else the fast real pole ``omega (zeta + sqrt(zeta^2 - 1))``."""
+    return omega * (zeta + math.sqrt(zeta * zeta - 1.0)) if zeta > 1.0 else omega
+
+
 def rk4_amplification(z: complex) -> complex:
     """RK4 stability function R(z) = 1 + z + z^2/2 + z^3/6 + z^4/24."""
     return 1 + z + z * z / 2 + z**3 / 6 + z**4 / 24

@@ -57,7 +57,7 @@ class ForceActuatorParams(PhysicalParams):
         _PS, "Pa", (1e5, 35e6), "001 sec. 2-3: 345 N/cm^2 (500 psi), gauge; return at atmosphere"
     )
     bore_area: float = physical(
-        _A1, "m^2", (1e-6, 0.1), "001 sec. 2: max thrust 1340 N at 345 N/cm^2 -> A1 = 3.884 cm^2 (7/8 in bore)",
+        _A1, "m^2", (1e-6, 0.01), "001 sec. 2: max thrust 1340 N at 345 N/cm^2 -> A1 = 3.884 cm^2 (7/8 in bore)",
         open_low=True,
     )
     rod_area: float = physical(

@@ -53,8 +53,8 @@ class LoadSensingParams(PhysicalParams):
     # ---- flow compensator (000, method-2 configuration)
     spool_diameter: float = physical(_SPOOL_D, "m", (1e-4, 0.1), "000 Table 1 a2 -> 7.00 mm (ls_compensator)")
     spool_mass: float = physical(
-        _SPOOL_MASS + LSCompensatorParams().spring_mass / 3.0, "kg", (0.0, 10.0),
-        "000 Table 1: m = 20.47 g incl. 1/3 of the spring (ls_compensator)", open_low=True,
+        _SPOOL_MASS + LSCompensatorParams().spring_mass / 3.0, "kg", (1e-4, 10.0),
+        "000 Table 1: m = 20.47 g incl. 1/3 of the spring (ls_compensator)",
     )
     spring_stiffness: float = physical(
         ORIGINAL_SPRING_STIFFNESS, "N/m", (0.0, 1e8), "000 eq (19): original spring, 294 Hz",
@@ -69,24 +69,23 @@ class LoadSensingParams(PhysicalParams):
     )
     spool_stroke: float = physical(3.0e-3, "m", (0.0, 0.1), "assumed: 3 mm FC spool travel", open_low=True)
     spool_stop_stiffness: float = physical(
-        1.0e6, "N/m", (1e4, 1e11),
+        1.0e6, "N/m", (1e4, 2e7),
         "assumed: seat + spring-seat compliance, 0.1 mm at 100 N (softer than ls_compensator's "
         "2e6: the seat is touched only in transients, and it sets the RK4 step)",
     )
     spool_stop_damping: float = physical(
-        0.05, "s/m", (0.0, 100.0), "assumed: Hunt-Crossley alpha, restitution ~0.99 at 0.1 m/s"
+        0.05, "s/m", (0.0, 20.0), "assumed: Hunt-Crossley alpha, restitution ~0.99 at 0.1 m/s"
     )
     metering_width: float = physical(
-        1.0e-3, "m", (0.0, 0.1),
+        1.0e-3, "m", (2e-6, 0.1),
         "assumed: one 1 mm port (pump-control FC metering; half the method-2 test configuration)",
-        open_low=True,
     )
     metering_lap: float = physical(
         _X_LAP, "m", (0.0, 0.01), "assumed: P -> X opens 0.5 mm from the seat (X -> T open below)"
     )
     port_length: float = physical(1.0e-3, "m", (1e-6, 0.05), "assumed: 1 mm ports")
     discharge_coefficient: float = physical(
-        0.7, "1", (0.0, 1.0), "000 sec. 1: discharge coefficients 0.6-0.9", open_low=True
+        0.7, "1", (0.05, 1.0), "000 sec. 1: discharge coefficients 0.6-0.9"
     )
     jet_angle: float = physical(math.radians(69.0), "rad", (0.0, 0.5 * math.pi), "assumed: 69 deg jet angle")
     solenoid_force_max: float = physical(
@@ -100,7 +99,7 @@ class LoadSensingParams(PhysicalParams):
     ls_line_length: float = physical(2.0, "m", (0.01, 50.0), "assumed: 2 m LS hose from valve block to pump")
     ls_line_diameter: float = physical(4.0e-3, "m", (1e-4, 0.05), "assumed: 4 mm bore LS hose")
     ls_damping_resistance: float = physical(
-        3.0e11, "Pa s/m^3", (0.0, 1e15),
+        3.0e11, "Pa s/m^3", (0.0, 1e14),
         "assumed: damping restrictor at the pump end of the LS line (standard in LS controllers); "
         "with the line + chamber capacitance a 6.5 ms low-pass on p_LS. Without it (R of the hose "
         "alone) the hydro-mechanical loop limit-cycles with 4 t / 40 kN loads; 1e11 still does",
@@ -110,7 +109,7 @@ class LoadSensingParams(PhysicalParams):
     )
     # ---- pump and its control pistons
     pump_displacement: float = physical(
-        28.0e-6 / (2.0 * math.pi), "m^3/rad", (0.0, 1e-2),
+        28.0e-6 / (2.0 * math.pi), "m^3/rad", (0.0, 3e-4),
         "assumed: 28 cm^3/rev axial piston LS pump", open_low=True,
     )
     pump_speed: float = physical(
@@ -135,25 +134,24 @@ class LoadSensingParams(PhysicalParams):
     bias_spring_preload: float = physical(150.0, "N", (0.0, 1e5), "assumed: return spring holding full displacement")
     bias_spring_stiffness: float = physical(1.0e4, "N/m", (0.0, 1e7), "assumed")
     control_volume: float = physical(
-        2.0e-5, "m^3", (1e-8, 1e-2),
+        2.0e-5, "m^3", (2e-7, 1e-2),
         "assumed: 20 cm^3 behind piston 1 at full displacement (chamber + drilled control line)",
-        open_low=True,
     )
     control_leakage: float = physical(
-        2.0e-13, "m^3/(s Pa)", (0.0, 1e-8), "assumed: piston-1 clearance leak, 0.12 L/min at 100 bar"
+        2.0e-13, "m^3/(s Pa)", (0.0, 1e-9), "assumed: piston-1 clearance leak, 0.12 L/min at 100 bar"
     )
     control_stop_stiffness: float = physical(
         1.0e7, "N/m", (1e4, 1e11), "assumed: swash-plate stop, 0.1 mm at 1 kN (reflected compliance)"
     )
     delivery_volume: float = physical(3.0e-4, "m^3", (1e-6, 1.0), "assumed: pump outlet + 1 m hose, 0.3 L")
     relief_pressure: float = physical(250.0e5 + _ATM, "Pa", (1e6, 1e8), "assumed: 250 bar relief")
-    relief_gradient: float = physical(1.0e-10, "m^3/(s Pa)", (0.0, 1e-6), "assumed: 42 L/min at 7 bar override")
+    relief_gradient: float = physical(1.0e-10, "m^3/(s Pa)", (0.0, 2e-7), "assumed: 42 L/min at 7 bar override")
     # ---- main control valve and actuator
     cv_area_max: float = physical(
-        1.5e-5, "m^2", (1e-8, 1e-2),
+        1.5e-5, "m^2", (1e-8, 2e-3),
         "assumed: CV passes ~42 L/min (the pump's full flow) at the 20 bar margin",
     )
-    piston_area: float = physical(0.25 * math.pi * 0.063**2, "m^2", (1e-5, 1.0), "assumed: 63 mm single-acting cylinder")
+    piston_area: float = physical(0.25 * math.pi * 0.063**2, "m^2", (1e-4, 1.0), "assumed: 63 mm single-acting cylinder")
     stroke: float = physical(0.6, "m", (0.01, 10.0), "assumed: 600 mm stroke")
     line_volume: float = physical(5.0e-4, "m^3", (1e-6, 1.0), "assumed: 0.5 L hose CV -> cylinder + dead volume")
     load_mass: float = physical(1000.0, "kg", (1.0, 1e5), "assumed: 1 t inertial load (randomised)")

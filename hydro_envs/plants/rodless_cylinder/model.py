@@ -98,6 +98,7 @@ from hydro_envs.laws.seal_friction import bristle_block_rate_bound, seal_frictio
 from hydro_envs.laws.valve import second_order_valve_acceleration
 from hydro_envs.sim.rk4 import STABLE_H_LAMBDA, local_substeps, worst_case_substeps
 from hydro_envs.sim.roots import brent_root
+from hydro_envs.sim.stiffness import second_order_pole_magnitude
 from hydro_envs.plants.rodless_cylinder.bounds import (
     local_mode_rates as _local_mode_rates, piston_area, smallest_chamber_volume, speed_bound,
 )
@@ -687,7 +688,8 @@ def stiffness_modes(params: RodlessCylinderParams) -> dict[str, float]:
     The fixed RK4 sub-step keeps ``h |lambda| <= 0.8 * 2.785`` for all of them
     (:func:`hydro_envs.sim.stiffness.rk4_substeps`); worst cases over the state space:
 
-    * ``valve``: spool poles, ``omega_v``.
+    * ``valve``: spool poles, ``omega_v`` (the fast real pole when over-damped,
+      :func:`~hydro_envs.sim.stiffness.second_order_pole_magnitude`).
     * ``gas_spring``: ``sqrt(kappa p_max A^2 (1/V_min + 1/V_max) / M)`` at the stroke end,
       p_max = 1.5 p_s (compression above supply).
     * ``friction_stick`` (LuGre): the stuck bristles ``sqrt(sigma0/M)`` plus the dampings that
@@ -710,7 +712,7 @@ def stiffness_modes(params: RodlessCylinderParams) -> dict[str, float]:
     v_min = smallest_chamber_volume(params)
     v_big = a * params.stroke + max(params.dead_volume_a, params.dead_volume_b)
     modes = {
-        "valve": params.valve_natural_frequency,
+        "valve": second_order_pole_magnitude(params.valve_natural_frequency, params.valve_damping),
         "gas_spring": math.sqrt(kappa * p_max * a * a * (1.0 / v_min + 1.0 / v_big) / m),
     }
     if params.bristle_stiffness > 0.0:

@@ -53,11 +53,10 @@ class RodlessCylinderParams(PhysicalParams):
         1.4, "1", (1.01, 1.67), "004 eq (11): isentropic index kappa of air", open_low=True
     )
     mass: float = physical(
-        0.5, "kg", (0.0, 1e4),
+        0.5, "kg", (0.005, 1e4),
         "assumed: piston, yoke and slide table of an SMC MY1C25 (data sheet order 0.5 kg); 004 gives no M_L",
-        open_low=True,
     )
-    bore: float = physical(0.025, "m", (0.0, 1.0), "004 Table 1: SMC MYC25G, bore 25 mm", open_low=True)
+    bore: float = physical(0.025, "m", (0.0, 0.04), "004 Table 1: SMC MYC25G, bore 25 mm", open_low=True)
     stroke: float = physical(0.110, "m", (0.0, 10.0), "004 Table 1: stroke 110 mm", open_low=True)
     dead_volume_a: float = physical(
         5e-6, "m^3", (0.0, 1e-2),
@@ -116,21 +115,21 @@ class RodlessCylinderParams(PhysicalParams):
         "004 Table 2: sigma = 0.31 N s/mm (the conclusions' 'sigma = 3.27 mm/s' is an extraction defect)",
     )
     bristle_stiffness: float = physical(
-        1e5, "N/m", (0.0, 1e9),
+        1e5, "N/m", (0.0, 3e7),
         "assumed: LuGre sigma0; pre-sliding F_s/sigma0 = 0.35 mm (004 Fig. 4 'displacement before "
         "sliding'; soft lip seals and sealing band); 0 selects the static curve",
     )
     bristle_damping: float = physical(
-        450.0, "N s/m", (0.0, 1e6),
+        450.0, "N s/m", (0.0, 2e5),
         "assumed: LuGre sigma1 = 2 sqrt(sigma0 M), critically damped bristles; fades with speed as "
         "exp(-(v/v_d)^2), v_d = v_s or less (hydro_envs.laws.seal_friction: keeps the law dissipative)",
     )
     friction_sign_velocity: float = physical(
         1e-3, "m/s", (1e-7, 0.1), "assumed: tanh sign of the static curve (used only if bristle_stiffness = 0)"
     )
-    load_force: float = physical(0.0, "N", (-1e5, 1e5), "004 eq (18): F_L, no external load on the rig")
+    load_force: float = physical(0.0, "N", (-2000.0, 2000.0), "004 eq (18): F_L, no external load on the rig")
     stop_stiffness: float = physical(
-        1e6, "N/m", (1e4, 1e10), "assumed: elastomer end bumpers, 0.35 mm deflection at full thrust"
+        1e6, "N/m", (1e5, 1e10), "assumed: elastomer end bumpers, 0.35 mm deflection at full thrust"
     )
     stop_damping: float = physical(
         2.0, "s/m", (0.0, 100.0), "assumed: Hunt-Crossley alpha, restitution ~0.3 at 0.5 m/s"

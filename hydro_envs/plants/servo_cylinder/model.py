@@ -79,6 +79,7 @@ import numpy as np
 from hydro_envs.jit import njit_noalloc
 from hydro_envs.laws.contact import end_stop_force
 from hydro_envs.laws.seal_friction import bristle_stiffness_bound, seal_friction, stribeck_slope_ratio_bound
+from hydro_envs.sim.stiffness import second_order_pole_magnitude
 from hydro_envs.laws.orifice import orifice_flow, spool_edge_opening, supply_pressure_at_flow
 from hydro_envs.laws.valve import second_order_valve_acceleration
 from hydro_envs.libm import exp
@@ -254,7 +255,8 @@ def stiffness_modes(params: ServoCylinderParams) -> dict[str, float]:
     (:func:`hydro_envs.sim.stiffness.rk4_substeps`). Each entry is the worst case over the
     state space (stroke end, full opening, zero pressure drop, zero velocity):
 
-    * ``valve``: spool poles, ``|lambda| = omega_v``.
+    * ``valve``: spool poles, ``omega_v`` (the fast real pole when over-damped,
+      :func:`~hydro_envs.sim.stiffness.second_order_pole_magnitude`).
     * ``hydraulic``: oil spring on the mass, largest at the stroke end (smallest volume).
     * ``orifice``: laminar slope of the regularised root at zero drop, fully open, into the
       smallest chamber: ``beta / V_min * C_v w x_vm sqrt(2/rho) / sqrt(dp_tr)``.
@@ -282,7 +284,7 @@ def stiffness_modes(params: ServoCylinderParams) -> dict[str, float]:
     g_leak = 2.0 * params.internal_leakage + params.external_leakage
     f_max = a * (params.supply_pressure - params.pressure_floor)
     return {
-        "valve": params.valve_natural_frequency,
+        "valve": second_order_pole_magnitude(params.valve_natural_frequency, params.valve_damping),
         "hydraulic": omega_h,
         "orifice": params.bulk_modulus / vol_min * (g_lam + g_leak),
         "friction": _friction_rate(params),

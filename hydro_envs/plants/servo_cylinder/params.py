@@ -35,8 +35,8 @@ class ServoCylinderParams(PhysicalParams):
         _ATM, "Pa", (0.0, 5e6),
         "assumed: tank at atmosphere (002 Table 1: P_R < 0.25 MPa)",
     )
-    mass: float = physical(12.3, "kg", (0.0, 1e4), "002 Table 1: m", open_low=True)
-    piston_area: float = physical(6.63e-4, "m^2", (0.0, 1.0), "002 Table 1: A", open_low=True)
+    mass: float = physical(12.3, "kg", (0.05, 1e4), "002 Table 1: m")
+    piston_area: float = physical(6.63e-4, "m^2", (0.0, 0.5), "002 Table 1: A", open_low=True)
     stroke: float = physical(0.0696, "m", (0.0, 10.0), "002 Table 1: L", open_low=True)
     line_volume_1: float = physical(88.7e-6, "m^3", (0.0, 1.0), "002 Table 1: V1", open_low=True)
     line_volume_2: float = physical(88.7e-6, "m^3", (0.0, 1.0), "002 Table 1: V2", open_low=True)
@@ -67,10 +67,10 @@ class ServoCylinderParams(PhysicalParams):
         250.0, "N s/m", (0.0, 1e5), "002 Table 1: d (eq (7)); the F_V v term of eq (1)"
     )
     coulomb_friction: float = physical(
-        40.0, "N", (0.0, 1e4), "assumed: 002 Fig. 6-7 missing; tens of N for a 6.63 cm^2 seal set"
+        40.0, "N", (0.0, 3000.0), "assumed: 002 Fig. 6-7 missing; tens of N for a 6.63 cm^2 seal set"
     )
     static_friction: float = physical(
-        60.0, "N", (0.0, 1e4), "assumed: F_S/F_C = 1.5, typical for lubricated hydraulic seals"
+        60.0, "N", (0.0, 3000.0), "assumed: F_S/F_C = 1.5, typical for lubricated hydraulic seals"
     )
     stribeck_velocity: float = physical(
         0.01, "m/s", (1e-5, 1.0), "assumed: 10 mm/s, inside 002's constant-velocity test range"
@@ -82,7 +82,7 @@ class ServoCylinderParams(PhysicalParams):
         "hydraulic seals (the force actuator's 001 seals: 26 um)",
     )
     bristle_damping: float = physical(
-        9.9e3, "N s/m", (0.0, 1e7),
+        9.9e3, "N s/m", (0.0, 5e6),
         "assumed: LuGre sigma1 = 2 sqrt(sigma0 m), critically damped pre-sliding oscillation of the "
         "12.3 kg piston on its seals; fades with speed as exp(-(v/v_d)^2), v_d = v_S or less "
         "(hydro_envs.laws.seal_friction), which keeps the law dissipative",
@@ -93,7 +93,7 @@ class ServoCylinderParams(PhysicalParams):
         "quasi-static limit of LuGre (hydro_envs.laws.seal_friction): 1/(0.25 ms), a quarter of the "
         "1 ms control period; LuGre exactly below |v| = cap F_C / sigma0 = 80 mm/s (8 v_S); 0 = none",
     )
-    load_force: float = physical(0.0, "N", (-1e6, 1e6), "002 eq (7): F_L, no load on the rig")
+    load_force: float = physical(0.0, "N", (-5e4, 5e4), "002 eq (7): F_L, no load on the rig")
     stop_stiffness: float = physical(
         1e8, "N/m", (1e5, 1e11),
         "assumed: steel stop, 0.09 mm penetration at full thrust A*p_s",

@@ -58,7 +58,7 @@ class ShakingTableParams(PhysicalParams):
         open_low=True,
     )
     flow_coefficient: float = physical(
-        1.28e-7, "m^3/(s Pa^0.5)", (0.0, 1e-4),
+        1.28e-7, "m^3/(s Pa^0.5)", (1e-10, 2e-5),
         "003 Table 1: R = C_d w / sqrt(rho) per unit normalised opening (20.3 l/min at 70 bar/edge)",
     )
     underlap: float = physical(0.005, "1", (0.0, 0.5), "003 Table 1: U = 0.005 (normalised spool underlap)")

@@ -1,0 +1,87 @@
+"""Every declared allowed range is one the plant steps finitely and in bounded time on
+(issue 53 item 5): each parameter at each end of its allowed interval (just inside an open end),
+the others nominal, makes its env and takes random-action steps with finite observations and
+rewards. A value refused only because of another field (a cross-field constraint such as
+``F_s >= F_c``) is allowed: its error names the other field."""
+
+from __future__ import annotations
+
+import math
+import warnings
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import hydro_envs  # noqa: F401  (registers the envs)
+from hydro_envs import registry
+from hydro_envs.params import ParameterError
+
+#: random-action steps per range end (the non-finite cases this guards against diverge in < 120)
+STEPS = 150
+
+
+def _env_of(plant: str) -> str:
+    return next(e.id for s, e in registry.env_entries() if s.name == plant)
+
+
+def _ends(params_cls: type) -> list[tuple[str, str, float]]:
+    out = []
+    for f in params_cls.__dataclass_fields__.values():
+        m = f.metadata
+        if "allowed" not in m:
+            continue
+        lo, hi = m["allowed"]
+        if m["open_low"]:
+            lo = float(np.nextafter(lo, np.inf)) if lo != 0.0 else 1e-12
+        if m["open_high"]:
+            hi = float(np.nextafter(hi, -np.inf))
+        out += [(f.name, "low", lo), (f.name, "high", hi)]
+    return [(n, e, v) for n, e, v in out if math.isfinite(v)]
+
+
+def _cases():
+    plants = sorted({s.name for s, _ in registry.env_entries()})
+    return [pytest.param(p, id=p) for p in plants]
+
+
+def _step_at(env_id: str, name: str, value: float) -> str:
+    """``""`` when the env steps finitely, else what went wrong."""
+    try:
+        env = gym.make(env_id, randomize=False, params={name: value})
+    except ParameterError as exc:
+        others = str(exc).replace(name, "")
+        return "" if any(f in others for f in env_fields(env_id) if f != name) else f"refused: {exc}"
+    except Exception as exc:  # noqa: BLE001 - every other error is a finding
+        return f"{type(exc).__name__}: {exc}"
+    rng = np.random.default_rng(0)
+    try:
+        env.reset(seed=0)
+        for k in range(STEPS):
+            obs, reward, term, trunc, _ = env.step(rng.uniform(-1, 1, env.action_space.shape).astype(np.float32))
+            if not (np.all(np.isfinite(obs)) and np.isfinite(reward)):
+                return f"non-finite observation at step {k}"
+            if term or trunc:
+                env.reset(seed=k)
+    except Exception as exc:  # noqa: BLE001
+        return f"{type(exc).__name__}: {str(exc)[:200]}"
+    finally:
+        env.close()
+    return ""
+
+
+def env_fields(env_id: str) -> tuple[str, ...]:
+    return tuple(registry.spec_for_env(env_id).params_cls.__dataclass_fields__)
+
+
+@pytest.mark.parametrize("plant", _cases())
+def test_every_range_end_steps_finitely(plant):
+    env_id = _env_of(plant)
+    bad = []
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        for name, end, value in _ends(registry.get(plant).params_cls):
+            why = _step_at(env_id, name, value)
+            if why:
+                bad.append(f"{name} = {value:g} ({end} end): {why}")
+    assert not bad, f"{plant}: range ends the plant does not step on:\n" + "\n".join(bad)
