@@ -199,6 +199,7 @@ def test_gap_shrink_of_a_sensor_effect_is_measured_on_its_channels():
     assert effect_channels(spec, "sensor_delay", ["pa", "pb"]) == ("pa", "pb")
 
 
+@pytest.mark.slow  # 20-80 s: run by make test-all
 def test_base_fit_refines_within_an_order_of_magnitude():
     spec = diagnosis_plant("slider")
     b = base_fit_bounds(spec, spec.params_factory())
@@ -251,7 +252,7 @@ def _with_offset(rec, channels, offset, drift):
 
 @pytest.mark.parametrize("eff,channels,offset", [
     (None, ("p1", "p2"), -3e4),  # common mode: the signature of external leakage
-    ("external_leakage", ("p1",), 3e4),
+    pytest.param("external_leakage", ("p1",), 3e4, marks=pytest.mark.slow),  # 66 s: make test-all
 ])
 def test_pressure_offsets_and_drift_are_not_named_as_effects(eff, channels, offset):
     """A 0.3 bar offset plus 0.1 bar drift on the pressure transducers: an offset-only record
@@ -424,6 +425,7 @@ def test_delay_search_weights_the_delayed_channel_by_its_fitted_residual():
     assert fitted == pytest.approx(case.drawn["delay"], rel=0.02)
 
 
+@pytest.mark.slow  # 20-80 s: run by make test-all
 def test_grid_start_is_judged_on_every_window():
     """Servo, hidden 34.1 um overlap: the warm refit stops at 26 um; on every third window it
     looks better than the grid point 40 um, on all windows it does not, and the refit from 40 um

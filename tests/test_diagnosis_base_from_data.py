@@ -83,6 +83,7 @@ def test_a_position_below_the_lower_stop_is_an_error(record):
         estimate_base(spec, null_base(spec), [bad])
 
 
+@pytest.mark.slow  # 20-80 s: run by make test-all
 def test_two_effects_that_win_only_together_are_named_as_a_pair():
     rec = heavy_axis_record(11, 24.0, f0=-3.0)
     res = diagnose("slider", [rec], None, max_effects=2, maps=False)

@@ -246,6 +246,7 @@ def test_stiff_supply_record_is_effect_free(plant):
 
 
 @pytest.mark.parametrize("plant", sorted(CASES))
+@pytest.mark.slow  # 20-80 s: run by make test-all
 def test_drooping_supply_is_named_supply_droop(plant):
     res, fit, base = _diagnose(plant, True)
     _, r_true, draws_enough = CASES[plant]

@@ -118,6 +118,7 @@ def backlash(backlash_run):
     return backlash_run[0]
 
 
+@pytest.mark.slow  # 20-80 s: run by make test-all
 def test_backlash_is_named_with_its_play():
     res = _run("backlash", 1)
     assert res.verdict == "named" and [e["name"] for e in res.effects] == ["backlash"], (res.verdict, res.reason)

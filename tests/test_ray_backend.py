@@ -100,6 +100,7 @@ def _same(a, b, where=""):
         np.testing.assert_array_equal(np.asarray(a), np.asarray(b), err_msg=where, strict=True)
 
 
+@pytest.mark.slow  # 20-80 s: run by make test-all
 def test_benchmark_on_ray_equals_serial_bit_for_bit(local_ray):
     from agents import benchmark as bm
 
@@ -130,6 +131,7 @@ def test_benchmark_cli_takes_the_backend(local_ray, capsys):
 
 
 # ------------------------------------------------------------------ diagnosis sweep
+@pytest.mark.slow  # 20-80 s: run by make test-all
 def test_diagnosis_sweep_on_ray_equals_serial(local_ray):
     if str(ROOT) not in sys.path:
         sys.path.insert(0, str(ROOT))
