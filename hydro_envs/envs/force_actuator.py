@@ -1,7 +1,8 @@
 """``hydro_envs/ForceActuator-v0``: force tracking with the seed-001 high-bandwidth actuator.
 
 Plant: :mod:`hydro_envs.plants.force_actuator` (jet-pipe valve with hysteresis, valve and
-fluid dynamics of eqs (7)-(8), force sensor eqs (2)-(4), Dahl friction with stiction eq (1),
+fluid dynamics of eqs (7)-(8), force sensor eqs (2)-(4), seal friction eq (1) as the Dahl case of the seal-friction family with the
+stiction levels of Table 2,
 hydraulic damping eq (5)), piston locked to the mount (blocked force) unless
 ``reset(options={"params": {"piston_locked": 0}})``.
 
@@ -39,7 +40,7 @@ module) and ``params`` (this episode's parameter set).
 
 **Numerics**: one compiled kernel call per step; RK4 sub-steps from the drawn parameters'
 stiffness bound (:func:`hydro_envs.plants.force_actuator.stiffness_modes`): 2 for the nominal
-plant (h = 100 us), set by the fluid resonance; a sub-step along which the Dahl friction state
+plant (h = 100 us), set by the fluid resonance; a sub-step along which the seals' bristle state
 is stiff (at speed, or across a velocity reversal) is redone in 3 finer ones.
 
 Closed-loop proportional force control of the plant (001 sec. 4.7: bandwidth, limit cycle) is in
@@ -243,7 +244,8 @@ class ForceActuatorBatch(PlantBatch):
         xs = lim["fa"][1] / p.sensor_stiffness
         self.narrow(lim, "xs", -xs, xs, "sensor deflection at most the largest force / sensor_stiffness")
         g = max(p.coulomb_friction, p.stiction_retract, p.stiction_extend)
-        self.narrow(lim, "ff", -g, g, "friction force at most the largest static level (the guard's bound)")
+        zb = g / p.friction_stiffness if g > 0.0 else 0.0
+        self.narrow(lim, "z", -zb, zb, "bristle deflection at most the largest static level / sigma0 (the guard's bound)")
         return lim
 
     def reset_task(self, i: int, rng: np.random.Generator, p: ForceActuatorParams, options: Mapping[str, Any]) -> None:

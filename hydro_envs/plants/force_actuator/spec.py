@@ -26,4 +26,7 @@ SPEC = PlantSpec(
     pressure_parameter="supply_pressure",
     # assumed: 001 identifies at 5 kHz (sec. 4.5); coarser than 200 Hz misses its 150 Hz sines
     max_sample_time=0.005,
+    # 001 eq (1) / Table 2: the Coulomb and both static levels (no viscous seal friction; eq (5)'s
+    # hydraulic damping is not friction)
+    dry_friction_parameters=("coulomb_friction", "stiction_retract", "stiction_extend"),
 )
