@@ -105,9 +105,14 @@ def _force_output(b):
 
 
 def benchmark_adapter(env_id: str):
-    """What the benchmark reads of ``env_id`` (true force k_s x_s; the 001 square references)."""
+    """What the benchmark reads of ``env_id`` (true force k_s x_s; the 001 square references;
+    the small-force task: its own reference, a 1 N settling floor)."""
     from agents.adapters import EnvAdapter
 
+    if env_id == "hydro_envs/ForceActuatorSmallForce-v0":
+        return EnvAdapter(env_id, "force", "N", None, 1.0, _force_output, None, None,
+                          note="small-force task: free piston against the environment spring; no chamber "
+                               "pressures in the state: pressure/end-stop columns n/a")
     return EnvAdapter(env_id, "force", "N", "square", 5.0, _force_output, None, None,
                       note="steps = the 001 square references (50/200/800 N); piston locked and no chamber "
                            "pressures in the state: pressure/end-stop columns n/a")

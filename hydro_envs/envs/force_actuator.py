@@ -57,6 +57,9 @@ import numpy as np
 from gymnasium import spaces
 
 from hydro_envs.envs.base import BatchedEnv, BatchedVectorEnv, PlantBatch, check_nonnegative, fill_reference
+from hydro_envs.envs.friction_tasks import (
+    SMALL_FORCE_KINDS, SMALL_FORCE_STEPS, SmallForceReference, generate_small_force_reference,
+)
 from hydro_envs.envs.render import render_cylinder
 from hydro_envs.jit import njit_noalloc
 from hydro_envs.plants.force_actuator import model as plant
@@ -69,6 +72,10 @@ __all__ = [
     "ForceActuatorEnv",
     "ForceActuatorVectorEnv",
     "ForceActuatorBatch",
+    "ForceActuatorSmallForceEnv",
+    "ForceActuatorSmallForceVectorEnv",
+    "ForceActuatorSmallForceBatch",
+    "SMALL_FORCE_RIG",
     "FORCE_REFERENCE_KINDS",
     "generate_force_reference",
 ]
@@ -325,3 +332,49 @@ class ForceActuatorEnv(BatchedEnv):
 class ForceActuatorVectorEnv(BatchedVectorEnv):
     __doc__ = BatchedVectorEnv.__doc__
     batch_cls = ForceActuatorBatch
+
+
+#: The small-force task's rig: the free piston pushing a compliant environment (a spring at the
+#: rod, relaxed at mid-stroke). 001 sec. 2: "force control resolution is limited by the residual
+#: solid friction forces as seen at the piston rod"; sec. 4.4 frees the piston, sec. 6 aims at
+#: contact and impedance tasks. Assumed: 2e5 N/m (60 N = 0.3 mm of travel, a few pre-sliding
+#: lengths), so every force reversal moves the piston through its seals' stiction.
+SMALL_FORCE_RIG = {"piston_locked": 0.0, "load_stiffness": 2.0e5}
+
+
+class ForceActuatorSmallForceBatch(ForceActuatorBatch):
+    """``hydro_envs/ForceActuatorSmallForce-v0``: small-force tracking against the seals'
+    stiction (:mod:`hydro_envs.envs.friction_tasks`): the free piston against the environment
+    spring of :data:`SMALL_FORCE_RIG` (parameters given to the env or a reset override it),
+    references of :func:`~hydro_envs.envs.friction_tasks.generate_small_force_reference`
+    (``small`` = a sine, triangle or steps per episode), 1 s episodes, error scale 10 N."""
+
+    episode_steps_default = SMALL_FORCE_STEPS
+
+    def __init__(self, n: int, *, parallel: bool, reference: str = "small", params: Any = None,
+                 error_scale: float = 10.0, ranges: SmallForceReference | None = None, **kwargs: Any) -> None:
+        if reference not in SMALL_FORCE_KINDS + ("small",):
+            raise ValueError(f"reference = {reference!r}; allowed {SMALL_FORCE_KINDS + ('small',)}")
+        if not isinstance(params, ForceActuatorParams):
+            params = {**SMALL_FORCE_RIG, **dict(params or {})}
+        super().__init__(n, parallel=parallel, reference="mixed", params=params, error_scale=error_scale, **kwargs)
+        self.small_kind = reference
+        self.small_ranges = ranges or SmallForceReference()
+
+    def reset_task(self, i: int, rng: np.random.Generator, p: ForceActuatorParams, options: Mapping[str, Any]) -> None:
+        ref = options.get("reference")
+        if ref is None or (isinstance(ref, str) and ref in SMALL_FORCE_KINDS + ("small",)):
+            kind = self.small_kind if ref is None else ref
+            arr = generate_small_force_reference(kind, rng, self.REF.shape[1], DT, self.small_ranges)
+            options = {**options, "reference": arr}
+        super().reset_task(i, rng, p, options)
+
+
+class ForceActuatorSmallForceEnv(BatchedEnv):
+    __doc__ = ForceActuatorSmallForceBatch.__doc__
+    batch_cls = ForceActuatorSmallForceBatch
+
+
+class ForceActuatorSmallForceVectorEnv(BatchedVectorEnv):
+    __doc__ = BatchedVectorEnv.__doc__
+    batch_cls = ForceActuatorSmallForceBatch

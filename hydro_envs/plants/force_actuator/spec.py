@@ -20,6 +20,12 @@ SPEC = PlantSpec(
             "hydro_envs.envs.force_actuator:ForceActuatorVectorEnv",
             5000,
         ),
+        EnvEntry(
+            "hydro_envs/ForceActuatorSmallForce-v0",
+            "hydro_envs.envs.force_actuator:ForceActuatorSmallForceEnv",
+            "hydro_envs.envs.force_actuator:ForceActuatorSmallForceVectorEnv",
+            5000,
+        ),
     ),
     experiments=("proportional_loop", "closed_loop_frequency_response", "limit_cycle_sweep", "sensor_ring_down"),
     stroke_parameter="stroke",

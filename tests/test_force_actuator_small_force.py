@@ -1,0 +1,66 @@
+"""The force actuator's friction-critical task ``hydro_envs/ForceActuatorSmallForce-v0``: its
+references (small forces through zero, smoothed small steps), its rig (the free piston against
+the environment spring) and that the seals' stiction, not the loop, makes the PID's error."""
+
+from __future__ import annotations
+
+import math
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import hydro_envs  # noqa: F401  (registers the envs)
+from hydro_envs.envs.force_actuator import SMALL_FORCE_RIG
+from hydro_envs.envs.friction_tasks import SmallForceReference, generate_small_force_reference
+
+ENV_ID = "hydro_envs/ForceActuatorSmallForce-v0"
+DT = 2e-4
+
+
+@pytest.mark.parametrize("kind", ["small_sine", "small_triangle", "small_steps"])
+def test_small_force_references_start_at_rest_and_stay_small(kind):
+    for seed in range(20):
+        r = generate_small_force_reference(kind, np.random.default_rng(seed), 5000, DT)
+        assert r[0] == pytest.approx(0.0, abs=1e-9)
+        assert np.max(np.abs(r)) <= 60.0 + 1e-9 and np.max(np.abs(r)) >= 10.0 - 1e-9
+        if kind != "small_steps":
+            assert np.sum(np.diff(np.sign(r[1:])) != 0) >= 1  # the force changes sign: the piston reverses
+        else:
+            assert np.max(np.abs(np.diff(r))) <= math.pi / 2 * 120.0 / (0.05 / DT) + 1e-9  # the 50 ms rise
+
+
+def test_bad_ranges_and_kinds_raise():
+    with pytest.raises(ValueError):
+        SmallForceReference(amplitude=(0.0, 10.0))
+    with pytest.raises(ValueError):
+        SmallForceReference(rise=0.5)
+    with pytest.raises(ValueError):
+        generate_small_force_reference("square", np.random.default_rng(0), 10, DT)
+    with pytest.raises(ValueError):
+        gym.make(ENV_ID, reference="square")
+
+
+def test_task_runs_on_the_free_piston_rig_and_its_params_override():
+    env = gym.make(ENV_ID).unwrapped
+    obs, _ = env.reset(seed=0)
+    assert env.params.piston_locked == 0.0 and env.params.load_stiffness == SMALL_FORCE_RIG["load_stiffness"]
+    assert np.all(np.isfinite(obs)) and env._batch.episode_steps == 5000
+    env.reset(seed=1, options={"params": {"load_stiffness": 1e5}, "reference": "small_sine"})
+    assert env.params.load_stiffness == 1e5
+    for _ in range(50):
+        obs, r, term, trunc, _ = env.step(np.zeros(1, np.float32))
+        assert np.isfinite(r)
+
+
+def test_stiction_decides_the_pid_error():
+    """The PID on the same draws and episodes with and without dry friction: friction makes most
+    of its squared error (the benchmark's friction_share >= 0.5)."""
+    from agents.benchmark import draw_parameters, dry_friction_free, rollout
+    from agents.controllers.force_actuator import ForcePIDController
+
+    draws = draw_parameters(ENV_ID, "in", 6, 0)
+    a = rollout(ENV_ID, ForcePIDController.from_params(), draws, seed=0)
+    b = rollout(ENV_ID, ForcePIDController.from_params(), dry_friction_free(ENV_ID, draws), seed=0)
+    share = 1.0 - np.mean((b.y - b.ref) ** 2) / np.mean((a.y - a.ref) ** 2)
+    assert share >= 0.5, share
