@@ -94,7 +94,9 @@ def controllers() -> dict:
     """Classical controllers of this plant's envs: name -> zero-argument factory."""
     from agents.controllers.core import ZeroController
 
-    return {"zero": lambda: ZeroController(1), "pid": ForcePIDController.from_params}
+    from agents.controllers.force_friction import controllers as friction_controllers
+
+    return {"zero": lambda: ZeroController(1), "pid": ForcePIDController.from_params, **friction_controllers()}
 
 
 def _force_output(b):

@@ -151,6 +151,7 @@ __all__ = [
     "friction_force",
     "friction_rest_bound",
     "breakaway_force",
+    "breakaway_test",
     "dahl_friction_shallow",
     "dahl_friction_refinement",
     "dahl_friction_substeps",
@@ -664,21 +665,21 @@ def valve_memory_track(current, dt, rated_current, width, reversal_slope):
     return ic, h
 
 
-def breakaway_force(params: ForceActuatorParams, direction: int, rate: float = 5.0, dt: float = 2e-4,
-                    slide: float = 5e-3) -> tuple[float, float]:
-    """Breakaway of the seals measured as 001 sec. 4.3 does (Table 2), by simulation: the free
-    piston (``piston_locked = 0``) at zero valve current, a push (``direction = +1``, the force
-    pushing the piston in) or pull (``-1``) on the rod ramped from 0 at ``rate`` [N/s] through
-    ``load_force`` until the piston has slid ``slide`` [m]. Returns ``(F_break, F_applied)`` [N]:
-    the peak seal friction ``sigma0 |z|`` (the force at the breaking point) and the applied force
-    at that instant (larger by what accelerates the piston and eq (5)'s damping). Signed as 001:
-    push positive. Python (parameter analysis; the kernels' own step)."""
+def breakaway_test(params: ForceActuatorParams, direction: int, rate: float = 5.0, dt: float = 2e-4,
+                   slide: float = 5e-3) -> dict[str, np.ndarray]:
+    """001 sec. 4.3's friction test (Table 2) on the virtual rig: the free piston
+    (``piston_locked = 0``, no environment spring) at zero valve current, a push (``direction =
+    +1``, the force pushing the piston in) or pull (``-1``) on the rod ramped from 0 at ``rate``
+    [N/s] through ``load_force`` until the piston has slid ``slide`` [m]. Returns the traces
+    ``t`` [s], ``applied`` [N], ``displacement`` [m] and ``velocity`` [m/s] of the piston
+    (relative to the cylinder, in the push's direction) and the seal ``friction`` ``sigma0 |z|``
+    [N] (a virtual friction cell), all signed along the push. Python (the kernels' own step)."""
     from hydro_envs.plants.force_actuator.kernels import step_serial
     from hydro_envs.sim.stiffness import substeps_from_stiffness
 
     import dataclasses
 
-    p = dataclasses.replace(params, piston_locked=0.0, load_force=0.0)
+    p = dataclasses.replace(params, piston_locked=0.0, load_force=0.0, load_stiffness=0.0)
     n_sub = np.array([substeps_from_stiffness(stiffness_modes(p), dt)[0]])
     Y = rest_state(p)[None, :].copy()
     P = p.to_array()[None, :].copy()
@@ -687,17 +688,30 @@ def breakaway_force(params: ForceActuatorParams, direction: int, rate: float = 5
     U = np.zeros((1, 1))
     q0 = Y[0, XP] + Y[0, XS]
     f_top = 2.0 * max(p.coulomb_friction, p.stiction_retract, p.stiction_extend) + 10.0
-    best, at = 0.0, 0.0
-    for k in range(int(f_top / (rate * dt)) + 1):
+    n = int(f_top / (rate * dt)) + 1
+    out = {k: np.zeros(n) for k in ("t", "applied", "displacement", "velocity", "friction")}
+    for k in range(n):
         f = rate * dt * k
         P[0, I_FLOAD] = -direction * f
         step_serial(Y, U, P, dt, n_sub, W, clamps)
-        ff = -direction * p.friction_stiffness * Y[0, Z]
-        if ff > best:
-            best, at = ff, f
-        if abs(Y[0, XP] + Y[0, XS] - q0) > slide:
-            break
-    return direction * best, direction * at
+        dq = -direction * (Y[0, XP] + Y[0, XS] - q0)
+        out["t"][k], out["applied"][k], out["displacement"][k] = (k + 1) * dt, f, dq
+        out["velocity"][k] = -direction * (Y[0, VP] + Y[0, VS])
+        out["friction"][k] = -direction * p.friction_stiffness * Y[0, Z]
+        if dq > slide:
+            return {key: v[: k + 1] for key, v in out.items()}
+    return out
+
+
+def breakaway_force(params: ForceActuatorParams, direction: int, rate: float = 5.0, dt: float = 2e-4,
+                    slide: float = 5e-3) -> tuple[float, float]:
+    """Breakaway of the seals measured by simulation (:func:`breakaway_test`, 001 sec. 4.3 /
+    Table 2): ``(F_break, F_applied)`` [N], the peak seal friction (the force at the breaking
+    point) and the applied force at that instant (larger by what accelerates the piston and
+    eq (5)'s damping), signed as 001: push positive."""
+    tr = breakaway_test(params, direction, rate, dt, slide)
+    k = int(np.argmax(tr["friction"]))
+    return direction * float(tr["friction"][k]), direction * float(tr["applied"][k])
 
 
 def rest_state(params: ForceActuatorParams, x_piston: float | None = None) -> np.ndarray:
