@@ -64,3 +64,34 @@ def test_stiction_decides_the_pid_error():
     b = rollout(ENV_ID, ForcePIDController.from_params(), dry_friction_free(ENV_ID, draws), seed=0)
     share = 1.0 - np.mean((b.y - b.ref) ** 2) / np.mean((a.y - a.ref) ** 2)
     assert share >= 0.5, share
+
+
+def test_virtual_friction_test_identifies_the_seals():
+    """The closed-form Dahl loading branch gives back the plant's static levels and bristle
+    stiffness; the slide gives its Coulomb level; the test shows Table 2's breakaway."""
+    from agents.controllers.force_friction import identify_seal_friction, valve_force_gain
+    from hydro_envs.plants.force_actuator.params import ForceActuatorParams
+
+    p = ForceActuatorParams()
+    ident = identify_seal_friction(p)
+    assert ident["g_push"] == pytest.approx(p.stiction_retract, rel=0.01)
+    assert ident["g_pull"] == pytest.approx(p.stiction_extend, rel=0.01)
+    assert ident["sigma0"] == pytest.approx(p.friction_stiffness, rel=0.02)
+    assert ident["f_c"] == pytest.approx(p.coulomb_friction, rel=0.03)
+    assert 0.5 * p.stribeck_velocity < ident["v_s"] < 2.0 * p.stribeck_velocity
+    assert ident["break_push"] == pytest.approx(99.0, abs=0.5) and ident["break_pull"] == pytest.approx(54.0, abs=0.5)
+    # 58 N/mA small-signal gain at null (the params' rated-current note), per action unit of 45 mA
+    assert valve_force_gain(p) / (p.current_max * 1e3) == pytest.approx(58.0, rel=0.02)
+
+
+def test_dahl_feedforward_pays_against_its_blind_twin():
+    """pid_dahl vs pid (its blind twin) on the same draws and episodes: well below the PID's error."""
+    from agents.benchmark import draw_parameters, rollout
+    from agents.controllers import force_friction
+    from agents.controllers.force_actuator import ForcePIDController
+
+    draws = draw_parameters(ENV_ID, "in", 6, 0)
+    base = rollout(ENV_ID, ForcePIDController.from_params(), draws, seed=0)
+    dahl = rollout(ENV_ID, force_friction.controllers()["pid_dahl"](), draws, seed=0)
+    ratio = math.sqrt(np.mean((dahl.y - dahl.ref) ** 2) / np.mean((base.y - base.ref) ** 2))
+    assert ratio < 0.6, ratio
