@@ -28,7 +28,9 @@ lags). Two friction models (the blind twin of both is ``pid``, the same PID with
 * ``pid_dahl``: the Dahl model of 001 eq (1) (the seal-friction family, n = 2,
   :func:`hydro_envs.laws.seal_friction.seal_friction`) with the identified levels, driven by
   ``v_r``: ``F_ff = sigma0 z``, so the feed-forward also rises through pre-sliding as the seals do;
-* ``pid_stribeck``: the static curve ``g(v_r) tanh(v_r / v_eps)``, ``v_eps = 0.1 v_s``.
+* ``pid_stribeck``: the static curve ``g(v_r) tanh(v_r / v_eps)``, ``v_eps = 0.5 v_s`` (0.1 and
+  2 v_s: 0.83 and 0.93 x PID on the in draws, 0.5: 0.77); without the bristles it asks for the
+  full static level right at a reversal, before the seals have taken up their pre-sliding.
 
 ``F_ff`` [N] enters the command through the valve's small-signal gain at null, ``G = dF~/dxi x
 x_v / i x i_max`` [N per action unit] (sec. 3.1's orifice law at the valve offset, eq (7)'s DC
@@ -127,7 +129,7 @@ class SealFriction:
         """Friction [N] opposing the relative velocity ``v`` [m/s] (positive: piston moving out)."""
         g = self.level(v)
         if self.model == "stribeck":
-            return g * np.tanh(v / (0.1 * self.v_s))
+            return g * np.tanh(v / (2.0 * self.v_s))
         s = np.sign(v)
         u = 1.0 - self.s0 * self.z * s / g
         self.z = self.z + self.dt * v * u * np.abs(u)  # 001 eq (1), the family's n = 2
@@ -154,6 +156,8 @@ class ForceFrictionFFController(BaseController):
         self.compliance = (1.0 / env_stiffness if env_stiffness > 0.0 else 0.0) + 1.0 / p.sensor_stiffness
         self.gain = valve_force_gain(p)
         self.dt = float(dt)
+        #: scale of the friction feed-forward (bench/friction_ablation.py; 0: the blind twin pid)
+        self.friction_scale = 1.0
         self.reset()
 
     def _allocate(self, n: int) -> None:
@@ -169,7 +173,7 @@ class ForceFrictionFFController(BaseController):
         e = o[:, 1] * self.f_max - f
         i0, i1, steps = _LEAD
         rate = (o[:, i1] - o[:, i0]) * self.f_max / (steps * self.dt)  # r' [N/s], 3.5 ms ahead
-        ff = self.friction.force(rate * self.compliance) / self.gain
+        ff = self.friction_scale * self.friction.force(rate * self.compliance) / self.gain
         return self.pid.step(e, f, ff)[:, None]
 
 
