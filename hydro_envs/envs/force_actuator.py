@@ -45,6 +45,12 @@ is stiff (at speed, or across a velocity reversal) is redone in 3 finer ones.
 
 Closed-loop proportional force control of the plant (001 sec. 4.7: bandwidth, limit cycle) is in
 :mod:`hydro_envs.plants.force_actuator.closed_loop`.
+
+``hydro_envs/ForceActuatorSmallForce-v0`` (:class:`ForceActuatorSmallForceBatch`) is the
+plant's friction-critical task (:mod:`hydro_envs.envs.friction_tasks`): small forces (10-60 N
+sines / triangles through zero, smoothed steps) on the free piston pushing the environment
+spring of :data:`SMALL_FORCE_RIG`, where the seals' stiction (Table 2) makes most of a PID's
+error; same action, observation and reward (error scale 10 N), 1 s episodes.
 """
 
 from __future__ import annotations
