@@ -21,6 +21,7 @@ from hydro_envs.laws.hysteresis import pi_output, pi_threshold_scale, play_opera
 from hydro_envs.params import ParameterError
 from hydro_envs.plants.force_actuator import model as fa
 from hydro_envs.plants.force_actuator import closed_loop
+from hydro_envs.plants.force_actuator import experiments as fa_exp
 from hydro_envs.plants.force_actuator import validation as fa_validation
 from hydro_envs.plants.force_actuator.params import ForceActuatorParams
 from hydro_envs.randomization import load_randomization
@@ -191,11 +192,11 @@ def test_slow_force_ramp_breaks_the_seals_away_at_table_2(direction, table2):
     """001 sec. 4.3 / Table 2 by simulation: the free piston, a push (+) or pull (-) on the rod ramped
     at 5 N/s from 0; the peak seal friction (the force at the breaking point) is 99 N pushing and
     54 N pulling. Before it the piston creeps within its pre-sliding range; after it, it slides."""
-    f_break, f_applied = fa.breakaway_force(NOMINAL, direction, rate=5.0)
+    f_break, f_applied = fa_exp.breakaway_force(NOMINAL, direction, rate=5.0)
     assert f_break == pytest.approx(table2, abs=0.5)
     assert abs(f_applied) >= abs(f_break) and abs(f_applied) < abs(f_break) + 5.0
     # a slower ramp breaks away closer to the static level, never above it (no stick above g(0))
-    f_slow, _ = fa.breakaway_force(NOMINAL, direction, rate=2.0)
+    f_slow, _ = fa_exp.breakaway_force(NOMINAL, direction, rate=2.0)
     level = NOMINAL.stiction_retract if direction > 0 else NOMINAL.stiction_extend
     assert abs(table2) < abs(f_slow) < level
 

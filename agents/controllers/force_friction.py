@@ -9,7 +9,7 @@ wind that swing up through its integrator while the piston sticks. The feed-forw
 friction the reference's motion will meet to the valve command, ahead of the loop.
 
 Identification (:func:`identify_seal_friction`), on the nominal plant's virtual rig
-(:func:`hydro_envs.plants.force_actuator.model.breakaway_test`, a push and a pull ramped at
+(:func:`hydro_envs.plants.force_actuator.experiments.breakaway_test`, a push and a pull ramped at
 5 N/s on the free piston, a virtual friction cell between piston and cylinder):
 
 * static level ``g0`` and bristle stiffness ``sigma0`` per direction from the loading branch:
@@ -62,7 +62,7 @@ def identify_seal_friction(params: ForceActuatorParams | None = None) -> dict[st
     """Seal friction identified on the virtual friction test (module docstring): ``g_push``,
     ``g_pull`` [N] (static levels, push = the piston moving in), ``sigma0`` [N/m], ``f_c`` [N],
     ``v_s`` [m/s], and the breakaway forces ``break_push``, ``break_pull`` [N] the test shows."""
-    from hydro_envs.plants.force_actuator.model import breakaway_test
+    from hydro_envs.plants.force_actuator.experiments import breakaway_test
 
     p = params or ForceActuatorParams()
     out: dict[str, float] = {}

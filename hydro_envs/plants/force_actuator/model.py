@@ -95,7 +95,8 @@ Decisions (each one documented where it is made):
   Steady sliding gives eq (1)'s Coulomb friction ``F_c = 26 N`` with the discontinuous sign;
   from rest the seals hold on their pre-sliding spring ``sigma0`` and break away at the
   direction's static level: a slow force ramp on the free piston breaks it away at +99 N
-  (pushing) and -54 N (pulling), Table 2 (tested by simulation). ``sigma0 = 1e6 N/m``
+  (pushing) and -54 N (pulling), Table 2 (tested by simulation,
+  :func:`hydro_envs.plants.force_actuator.experiments.breakaway_force`). ``sigma0 = 1e6 N/m``
   (pre-sliding ``F_c/sigma0 = 26 um``, inside the 10-100 um of elastomer seals) instead of
   eq (1)'s 6.76e6 N/m: eq (1) is "only intended for improving the numerical integration"
   (sec. 3.4), and 6.76e6 N/m would need RK4 steps of ~10 us. The bristles' relaxation
@@ -150,8 +151,6 @@ __all__ = [
     "dahl_relaxation_bound",
     "friction_force",
     "friction_rest_bound",
-    "breakaway_force",
-    "breakaway_test",
     "dahl_friction_shallow",
     "dahl_friction_refinement",
     "dahl_friction_substeps",
@@ -663,55 +662,6 @@ def valve_memory_track(current, dt, rated_current, width, reversal_slope):
     ic = np.concatenate(([0.0], ic_end[:-1]))
     h = np.vstack((np.zeros((1, N_PLAY)), h_end[:-1]))
     return ic, h
-
-
-def breakaway_test(params: ForceActuatorParams, direction: int, rate: float = 5.0, dt: float = 2e-4,
-                   slide: float = 5e-3) -> dict[str, np.ndarray]:
-    """001 sec. 4.3's friction test (Table 2) on the virtual rig: the free piston
-    (``piston_locked = 0``, no environment spring) at zero valve current, a push (``direction =
-    +1``, the force pushing the piston in) or pull (``-1``) on the rod ramped from 0 at ``rate``
-    [N/s] through ``load_force`` until the piston has slid ``slide`` [m]. Returns the traces
-    ``t`` [s], ``applied`` [N], ``displacement`` [m] and ``velocity`` [m/s] of the piston
-    (relative to the cylinder, in the push's direction) and the seal ``friction`` ``sigma0 |z|``
-    [N] (a virtual friction cell), all signed along the push. Python (the kernels' own step)."""
-    from hydro_envs.plants.force_actuator.kernels import step_serial
-    from hydro_envs.sim.stiffness import substeps_from_stiffness
-
-    import dataclasses
-
-    p = dataclasses.replace(params, piston_locked=0.0, load_force=0.0, load_stiffness=0.0)
-    n_sub = np.array([substeps_from_stiffness(stiffness_modes(p), dt)[0]])
-    Y = rest_state(p)[None, :].copy()
-    P = p.to_array()[None, :].copy()
-    W = np.zeros((1, 5, N_STATES))
-    clamps = np.zeros(1, dtype=np.int64)
-    U = np.zeros((1, 1))
-    q0 = Y[0, XP] + Y[0, XS]
-    f_top = 2.0 * max(p.coulomb_friction, p.stiction_retract, p.stiction_extend) + 10.0
-    n = int(f_top / (rate * dt)) + 1
-    out = {k: np.zeros(n) for k in ("t", "applied", "displacement", "velocity", "friction")}
-    for k in range(n):
-        f = rate * dt * k
-        P[0, I_FLOAD] = -direction * f
-        step_serial(Y, U, P, dt, n_sub, W, clamps)
-        dq = -direction * (Y[0, XP] + Y[0, XS] - q0)
-        out["t"][k], out["applied"][k], out["displacement"][k] = (k + 1) * dt, f, dq
-        out["velocity"][k] = -direction * (Y[0, VP] + Y[0, VS])
-        out["friction"][k] = -direction * p.friction_stiffness * Y[0, Z]
-        if dq > slide:
-            return {key: v[: k + 1] for key, v in out.items()}
-    return out
-
-
-def breakaway_force(params: ForceActuatorParams, direction: int, rate: float = 5.0, dt: float = 2e-4,
-                    slide: float = 5e-3) -> tuple[float, float]:
-    """Breakaway of the seals measured by simulation (:func:`breakaway_test`, 001 sec. 4.3 /
-    Table 2): ``(F_break, F_applied)`` [N], the peak seal friction (the force at the breaking
-    point) and the applied force at that instant (larger by what accelerates the piston and
-    eq (5)'s damping), signed as 001: push positive."""
-    tr = breakaway_test(params, direction, rate, dt, slide)
-    k = int(np.argmax(tr["friction"]))
-    return direction * float(tr["friction"][k]), direction * float(tr["applied"][k])
 
 
 def rest_state(params: ForceActuatorParams, x_piston: float | None = None) -> np.ndarray:

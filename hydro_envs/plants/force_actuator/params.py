@@ -128,12 +128,12 @@ class ForceActuatorParams(PhysicalParams):
         "001 Table 2: stiction pushing on the piston 99 N (v_p < 0), measured as the force at the "
         "breaking point; the Dahl seals (n = 2) creep before they break, so the static level g(0) is "
         "set where a 5 N/s ramp of the push on the free piston breaks it away at a peak friction of "
-        "99.0 N (model.breakaway_force; tested)",
+        "99.0 N (experiments.breakaway_force; tested)",
     )
     stiction_extend: float = physical(
         57.6, "N", (0.0, 1e4),
         "001 Table 2: stiction pulling on the piston -54 N (v_p > 0); static level g(0) set where a "
-        "5 N/s pull on the free piston breaks it away at a peak friction of 54.0 N (model.breakaway_force; tested)",
+        "5 N/s pull on the free piston breaks it away at a peak friction of 54.0 N (experiments.breakaway_force; tested)",
     )
     stribeck_velocity: float = physical(
         5e-3, "m/s", (1e-5, 1.0), "assumed: 5 mm/s, typical of lubricated hydraulic seals"
