@@ -129,7 +129,7 @@ class SealFriction:
         """Friction [N] opposing the relative velocity ``v`` [m/s] (positive: piston moving out)."""
         g = self.level(v)
         if self.model == "stribeck":
-            return g * np.tanh(v / (2.0 * self.v_s))
+            return g * np.tanh(v / (0.5 * self.v_s))
         s = np.sign(v)
         u = 1.0 - self.s0 * self.z * s / g
         self.z = self.z + self.dt * v * u * np.abs(u)  # 001 eq (1), the family's n = 2
