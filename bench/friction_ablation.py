@@ -29,6 +29,7 @@ TASKS = {
     "servo_cylinder_slow_sine": ("hydro_envs/ServoCylinderSlowSine-v0", "pid_vff_lugre_observer"),
     "rodless_cylinder_slow_sine": ("hydro_envs/RodlessCylinderSlowSine-v0", "pid_dp_stribeck"),
     "rodless_cylinder_micro_position": ("hydro_envs/RodlessCylinderMicroPosition-v0", "pid_dp_stiction"),
+    "force_actuator_small_force": ("hydro_envs/ForceActuatorSmallForce-v0", "pid_dahl"),
 }
 SCALES = (0.0, 0.5, 1.0, 1.5, 2.0)
 

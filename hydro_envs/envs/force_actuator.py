@@ -1,7 +1,8 @@
 """``hydro_envs/ForceActuator-v0``: force tracking with the seed-001 high-bandwidth actuator.
 
 Plant: :mod:`hydro_envs.plants.force_actuator` (jet-pipe valve with hysteresis, valve and
-fluid dynamics of eqs (7)-(8), force sensor eqs (2)-(4), Dahl friction with stiction eq (1),
+fluid dynamics of eqs (7)-(8), force sensor eqs (2)-(4), seal friction eq (1) as the Dahl case of the seal-friction family with the
+stiction levels of Table 2,
 hydraulic damping eq (5)), piston locked to the mount (blocked force) unless
 ``reset(options={"params": {"piston_locked": 0}})``.
 
@@ -39,11 +40,17 @@ module) and ``params`` (this episode's parameter set).
 
 **Numerics**: one compiled kernel call per step; RK4 sub-steps from the drawn parameters'
 stiffness bound (:func:`hydro_envs.plants.force_actuator.stiffness_modes`): 2 for the nominal
-plant (h = 100 us), set by the fluid resonance; a sub-step along which the Dahl friction state
+plant (h = 100 us), set by the fluid resonance; a sub-step along which the seals' bristle state
 is stiff (at speed, or across a velocity reversal) is redone in 3 finer ones.
 
 Closed-loop proportional force control of the plant (001 sec. 4.7: bandwidth, limit cycle) is in
 :mod:`hydro_envs.plants.force_actuator.closed_loop`.
+
+``hydro_envs/ForceActuatorSmallForce-v0`` (:class:`ForceActuatorSmallForceBatch`) is the
+plant's friction-critical task (:mod:`hydro_envs.envs.friction_tasks`): small forces (10-60 N
+sines / triangles through zero, smoothed steps) on the free piston pushing the environment
+spring of :data:`SMALL_FORCE_RIG`, where the seals' stiction (Table 2) makes most of a PID's
+error; same action, observation and reward (error scale 10 N), 1 s episodes.
 """
 
 from __future__ import annotations
@@ -56,6 +63,9 @@ import numpy as np
 from gymnasium import spaces
 
 from hydro_envs.envs.base import BatchedEnv, BatchedVectorEnv, PlantBatch, check_nonnegative, fill_reference
+from hydro_envs.envs.friction_tasks import (
+    SMALL_FORCE_KINDS, SMALL_FORCE_STEPS, SmallForceReference, generate_small_force_reference,
+)
 from hydro_envs.envs.render import render_cylinder
 from hydro_envs.jit import njit_noalloc
 from hydro_envs.plants.force_actuator import model as plant
@@ -68,6 +78,10 @@ __all__ = [
     "ForceActuatorEnv",
     "ForceActuatorVectorEnv",
     "ForceActuatorBatch",
+    "ForceActuatorSmallForceEnv",
+    "ForceActuatorSmallForceVectorEnv",
+    "ForceActuatorSmallForceBatch",
+    "SMALL_FORCE_RIG",
     "FORCE_REFERENCE_KINDS",
     "generate_force_reference",
 ]
@@ -243,7 +257,8 @@ class ForceActuatorBatch(PlantBatch):
         xs = lim["fa"][1] / p.sensor_stiffness
         self.narrow(lim, "xs", -xs, xs, "sensor deflection at most the largest force / sensor_stiffness")
         g = max(p.coulomb_friction, p.stiction_retract, p.stiction_extend)
-        self.narrow(lim, "ff", -g, g, "friction force at most the largest static level (the guard's bound)")
+        zb = g / p.friction_stiffness if g > 0.0 else 0.0
+        self.narrow(lim, "z", -zb, zb, "bristle deflection at most the largest static level / sigma0 (the guard's bound)")
         return lim
 
     def reset_task(self, i: int, rng: np.random.Generator, p: ForceActuatorParams, options: Mapping[str, Any]) -> None:
@@ -323,3 +338,49 @@ class ForceActuatorEnv(BatchedEnv):
 class ForceActuatorVectorEnv(BatchedVectorEnv):
     __doc__ = BatchedVectorEnv.__doc__
     batch_cls = ForceActuatorBatch
+
+
+#: The small-force task's rig: the free piston pushing a compliant environment (a spring at the
+#: rod, relaxed at mid-stroke). 001 sec. 2: "force control resolution is limited by the residual
+#: solid friction forces as seen at the piston rod"; sec. 4.4 frees the piston, sec. 6 aims at
+#: contact and impedance tasks. Assumed: 2e5 N/m (60 N = 0.3 mm of travel, a few pre-sliding
+#: lengths), so every force reversal moves the piston through its seals' stiction.
+SMALL_FORCE_RIG = {"piston_locked": 0.0, "load_stiffness": 2.0e5}
+
+
+class ForceActuatorSmallForceBatch(ForceActuatorBatch):
+    """``hydro_envs/ForceActuatorSmallForce-v0``: small-force tracking against the seals'
+    stiction (:mod:`hydro_envs.envs.friction_tasks`): the free piston against the environment
+    spring of :data:`SMALL_FORCE_RIG` (parameters given to the env or a reset override it),
+    references of :func:`~hydro_envs.envs.friction_tasks.generate_small_force_reference`
+    (``small`` = a sine, triangle or steps per episode), 1 s episodes, error scale 10 N."""
+
+    episode_steps_default = SMALL_FORCE_STEPS
+
+    def __init__(self, n: int, *, parallel: bool, reference: str = "small", params: Any = None,
+                 error_scale: float = 10.0, ranges: SmallForceReference | None = None, **kwargs: Any) -> None:
+        if reference not in SMALL_FORCE_KINDS + ("small",):
+            raise ValueError(f"reference = {reference!r}; allowed {SMALL_FORCE_KINDS + ('small',)}")
+        if not isinstance(params, ForceActuatorParams):
+            params = {**SMALL_FORCE_RIG, **dict(params or {})}
+        super().__init__(n, parallel=parallel, reference="mixed", params=params, error_scale=error_scale, **kwargs)
+        self.small_kind = reference
+        self.small_ranges = ranges or SmallForceReference()
+
+    def reset_task(self, i: int, rng: np.random.Generator, p: ForceActuatorParams, options: Mapping[str, Any]) -> None:
+        ref = options.get("reference")
+        if ref is None or (isinstance(ref, str) and ref in SMALL_FORCE_KINDS + ("small",)):
+            kind = self.small_kind if ref is None else ref
+            arr = generate_small_force_reference(kind, rng, self.REF.shape[1], DT, self.small_ranges)
+            options = {**options, "reference": arr}
+        super().reset_task(i, rng, p, options)
+
+
+class ForceActuatorSmallForceEnv(BatchedEnv):
+    __doc__ = ForceActuatorSmallForceBatch.__doc__
+    batch_cls = ForceActuatorSmallForceBatch
+
+
+class ForceActuatorSmallForceVectorEnv(BatchedVectorEnv):
+    __doc__ = BatchedVectorEnv.__doc__
+    batch_cls = ForceActuatorSmallForceBatch

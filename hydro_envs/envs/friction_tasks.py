@@ -16,7 +16,17 @@ env id                                 reference                                
 ``ServoCylinderMicroPosition-v0``      steps of 3-30 encoder resolutions (0.09-0.9 mm),    3000
                                        held 0.3-0.8 s: steady-state error, stick, hunting  (3 s)
 ``RodlessCylinderMicroPosition-v0``    steps of 3-30 ruler resolutions (15-150 um)          3000
+``ForceActuatorSmallForce-v0``         small forces against the seals' stiction (seed      5000
+                                       001): sines / triangles of 10-60 N through zero     (1 s)
+                                       at 1-4 Hz, or steps of 10-60 N held 0.1-0.3 s, on
+                                       the free piston pushing a compliant environment
 =====================================  ==================================================  ========
+
+The force actuator's task (:class:`SmallForceTask`, :func:`generate_small_force_reference`) is
+a force, not a position, reference: every sign change of the force reverses the piston's
+motion against the environment spring, so the seals stick and must break away (001 sec. 2:
+"force control resolution is limited by the residual solid friction forces as seen at the
+piston rod"). It starts at rest at zero force, where its reference starts.
 
 **Reward**, **observation**, **action**: as the plant's tracking env (error normalised by
 ``error_scale``, default 10 mm; the benchmark reports RMSE, reversal error, steady-state error,
@@ -31,14 +41,20 @@ from __future__ import annotations
 
 from typing import Any, Mapping
 
+import dataclasses
+import math
+
 import numpy as np
 
 from hydro_envs.envs.references import FRICTION_REFERENCE_KINDS, FrictionReference, generate_friction_reference
 
-__all__ = ["FrictionTask", "friction_task_classes", "SLOW_SINE_STEPS", "MICRO_STEPS"]
+__all__ = ["FrictionTask", "friction_task_classes", "SLOW_SINE_STEPS", "MICRO_STEPS", "SmallForceReference",
+           "generate_small_force_reference", "SMALL_FORCE_KINDS", "SMALL_FORCE_STEPS"]
 
 SLOW_SINE_STEPS = 4000
 MICRO_STEPS = 3000
+SMALL_FORCE_STEPS = 5000
+SMALL_FORCE_KINDS = ("small_sine", "small_triangle", "small_steps")
 _KINDS = FRICTION_REFERENCE_KINDS + ("slow",)
 
 
@@ -109,3 +125,67 @@ def friction_task_classes(prefix: str, batch_cls: type, band: tuple[float, float
         envs.append(make(f"{name}VectorEnv", (BatchedVectorEnv,), {"__doc__": BatchedVectorEnv.__doc__,
                                                                     "batch_cls": batch}))
     return (*out, *envs)
+
+
+@dataclasses.dataclass(frozen=True)
+class SmallForceReference:
+    """Ranges of the small-force task's reference [N, Hz, s] (:func:`generate_small_force_reference`):
+    ``amplitude`` of the sines / triangles and the step levels, their ``frequency``, the steps'
+    ``hold`` and ``rise`` time."""
+
+    amplitude: tuple[float, float] = (10.0, 60.0)
+    frequency: tuple[float, float] = (1.0, 4.0)
+    hold: tuple[float, float] = (0.1, 0.3)
+    rise: float = 0.05
+
+    def __post_init__(self) -> None:
+        if not (0.0 < self.rise < self.hold[0]):
+            raise ValueError(f"SmallForceReference.rise = {self.rise!r}; need 0 < rise < hold[0]")
+        for name in ("amplitude", "frequency", "hold"):
+            r = getattr(self, name)
+            if not (len(r) == 2 and 0.0 < r[0] <= r[1] and math.isfinite(r[1])):
+                raise ValueError(f"SmallForceReference.{name} = {r!r}; need 0 < low <= high")
+
+
+def generate_small_force_reference(kind: str, rng: np.random.Generator, n: int, dt: float,
+                                   ranges: SmallForceReference | None = None) -> np.ndarray:
+    """Force reference [N] of ``n`` samples where the seals' stiction decides the error:
+
+    * ``small_sine``: ``A sin(2 pi f t)``, ``A`` and ``f`` uniform in ``ranges`` (10-60 N,
+      1-4 Hz): the force changes sign twice a period, and so does the piston's motion;
+    * ``small_triangle``: the same as a triangle (constant force rate between the reversals);
+    * ``small_steps``: from 0, levels of ``+-A`` (A and the sign drawn per step) each held
+      ``ranges.hold``, reached along a raised-cosine rise of ``ranges.rise`` (50 ms: the loop's
+      own lag on an instant step would dominate the error): breakaway from a stuck seal on every
+      step, hunting under integral action while a level holds;
+    * ``small``: one of the three per episode.
+
+    Every kind starts at 0 N, the plant's rest state (piston at rest, no force).
+    """
+    rg = ranges or SmallForceReference()
+    if kind == "small":
+        kind = SMALL_FORCE_KINDS[int(rng.integers(len(SMALL_FORCE_KINDS)))]
+    if not (n > 0 and dt > 0):
+        raise ValueError(f"reference needs n > 0, dt > 0; got {n}, {dt}")
+    t = dt * np.arange(n)
+    if kind in ("small_sine", "small_triangle"):
+        amp = rng.uniform(*rg.amplitude)
+        phase = 2.0 * math.pi * rng.uniform(*rg.frequency) * t
+        if kind == "small_sine":
+            return amp * np.sin(phase)
+        return amp * (2.0 / math.pi) * np.arcsin(np.sin(phase))
+    if kind == "small_steps":
+        out = np.zeros(n)
+        k = int(round(rng.uniform(*rg.hold) / dt))  # a first hold at 0 N
+        rise = max(1, int(round(rg.rise / dt)))
+        level = 0.0
+        while k < n:
+            new = rng.uniform(*rg.amplitude) * (1.0 if rng.random() < 0.5 else -1.0)
+            hold = max(1, int(round(rng.uniform(*rg.hold) / dt)))
+            j = np.arange(min(rise, n - k))
+            out[k : k + j.size] = level + (new - level) * 0.5 * (1.0 - np.cos(math.pi * (j + 1) / rise))
+            out[k + j.size : k + hold] = new
+            level = new
+            k += hold
+        return out
+    raise ValueError(f"unknown reference kind {kind!r}; allowed: {SMALL_FORCE_KINDS + ('small',)}")

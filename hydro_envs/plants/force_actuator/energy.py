@@ -10,7 +10,7 @@ from __future__ import annotations
 import numba as nb
 
 from hydro_envs.jit import njit_noalloc
-from hydro_envs.laws.friction import tanh_sign
+from hydro_envs.laws.seal_friction import bristle_dissipation
 from hydro_envs.plants.force_actuator import model as fa
 from hydro_envs.plants.force_actuator.model import force_actuator_guard as guard
 from hydro_envs.plants.force_actuator.model import force_actuator_rhs as rhs
@@ -25,31 +25,31 @@ N_BODIES = 1
 @njit_noalloc
 def mech_terms(y, p):
     """Sensor mass on its spring (and, free, the piston with its load on the load spring):
-    kinetic and spring energy, stop spring. Ports: the valve-driven fluid force minus the
-    hydraulic damping (a filtered, not pointwise passive, force), and the Dahl friction state
-    (pre-sliding storage); dissipative: the sensor damper, the static friction curve (when
-    selected) and stop damping."""
+    kinetic and spring energy, stop spring and the energy ``sigma0 z^2 / 2`` of the seals'
+    bristles. Port: the valve-driven fluid force minus the hydraulic damping (a filtered, not
+    pointwise passive, force). Dissipative: the sensor damper, the seal friction (001 eq (1) as
+    the family's Dahl case: its power less the bristles' stored-energy rate,
+    :func:`~hydro_envs.laws.seal_friction.bristle_dissipation`; the static curve, when selected,
+    memoryless) and stop damping."""
     _, xv = fa.valve_position(y, p)
     xi = xv + p[fa.I_XOFF]
     f_damp = p[fa.I_DG] * fa.hydraulic_damping(xi, y[fa.VF], p[fa.I_DA], p[fa.I_DV], p[fa.I_DK], p[fa.I_DLIN])
     vs = y[fa.VS]
     xs = y[fa.XS]
+    z = y[fa.Z]
+    s0 = p[fa.I_SIG]
     vrel = y[fa.VP] + vs
     q = y[fa.XP] + xs
     u_st, d_st = stop_split(q, vrel, 0.0, p[fa.I_L], p[fa.I_KSTOP], p[fa.I_ASTOP])
-    e = 0.5 * p[fa.I_M] * vs * vs + 0.5 * p[fa.I_KS] * xs * xs + u_st
+    e = 0.5 * p[fa.I_M] * vs * vs + 0.5 * p[fa.I_KS] * xs * xs + u_st + 0.5 * s0 * z * z
     if p[fa.I_LOCK] <= 0.5:
         dxp = y[fa.XP] - 0.5 * p[fa.I_L]
         e += 0.5 * (p[fa.I_MP] + p[fa.I_ML]) * y[fa.VP] ** 2 + 0.5 * p[fa.I_KL] * dxp * dxp - p[fa.I_FLOAD] * y[fa.XP]
     d_sensor = p[fa.I_BS] * vs * vs
-    if p[fa.I_FMOD] > 0.5:  # static friction curve g(v) tanh(v / v_eps): memoryless, passive
-        g = fa.stiction_level(vrel, p[fa.I_FC], p[fa.I_FSR], p[fa.I_FSE], p[fa.I_VS])
-        d_f = g * tanh_sign(vrel, p[fa.I_VEPS]) * vrel
-        p_in = (y[fa.R0 + 4] - f_damp) * vrel
-    else:  # Dahl friction state (pre-sliding storage): a port
-        d_f = 0.0
-        p_in = (y[fa.R0 + 4] - f_damp - y[fa.FF]) * vrel
-    return e, p_in, d_sensor + d_f + d_st, d_sensor + abs(d_f) + abs(d_st), u_st
+    ff, dz = fa.friction_force(vrel, z, p)
+    d_f = bristle_dissipation(vrel, z, ff, dz, s0)
+    p_in = (y[fa.R0 + 4] - f_damp) * vrel
+    return e, p_in, d_sensor + d_f + d_st, d_sensor + abs(ff * vrel) + abs(s0 * z * dz) + abs(d_st), u_st
 
 
 @njit_noalloc
@@ -63,7 +63,7 @@ def state_breaches(Y, P, RUN, flags):
         xi = xv + p[fa.I_XOFF]
         f_damp = p[fa.I_DG] * fa.hydraulic_damping(xi, y[fa.VF], p[fa.I_DA], p[fa.I_DV], p[fa.I_DK],
                                                    p[fa.I_DLIN])
-        f = abs(y[fa.R0 + 4]) + abs(f_damp) + abs(y[fa.FF]) + p[fa.I_KS] * abs(y[fa.XS])
+        f = abs(y[fa.R0 + 4]) + abs(f_damp) + p[fa.I_SIG] * abs(y[fa.Z]) + p[fa.I_KS] * abs(y[fa.XS])
         mass = p[fa.I_M]
         if p[fa.I_LOCK] <= 0.5:
             f += p[fa.I_KL] * abs(y[fa.XP] - 0.5 * p[fa.I_L]) + abs(p[fa.I_FLOAD])
@@ -76,7 +76,7 @@ def state_breaches(Y, P, RUN, flags):
 
 @nb.njit(cache=True, error_model="numpy", parallel=True)
 def energy_replay(Y0, U, P, dt, NSUB, W, Yend, out):
-    """:func:`hydro_envs.sim.balance.replay_step_lookahead` of every copy with the kernels' Dahl
+    """:func:`hydro_envs.sim.balance.replay_step_lookahead` of every copy with the kernels' bristle
     refinement (see there for ``out``)."""
     for i in nb.prange(Y0.shape[0]):
         m = fa.dahl_friction_refinement(P[i], dt / NSUB[i])

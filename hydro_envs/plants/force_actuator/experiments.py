@@ -80,6 +80,8 @@ __all__ = [
     "hanging_mass_test",
     "steady_force_balance_residual",
     "prbs_locked",
+    "breakaway_test",
+    "breakaway_force",
 ]
 
 G = 9.81  # m/s^2
@@ -355,3 +357,50 @@ def prbs_locked(
     rng = np.random.default_rng(None if seed is None else seed + 1)
     noise = force_noise_std * rng.standard_normal(f.size) if force_noise_std > 0 else 0.0
     return {"t": t, "i": i, "f": f + noise, "f_true": f, "clamps": np.array(int(clamps[0]))}
+
+
+def breakaway_test(params: fa.ForceActuatorParams, direction: int, rate: float = 5.0, dt: float = 2e-4,
+                   slide: float = 5e-3) -> dict[str, np.ndarray]:
+    """001 sec. 4.3's friction test (Table 2) on the virtual rig: the free piston
+    (``piston_locked = 0``, no environment spring) at zero valve current, a push (``direction =
+    +1``, the force pushing the piston in) or pull (``-1``) on the rod ramped from 0 at ``rate``
+    [N/s] through ``load_force`` until the piston has slid ``slide`` [m]. Returns the traces
+    ``t`` [s], ``applied`` [N], ``displacement`` [m] and ``velocity`` [m/s] of the piston
+    (relative to the cylinder, in the push's direction) and the seal ``friction`` ``sigma0 |z|``
+    [N] (a virtual friction cell), all signed along the push. Python (the kernels' own step)."""
+    from hydro_envs.plants.force_actuator.kernels import step_serial
+    from hydro_envs.sim.stiffness import substeps_from_stiffness
+
+    p = dataclasses.replace(params, piston_locked=0.0, load_force=0.0, load_stiffness=0.0)
+    n_sub = np.array([substeps_from_stiffness(fa.stiffness_modes(p), dt)[0]])
+    Y = fa.rest_state(p)[None, :].copy()
+    P = p.to_array()[None, :].copy()
+    W = np.zeros((1, 5, fa.N_STATES))
+    clamps = np.zeros(1, dtype=np.int64)
+    U = np.zeros((1, 1))
+    q0 = Y[0, fa.XP] + Y[0, fa.XS]
+    f_top = 2.0 * max(p.coulomb_friction, p.stiction_retract, p.stiction_extend) + 10.0
+    n = int(f_top / (rate * dt)) + 1
+    out = {k: np.zeros(n) for k in ("t", "applied", "displacement", "velocity", "friction")}
+    for k in range(n):
+        f = rate * dt * k
+        P[0, fa.I_FLOAD] = -direction * f
+        step_serial(Y, U, P, dt, n_sub, W, clamps)
+        dq = -direction * (Y[0, fa.XP] + Y[0, fa.XS] - q0)
+        out["t"][k], out["applied"][k], out["displacement"][k] = (k + 1) * dt, f, dq
+        out["velocity"][k] = -direction * (Y[0, fa.VP] + Y[0, fa.VS])
+        out["friction"][k] = -direction * p.friction_stiffness * Y[0, fa.Z]
+        if dq > slide:
+            return {key: v[: k + 1] for key, v in out.items()}
+    return out
+
+
+def breakaway_force(params: fa.ForceActuatorParams, direction: int, rate: float = 5.0, dt: float = 2e-4,
+                    slide: float = 5e-3) -> tuple[float, float]:
+    """Breakaway of the seals measured by simulation (:func:`breakaway_test`, 001 sec. 4.3 /
+    Table 2): ``(F_break, F_applied)`` [N], the peak seal friction (the force at the breaking
+    point) and the applied force at that instant (larger by what accelerates the piston and
+    eq (5)'s damping), signed as 001: push positive."""
+    tr = breakaway_test(params, direction, rate, dt, slide)
+    k = int(np.argmax(tr["friction"]))
+    return direction * float(tr["friction"][k]), direction * float(tr["applied"][k])

@@ -25,7 +25,8 @@ State (SI; forces in N; valve quantities normalised, see below)::
     18     vs     m/s   sensor deflection rate
     19     xp     m     piston position (absolute; frozen while piston_locked = 1)
     20     vp     m/s   piston velocity (absolute)
-    21     ff     N     friction force (eq (1) with stiction, see below)
+    21     z      m     bristle (pre-sliding) deflection of the seals (eq (1) as the seal-friction
+                        family's Dahl case, friction force sigma0 z; see below)
     22     vf     m/s   band-limited piston velocity (40 Hz pole, sec. 4.4)
     23     fm     N     measured force: F_s through the feedback conditioning filter
     24     fmd    N/s   its rate (second state of the filter)
@@ -84,22 +85,31 @@ Decisions (each one documented where it is made):
 * **Units of the paper's simulator**: N, cm, s (eq (4) is in cm; Table 1 in N/cm, N/cm/s).
   Hence eq (5)'s linear term ``40 v_p`` is 40 N/(cm/s) = 4000 N s/m, and eq (1)'s
   ``gamma = 100`` is 100 1/(N cm), i.e. a pre-sliding stiffness ``gamma F_c^2`` of 6.76e6 N/m.
-* **Friction (eq (1), Table 2)**: eq (1) in the form of
-  :func:`hydro_envs.laws.friction.dahl_friction_rate` (exponent 2, ``dF/dt = sigma0 v u|u|``)
-  with its Coulomb level replaced by the Stribeck curve
-  ``g(v) = F_c + (F_s(dir) - F_c) exp(-(v/v_s)^2)``, ``F_s = 99 N`` when the piston is
-  pushed in (retracting, v_p < 0) and ``54 N`` when pulled out (Table 2). Steady sliding
-  gives eq (1)'s Coulomb friction ``F_c = 26 N``; from rest the friction acts as a stiff
-  pre-sliding spring up to about the static level and breaks away there (LuGre-like
-  stiction with asymmetric static levels). ``sigma0 = 1e6 N/m`` (pre-sliding
-  ``F_c/sigma0 = 26 um``, inside the 10-100 um of elastomer seals) instead of eq (1)'s
-  6.76e6 N/m: eq (1) is "only intended for improving the numerical integration" (sec. 3.4),
-  and 6.76e6 N/m would need RK4 steps of ~10 us. The guard projects ``|F_f|`` onto the
-  largest static level. Option ``friction_model = 1``: the static curve ``g(v) tanh(v /
-  v_eps)`` with no pre-sliding state (``ff`` stays 0) -- the moving-piston diagnosis rig uses
-  it (its base model is smooth Coulomb + viscous friction, as every other diagnosis base
-  model; the Dahl state's relaxation rate at a free piston's speed would cost ~4x the
-  sub-steps). ``hydro_envs.sim.soak``'s energy balance reads ``ff`` and assumes the default.
+* **Friction (eq (1), Table 2)**: the seal-friction family of
+  :mod:`hydro_envs.laws.seal_friction` with exponent n = 2 and no micro- or viscous damping
+  (``sigma1 = sigma2 = 0``): 001 eq (1), ``dF/dt = gamma (F - F_c sgn v)^2 v``, written for the
+  bristle deflection ``z`` (``F_f = sigma0 z``, ``dz/dt = v u|u|``, ``u = 1 - sigma0 z sgn(v) /
+  g(v)``), with its Coulomb level replaced by the Stribeck curve
+  ``g(v) = F_c + (F_s(dir) - F_c) exp(-(v/v_s)^2)`` (:func:`stiction_level`), ``F_s = 99 N``
+  when the piston is pushed in (retracting, v_p < 0) and ``54 N`` when pulled out (Table 2).
+  Steady sliding gives eq (1)'s Coulomb friction ``F_c = 26 N`` with the discontinuous sign;
+  from rest the seals hold on their pre-sliding spring ``sigma0`` and break away at the
+  direction's static level: a slow force ramp on the free piston breaks it away at +99 N
+  (pushing) and -54 N (pulling), Table 2 (tested by simulation,
+  :func:`hydro_envs.plants.force_actuator.experiments.breakaway_force`). ``sigma0 = 1e6 N/m``
+  (pre-sliding ``F_c/sigma0 = 26 um``, inside the 10-100 um of elastomer seals) instead of
+  eq (1)'s 6.76e6 N/m: eq (1) is "only intended for improving the numerical integration"
+  (sec. 3.4), and 6.76e6 N/m would need RK4 steps of ~10 us. The bristles' relaxation
+  ``2 sigma0 |v| |u| / g`` is stiff at speed only: the kernels resolve it by the local sub-step
+  refinement (:func:`dahl_friction_substeps`, as the rodless cylinder's seals; no quasi-static
+  ``rate_cap``); the pre-sliding oscillation at rest is the family's bound
+  (:func:`~hydro_envs.laws.seal_friction.bristle_block_rate_bound`, ``friction`` mode). The
+  guard projects ``|z|`` onto the largest static level over sigma0. Without dry friction
+  (``F_c`` = both static levels = 0, :meth:`hydro_envs.spec.PlantSpec.without_dry_friction`)
+  the family leaves no friction at all (eq (5)'s damping stays). Option ``friction_model = 1``:
+  the static curve ``g(v) tanh(v / v_eps)`` with no pre-sliding state (``z`` stays 0) -- the
+  moving-piston diagnosis rig uses it (its base model is smooth Coulomb + viscous friction, as
+  every other diagnosis base model).
 * **Hydraulic damping (eq (5), sec. 4.4)**: ``F_d = A(tanh(s(|v|+d)) - tanh(s d)) sgn(v)
   + c_lin v`` on the band-limited velocity ``v_f`` (first-order pole at 40 Hz), times the
   output gain 0.4. Fig. 6 (the fitted family A, s, d) is missing: assumed
@@ -120,7 +130,8 @@ from hydro_envs.jit import njit_noalloc
 from hydro_envs.laws.contact import end_stop_force
 from hydro_envs.laws.elementary import tanh_one_exp
 from hydro_envs.laws.filters import lfilter_from_rest
-from hydro_envs.laws.friction import dahl_friction_rate, tanh_sign
+from hydro_envs.laws.friction import tanh_sign
+from hydro_envs.laws.seal_friction import bristle_block_rate_bound, seal_friction, stribeck_slope_ratio_bound
 from hydro_envs.laws.hysteresis import pi_memories, play_operator
 from hydro_envs.libm import exp
 from hydro_envs.sim.rk4 import STABLE_H_LAMBDA, local_substeps
@@ -138,6 +149,8 @@ __all__ = [
     "force_actuator_guard",
     "stiffness_modes",
     "dahl_relaxation_bound",
+    "friction_force",
+    "friction_rest_bound",
     "dahl_friction_shallow",
     "dahl_friction_refinement",
     "dahl_friction_substeps",
@@ -155,16 +168,16 @@ __all__ = [
 
 STATE_NAMES = (
     ("ic",) + tuple(f"h{k + 1}" for k in range(N_PLAY)) + ("gw", "fa", "fb", "fc")
-    + tuple(f"r{k + 1}" for k in range(6)) + ("xs", "vs", "xp", "vp", "ff", "vf", "fm", "fmd")
+    + tuple(f"r{k + 1}" for k in range(6)) + ("xs", "vs", "xp", "vp", "z", "vf", "fm", "fmd")
 )
-STATE_UNITS = ("1",) * (N_PLAY + 2) + ("N",) * 9 + ("m", "m/s", "m", "m/s", "N", "m/s", "N", "N/s")
+STATE_UNITS = ("1",) * (N_PLAY + 2) + ("N",) * 9 + ("m", "m/s", "m", "m/s", "m", "m/s", "N", "N/s")
 N_STATES = len(STATE_NAMES)
 IC = 0
 H0 = 1
 GW = H0 + N_PLAY
 FA, FB, FC = GW + 1, GW + 2, GW + 3
 R0 = FC + 1
-XS, VS, XP, VP, FF, VF, FM, FMD = range(R0 + 6, R0 + 14)
+XS, VS, XP, VP, Z, VF, FM, FMD = range(R0 + 6, R0 + 14)
 
 #: sensor outputs (noise-free): measured channel -> the state index it reads, and measured
 #: channel -> the state index whose time derivative it reads
@@ -361,6 +374,19 @@ def stiction_level(v, f_c, fs_retract, fs_extend, v_s):
 
 
 @njit_noalloc
+def friction_force(vrel, z, p):
+    """``(F_f, dz/dt)``: seal friction [N] and bristle rate [m/s] at relative velocity ``vrel``
+    and bristle deflection ``z`` (001 eq (1), Table 2): the seal-friction family
+    (:func:`~hydro_envs.laws.seal_friction.seal_friction`) with n = 2, ``sigma1 = sigma2 = 0``
+    and the level :func:`stiction_level`; ``friction_model = 1``: the static curve
+    ``g(v) tanh(v / v_eps)``, no bristle state (rate 0)."""
+    g = stiction_level(vrel, p[I_FC], p[I_FSR], p[I_FSE], p[I_VS])
+    if p[I_FMOD] > 0.5:
+        return g * tanh_sign(vrel, p[I_VEPS]), 0.0
+    return seal_friction(vrel, z, g, p[I_SIG], 0.0, 0.0, 0.0, 2, 0.0)
+
+
+@njit_noalloc
 def valve_position(y, p):
     """Normalised valve position x_v from the coil current and the hysteresis memory."""
     ic = y[IC]
@@ -412,9 +438,7 @@ def force_actuator_rhs(y, u, p, dy):
     q = y[XP] + y[XS]
     f_damp = p[I_DG] * hydraulic_damping_knee(xi, y[VF], p[I_DA], p[I_DV], p[I_DK], p[D_TANHK], p[I_DLIN])  # (5)
     f_stop = end_stop_force(q, vrel, 0.0, p[I_L], p[I_KSTOP], p[I_ASTOP])
-    g = stiction_level(vrel, p[I_FC], p[I_FSR], p[I_FSE], p[I_VS])
-    static = p[I_FMOD] > 0.5
-    f_fric = g * tanh_sign(vrel, p[I_VEPS]) if static else y[FF]
+    f_fric, dz = friction_force(vrel, y[Z], p)  # (1)
     f_h = f_fluid - f_damp - f_fric + f_stop
     dy[XS] = y[VS]
     dy[VS] = (f_h - p[I_BS] * y[VS] - p[I_KS] * y[XS]) / p[I_M]  # (2)
@@ -424,12 +448,7 @@ def force_actuator_rhs(y, u, p, dy):
     else:
         dy[XP] = y[VP]
         dy[VP] = (f_h - p[I_KL] * (y[XP] - 0.5 * p[I_L]) + p[I_FLOAD]) / (p[I_MP] + p[I_ML])
-    if static:  # static curve: no pre-sliding state (ff stays at 0)
-        dy[FF] = 0.0
-    elif g > 0.0:
-        dy[FF] = dahl_friction_rate(vrel, y[FF], g, p[I_SIG])  # (1) with stiction level g(v)
-    else:  # frictionless set: the friction state relaxes to zero
-        dy[FF] = -p[I_SIG] * abs(vrel) * y[FF] * 1e-3
+    dy[Z] = dz
     dy[VF] = p[I_WC] * (vrel - y[VF])  # band-limited differentiation, 40 Hz
     # feedback conditioning: second-order Butterworth low-pass on F_s = k_s x_s (eq (3))
     wf = 2.0 * math.pi * p[I_FFILT]
@@ -444,16 +463,16 @@ def force_actuator_rhs(y, u, p, dy):
 @njit_noalloc
 def force_actuator_guard(y, p):
     """After a sub-step: update the play memories (exact for the monotone coil current) and
-    project the friction force onto ``|F_f| <= max static level``; return #clamps."""
+    project the bristle deflection onto ``sigma0 |z| <= max static level``; return #clamps."""
     ic = y[IC]
     for k in range(N_PLAY):
         y[H0 + k] = play_operator(y[H0 + k], ic, p[D_PLAY0 + k])
-    g_hi = max(p[I_FC], p[I_FSR], p[I_FSE])
-    if y[FF] > g_hi:
-        y[FF] = g_hi
+    z_hi = max(p[I_FC], p[I_FSR], p[I_FSE]) / p[I_SIG]
+    if y[Z] > z_hi:
+        y[Z] = z_hi
         return 1
-    if y[FF] < -g_hi:
-        y[FF] = -g_hi
+    if y[Z] < -z_hi:
+        y[Z] = -z_hi
         return 1
     return 0
 
@@ -499,8 +518,9 @@ def stiffness_modes(params: ForceActuatorParams) -> dict[str, float]:
     * ``piston``: the free piston on the pre-sliding spring and stop (free piston only);
     * ``friction``: static curve (``friction_model = 1``): its largest slope ``g_max / v_eps``
       (at v = 0) acting on the relative velocity through the sensor mass and the free piston,
-      ``g_max / v_eps (1/m + 1/m_p)``; no pre-sliding spring in ``sensor`` / ``piston``. A
-      frictionless set: the slow relaxation of its Dahl state.
+      ``g_max / v_eps (1/m + 1/m_p)``; no pre-sliding spring in ``sensor`` / ``piston``. The
+      Dahl seals (``friction_model = 0``): the seal-friction family's bound of the (relative
+      velocity, bristle) block at rest (:func:`friction_rest_bound`); none without dry friction.
 
     The Dahl state's relaxation (``friction_model = 0``), ``4 sigma0 |v| / F_c`` at the relative
     velocity v, is not among them: it is stiff only at speed, and the kernels take a sub-step as
@@ -531,8 +551,8 @@ def stiffness_modes(params: ForceActuatorParams) -> dict[str, float]:
         # the piston carry: |lambda| = slope (1/m + 1/m_p)
         modes["friction"] = g_max / params.friction_sign_velocity * (
             1.0 / m + (1.0 / mp if params.piston_locked < 0.5 else 0.0))
-    elif not params.coulomb_friction > 0.0:  # frictionless set
-        modes["friction"] = 1e-3 * params.friction_stiffness * velocity_bound(params)
+    elif g_max > 0.0:  # the family's bound of the (relative velocity, bristle) block at rest
+        modes["friction"] = friction_rest_bound(params)
     if params.piston_locked < 0.5:
         f_max = params.max_thrust + abs(params.load_force)
         modes["piston"] = (
@@ -543,10 +563,30 @@ def stiffness_modes(params: ForceActuatorParams) -> dict[str, float]:
     return modes
 
 
+def friction_rest_bound(params: ForceActuatorParams) -> float:
+    """:func:`~hydro_envs.laws.seal_friction.bristle_block_rate_bound` [1/s] at rest (v = 0) at the
+    deflection bound ``g_max / sigma0``, the lowest level ``F_c`` and the Gaussian curve's slope
+    bound, for the relative mass the seals act on (locked: the sensor mass; free: the sensor
+    mass and the piston with its load in series) with the sensor damping b_s: the oscillation of
+    that mass on the bristles in pre-sliding (at speed the relaxation is the local refinement's,
+    :func:`dahl_friction_substeps`). 0 without dry friction."""
+    g_max = max(params.coulomb_friction, params.stiction_retract, params.stiction_extend)
+    if not g_max > 0.0 or params.friction_model > 0.5:
+        return 0.0
+    m = params.sensor_mass
+    if params.piston_locked < 0.5:
+        mp = params.piston_mass + params.load_mass
+        m = m * mp / (m + mp)
+    ratio = stribeck_slope_ratio_bound(params.coulomb_friction, g_max, "gaussian")
+    s0 = params.friction_stiffness
+    return bristle_block_rate_bound.py_func(0.0, g_max / s0, params.coulomb_friction, ratio, s0, 0.0, 0.0,
+                                            params.sensor_damping, m, 2, 0.0)
+
+
 def dahl_relaxation_bound(params: ForceActuatorParams) -> float:
-    """Largest relaxation rate [1/s] of the Dahl state, ``4 sigma0 v_b / F_c`` at the velocity
-    bound v_b (:func:`velocity_bound`): ``dF/dt = sigma0 v u|u|`` with ``|u| <= 2`` while
-    ``|F_f| <= g(v)`` and level ``g >= F_c``. Right after a breakaway ``|u|`` reaches
+    """Largest relaxation rate [1/s] of the bristle state, ``4 sigma0 v_b / F_c`` at the velocity
+    bound v_b (:func:`velocity_bound`): ``-d(dz/dt)/dz = 2 sigma0 |v| |u| / g`` (the family's
+    n = 2 rate) with ``|u| <= 2`` while ``sigma0 |z| <= g(v)`` and level ``g >= F_c``. Right after a breakaway ``|u|`` reaches
     ``1 + F_s/F_c``, but then ``|v|`` is of the order of the Stribeck velocity, far below v_b;
     the guard's projection is the safety net. 0 for the static curve or a frictionless set."""
     if params.friction_model > 0.5 or not params.coulomb_friction > 0.0:
