@@ -122,16 +122,16 @@ class ForceActuatorParams(PhysicalParams):
         1.0, "1", (0.0, 1.0),
         "001 sec. 4.1-4.7: piston locked to the mount (blocked force); 0 = free piston",
     )
-    coulomb_friction: float = physical(26.0, "N", (0.0, 1e4), "001 eq (1) and Table 2: F_c = 26 N")
+    coulomb_friction: float = physical(26.0, "N", (0.0, 5000.0), "001 eq (1) and Table 2: F_c = 26 N")
     stiction_retract: float = physical(
-        107.0, "N", (0.0, 1e4),
+        107.0, "N", (0.0, 5000.0),
         "001 Table 2: stiction pushing on the piston 99 N (v_p < 0), measured as the force at the "
         "breaking point; the Dahl seals (n = 2) creep before they break, so the static level g(0) is "
         "set where a 5 N/s ramp of the push on the free piston breaks it away at a peak friction of "
         "99.0 N (experiments.breakaway_force; tested)",
     )
     stiction_extend: float = physical(
-        57.6, "N", (0.0, 1e4),
+        57.6, "N", (0.0, 5000.0),
         "001 Table 2: stiction pulling on the piston -54 N (v_p > 0); static level g(0) set where a "
         "5 N/s pull on the free piston breaks it away at a peak friction of 54.0 N (experiments.breakaway_force; tested)",
     )
