@@ -50,7 +50,8 @@ physical; the position penalty discourages drifting into them).
 ``reference`` (a kind, or an array of accelerations [m/s^2], one per step, within the
 accelerometer's +-5 g).
 
-**Info** at every step: ``state`` (``x, v, pa, pb, xv, vv``; SI, absolute pressures) and
+**Info** at every step: ``state`` (``x, v, pa, pb, xv, vv, z``; SI, absolute pressures; ``z`` the
+seals' bristle deflection, :mod:`hydro_envs.plants.shaking_table.model`) and
 ``params`` (this episode's parameter set). ``env.unwrapped.sensor_values()`` returns the
 measured position, acceleration and velocity estimate; ``channel_values()`` the
 measured-data channels ``u`` [V], ``x`` [m], ``a`` [m/s^2].

@@ -28,4 +28,5 @@ SPEC = PlantSpec(
     pressure_parameter="supply_pressure",
     # assumed: 003 records at 1 kHz; coarser than 100 Hz misses the table's oil-column resonance
     max_sample_time=0.01,
+    dry_friction_parameters=("coulomb_friction", "static_friction"),
 )
