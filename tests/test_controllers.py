@@ -323,7 +323,7 @@ def test_table_velocity_gain_of_the_tuning_rule_is_the_plant_s():
     for _ in range(400):
         registry.get("shaking_table").kernels.step_serial(y, U, p.to_array()[None], 1e-3, nsub, W, np.zeros(1, dtype=np.int64))
     assert y[0, st.V] == pytest.approx(0.2 * t["k_q"], rel=0.05)
-    assert t["kp"] * t["k_q"] == pytest.approx(1.5)
+    assert t["kp"] * t["k_q"] == pytest.approx(0.5)  # lambda (retuned for margins without dry friction)
 
 
 def test_force_pid_gain_is_below_the_limit_cycle_onset():
