@@ -61,6 +61,9 @@ A_SCALE = 10.0
 E_SCALE = 1.0
 PREVIEW_DT = 0.01
 LAMBDA_V = 0.5
+#: lead [s] of the reference-velocity feed-forward: the valve's group delay 2 zeta / omega_0
+#: (2.3 ms) and the one-step delay
+VFF_LEAD = 3.3e-3
 #: T_i omega_h and T_d omega_h of the rule (module docstring)
 TI_OMEGA = 8.0
 TD_OMEGA = 1.0
@@ -93,15 +96,18 @@ class TablePIDController(BaseController):
     action_dim = 1
 
     def __init__(self, kp: float, ti: float, td: float, tf: float, *, dt: float = DT,
-                 anti_windup: str = "back_calculation") -> None:
+                 anti_windup: str = "back_calculation", k_vff: float = 0.0, lead: float = VFF_LEAD) -> None:
         super().__init__()
         self.pid = PIDCore(kp, ti, td, tf, dt, anti_windup=anti_windup)
         self.dt = float(dt)
+        self.k_vff = float(k_vff)
+        self.lead = float(lead)
         self.reset()
 
     @classmethod
     def from_params(cls, params: ShakingTableParams | None = None, *, lam: float = LAMBDA_V, **kw: Any):
         t = table_tuning(params, lam)
+        kw.setdefault("k_vff", 1.0 / t["k_q"])
         return cls(t["kp"], t["ti"], t["td"], t["tf"], **kw)
 
     def _allocate(self, n: int) -> None:
@@ -115,7 +121,11 @@ class TablePIDController(BaseController):
         self.v_ref[mask] = 0.0
 
     def feedforward(self, o: np.ndarray) -> np.ndarray:
-        return np.zeros(o.shape[0])
+        """Reference-velocity feed-forward ``k_vff (v_ref + lead a_ref)``: the valve opening of the
+        velocity source (``1 / K_q``), ``lead`` ahead for the valve and the one-step delay. It
+        moves no closed-loop pole (the margins are the PID's), but carries the tracking the
+        lower loop gain gives up."""
+        return self.k_vff * (self.v_ref + self.lead * o[:, 1] * A_SCALE)
 
     def _act(self, o: np.ndarray) -> np.ndarray:
         e_a = o[:, 0] * E_SCALE
@@ -162,6 +172,7 @@ class TableFrictionFeedforwardController(TablePIDController):
 
             model = identified_friction("shaking_table", "stribeck")
         t = table_tuning(params, lam)
+        kw.setdefault("k_vff", 1.0 / t["k_q"])
         return cls(t["kp"], t["ti"], t["td"], t["tf"], model=model, params=params, **kw)
 
     def feedforward(self, o: np.ndarray) -> np.ndarray:
@@ -173,7 +184,7 @@ class TableFrictionFeedforwardController(TablePIDController):
         q_v = p.piston_area * v0
         static = _inverse_orifice(q_v, f0 / p.piston_area, p) - _inverse_orifice(q_v, 0.0, p)
         dyn_q = self.compliance * (f1 - f0) / (p.piston_area * PREVIEW_DT)
-        return static + _inverse_orifice(dyn_q, 0.0, p)
+        return super().feedforward(o) + static + _inverse_orifice(dyn_q, 0.0, p)
 
 
 class TableFlowController(BaseController):
