@@ -143,3 +143,27 @@ def test_without_dry_friction_leaves_viscous_friction():
     p = ShakingTableParams.from_mapping(values)
     f, dz = st.seal_force(0.02, 1e-5, p.to_array())
     assert (f, dz) == (pytest.approx(p.viscous_friction * 0.02), 0.0)
+
+
+def test_low_frequency_task_reference_and_registration():
+    """ShakingTableLowFrequency-v0: 8 s episodes of a velocity sine from rest (0.25-0.5 Hz, 5-25
+    mm/s peak, 4-8 reversals), the reference accelerations those of that motion."""
+    import gymnasium as gym
+
+    import hydro_envs  # noqa: F401
+    from hydro_envs.envs.shaking_table.references import low_frequency_reference
+
+    assert gym.spec("hydro_envs/ShakingTableLowFrequency-v0").max_episode_steps == 8000
+    rng = np.random.default_rng(0)
+    for _ in range(20):
+        a, d = low_frequency_reference(rng, 8051, DT)
+        v = np.cumsum(a) * DT  # from rest
+        assert d[0] == 0.0 and abs(v[0]) < 1e-3
+        assert 5e-3 * 0.99 < np.max(np.abs(v)) < 25e-3 * 1.01
+        reversals = np.count_nonzero(np.diff(np.sign(v[10:8000])) != 0)
+        assert 3 <= reversals <= 8
+    env = gym.make("hydro_envs/ShakingTableLowFrequency-v0", randomize=False)
+    _, info = env.reset(seed=0)
+    ref = env.unwrapped._batch.REF[0]
+    assert np.max(np.abs(ref)) < 0.1
+    env.close()

@@ -283,7 +283,16 @@ def controllers() -> dict:
         "pid_ff_neural": lambda: TableFrictionFeedforwardController.from_params(
             model=identified_friction(PLANT, "neural")),
         "flow": TableFlowController,
+        # the friction-critical low-frequency task's pair: the flow controller blind to friction
+        # (NAME) and with the eq-(11) friction identified on the virtual constant-velocity test
+        "flow_fb": lambda: TableFlowController(model=_no_friction),
+        "flow_fb_stribeck": lambda: TableFlowController(model=identified_friction(PLANT, "stribeck")),
     }
+
+
+def _no_friction(v):
+    """The blind twins' friction model: none (0 N at every velocity)."""
+    return np.zeros_like(np.asarray(v, dtype=float))
 
 
 def _table_output(b):

@@ -23,6 +23,12 @@ SPEC = PlantSpec(
             "hydro_envs.envs.shaking_table:ShakingTableVectorEnv",
             6000,
         ),
+        EnvEntry(
+            "hydro_envs/ShakingTableLowFrequency-v0",
+            "hydro_envs.envs.shaking_table:ShakingTableLowFrequencyEnv",
+            "hydro_envs.envs.shaking_table:ShakingTableLowFrequencyVectorEnv",
+            8000,
+        ),
     ),
     stroke_parameter="stroke",
     pressure_parameter="supply_pressure",
