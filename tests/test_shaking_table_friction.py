@@ -100,7 +100,8 @@ def test_table_at_rest_under_a_force_below_breakaway_holds(share):
     ys, p = _held_table(force, 2.0)
     x, v = ys[:, st.X], ys[:, st.V]
     assert v.min() > -0.05 * v.max()  # nearly monotone loading
-    g_lo = p.coulomb_friction + (p.static_friction - p.coulomb_friction) * math.exp(-(v.max() / p.stribeck_velocity) ** 2)
+    g_lo = p.coulomb_friction + (p.static_friction - p.coulomb_friction) * math.exp(
+        -(v.max() / p.stribeck_velocity) ** 2)
     lo = -(p.static_friction / p.bristle_stiffness) * math.log(1.0 - force / p.static_friction)
     hi = -(g_lo / p.bristle_stiffness) * math.log(1.0 - force / g_lo)
     assert lo * (1 - 1e-3) <= x[-1] <= 2.0 * hi, (lo, x[-1], hi)  # 0.95 F_s: 94 <= 183 <= 230 um

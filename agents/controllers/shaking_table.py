@@ -27,15 +27,21 @@ D-term on the acceleration error itself)::
                                 The old lambda = 1.5, T_d = 0.5/omega_h, T_i = 4/omega_h had 8.6 dB
                                 / 17.6 deg at the nominal plant, 3.3 deg at 500 kg corners of the
                                 randomisation and was unstable on 2 of the 31 plants checked
-                                (corners, +-10 mm, the IFAS / constant presets). Now: nominal 15.0 dB / 36.8 deg (crossover 15 Hz),
+                                (corners, +-10 mm, the IFAS / constant presets). Now: nominal
+                                15.0 dB / 36.8 deg (crossover 15 Hz),
                                 >= 4.7 dB / 19 deg over 24 corners, +-10 mm and the presets.
     T_i = 8 / omega_h           (nominal 148 ms: displacement correction a factor 8 below omega_h)
     T_d = 1 / omega_h           (nominal 18 ms: acceleration feedback that damps the oil column)
     T_f = 1 / omega_v           (1.6 ms, the valve bandwidth)
     T_t = T_i                   (back-calculation)
 
+The PID adds the reference-velocity feed-forward ``(v_ref + 3.3 ms a_ref) / K_q`` (no pole moves).
+
 :class:`TableFlowController` is the model-based (flow feedback linearisation) controller;
-:class:`TableFrictionFeedforwardController` adds an identified friction model to the PID.
+:class:`TableFrictionFeedforwardController` adds an identified friction model to the PID;
+:class:`TableLuGreFlowController` drives a LuGre friction feed-forward by the reference velocity.
+Blind twins on ``ShakingTableLowFrequency-v0``: ``pid`` / ``pid_ff_stribeck``, ``flow_fb`` /
+``flow_fb_stribeck``, ``flow_fb_lugre``.
 """
 
 from __future__ import annotations

@@ -58,7 +58,8 @@ measured-data channels ``u`` [V], ``x`` [m], ``a`` [m/s^2].
 
 **Numerics**: one compiled kernel call per env step; RK4 sub-steps from the drawn
 parameters' stiffness bound (2 for the nominal plant and every randomisation corner,
-h = 0.5 ms, set by the spool's accuracy, :func:`hydro_envs.plants.shaking_table.stiffness_modes`),
+h = 0.5 ms, set by the spool's accuracy and the seals' bristle block,
+:func:`hydro_envs.plants.shaking_table.stiffness_modes`),
 each taken as finer ones (2, up to 4 at the randomisation corners) where a valve orifice's
 laminar core, a kink of the metering openings or an edge of the modified-IFAS notch needs them,
 and as many as keep RK4 accurate where a chamber empties into or refills from the air-release

@@ -46,7 +46,7 @@ class ShakingTableParams(PhysicalParams):
       it gives 76 N where eq (11) gives 987 N, and F_s, v_s would hardly enter the force.
     * The fit: NLSM (eqs (20)-(22)) could not identify F_s = 1254 N and v_s = 0.014 m/s (nor
       tell them from F_c and F_v) if the sign were smeared over 0.136 m/s: the exponential
-      term would be multiplied by tanh(7.33 v) <= 0.1 wherever it is non-negligible. Figure 6
+      term would be multiplied by tanh(7.33 v) <= 0.25 wherever it is non-negligible. Figure 6
       (bottom) shows the fitted eq (11) as a Stribeck curve with a distinct static peak, which
       needs 1/beta << v_s. Per mm/s, 1/beta = 0.136 mm/s = v_s / 100: a near-sign law, and
       the fitted F_s, v_s act as printed (the IFAS column: 1/beta = 0.17 mm/s vs v_s = 80 mm/s).
@@ -129,7 +129,8 @@ class ShakingTableParams(PhysicalParams):
         2000.0, "1/s", (0.0, 1e7),
         "assumed (numerics): bristle relaxation faster than this is taken as instantaneous, the "
         "quasi-static limit of LuGre (hydro_envs.laws.seal_friction): 1/(0.5 ms), one 0.5 ms sub-step "
-        "(h a <= 1: RK4 follows the relaxation within 2 %); LuGre exactly below |v| = cap F_c / sigma0 = 29 mm/s (2 v_s); 0 = none",
+        "(h a <= 1: RK4 follows the relaxation within 2 %); LuGre exactly below |v| = cap F_c / sigma0 = "
+        "29 mm/s (2 v_s); 0 = none",
     )
     bulk_modulus_model: float = physical(
         2.0, "1", (0.0, 2.0), "003 sec. 3.3: 0 constant E_0, 1 IFAS eq (13), 2 modified IFAS eqs (15)-(19)"
