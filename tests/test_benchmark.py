@@ -227,7 +227,7 @@ def test_shipped_configs_are_valid():
     from agents.controllers import controller_names
 
     files = sorted((Path(__file__).resolve().parents[1] / "agents" / "configs" / "benchmarks").glob("*.yaml"))
-    assert len(files) == 9
+    assert len(files) == 10
     envs = set()
     for f in files:
         c = bcli.load_config(f)
