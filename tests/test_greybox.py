@@ -108,8 +108,9 @@ def test_shaking_table_recovers_known_parameters():
         assert res.values[n] == pytest.approx(getattr(truth, n), rel=0.05), n
         assert abs(res.values[n] - getattr(truth, n)) < 4.0 * res.std_errors[n], n
     assert len(res.nrmse_per_experiment) == 2 and res.nrmse["a"] < 0.05
-    # at these velocities F_c and F_v trade off (tanh(beta v) ~ linear): reported, not hidden
-    assert res.correlation[1, 2] < -0.8
+    # with the seals' LuGre law (steady state eq (11) with the sign, beta read per mm/s) F_c and
+    # F_v no longer trade off as they did under tanh(7.33 v) ~ linear (corr < -0.8): -0.56
+    assert -0.8 < res.correlation[1, 2] < 0.0
 
 
 def test_bad_problem_raises():

@@ -45,8 +45,8 @@ ENV_ID = "hydro_envs/ShakingTable-v0"
 DT = 1e-3
 NOMINAL = ShakingTableParams()
 HALF = 0.5 * NOMINAL.stroke
-STATE_KEYS = ("x", "v", "pa", "pb", "xv", "vv")
-ATOL = np.array([1e-12, 1e-10, 1e-3, 1e-3, 1e-12, 1e-9])
+STATE_KEYS = ("x", "v", "pa", "pb", "xv", "vv", "z")
+ATOL = np.array([1e-12, 1e-10, 1e-3, 1e-3, 1e-12, 1e-9, 1e-13])
 
 
 @pytest.fixture(scope="module")
@@ -55,7 +55,7 @@ def spec():
 
 
 def simulate(p: ShakingTableParams, y0, commands, n_sub: int, dt: float = DT):
-    """Fixed-step kernel rollout under per-step commands [V]; returns (n+1, 6) states."""
+    """Fixed-step kernel rollout under per-step commands [V]; returns (n+1, N_STATES) states."""
     Y = np.array(y0, dtype=float)[None, :].copy()
     P = p.to_array()[None, :]
     W = np.zeros((1, 5, st.N_STATES))
@@ -97,11 +97,11 @@ def test_parameters_are_tables_1_and_2():
     # Table 2 columns as presets
     mod, ifas = ShakingTableParams.preset("modified_ifas"), ShakingTableParams.preset("ifas")
     assert (mod.coulomb_friction, mod.static_friction, mod.viscous_friction) == (573.72, 1254.16, 429.4)
-    assert (mod.stribeck_velocity, mod.tanh_gain, mod.e0, mod.oil_exponent) == (0.014, 7.33, 4.73e8, 9.02)
+    assert (mod.stribeck_velocity, mod.tanh_gain, mod.e0, mod.oil_exponent) == (0.014, 7330.0, 4.73e8, 9.02)
     assert (mod.air_content, mod.polytropic_exponent, mod.lambda_1, mod.mu) == (7.9e-7, 0.49, 1.08, 8.8e-6)
     assert mod.threshold_pressure == 9.177e5 and mod.p0 == pytest.approx(36.85e5)
     assert (ifas.coulomb_friction, ifas.static_friction, ifas.viscous_friction) == (531.85, 952.6, 153.4)
-    assert (ifas.stribeck_velocity, ifas.tanh_gain, ifas.e0, ifas.oil_exponent) == (0.08, 5.8, 4.7e8, 7.88)
+    assert (ifas.stribeck_velocity, ifas.tanh_gain, ifas.e0, ifas.oil_exponent) == (0.08, 5800.0, 4.7e8, 7.88)
     assert (ifas.air_content, ifas.polytropic_exponent) == (6.8e-7, 0.7224) and ifas.p0 == pytest.approx(8.7e5)
     for q in (mod, ifas):
         assert (q.internal_leakage, q.external_leakage) == (4.343e-13, 4.05e-14)
@@ -171,7 +171,7 @@ def test_null_pressure_balances_underlap_flow_and_external_leak():
     assert qa == pytest.approx(p.external_leakage * (pn - p.tank_pressure), rel=1e-9)
     # the external leak pulls the null pressure about 2 MPa below (P_s + P_T)/2
     assert 1.5e6 < 0.5 * (p.supply_pressure + p.tank_pressure) - pn < 2.5e6
-    dy = np.empty(6)
+    dy = np.empty(st.N_STATES)
     registry.get("shaking_table").kernels.rhs(st.rest_state(p), np.zeros(1), p.to_array(), dy)
     assert np.max(np.abs(dy)) < 1e-3  # at rest: pressures steady within 1 mPa/s
     # without external leakage it is the symmetric (P_s + P_T)/2
@@ -187,9 +187,9 @@ def test_steady_speed_at_full_opening_matches_orifice_law_with_friction_and_leak
     r1 = p.flow_coefficient * (1 + p.underlap)
     a, ps, pt = p.piston_area, p.supply_pressure, p.tank_pressure
 
-    def friction(v):
+    def friction(v):  # eq (11) with the sign: the LuGre seals' steady state (v > 0 here)
         return ((p.coulomb_friction + (p.static_friction - p.coulomb_friction) * math.exp(-(v / p.stribeck_velocity) ** 2))
-                * math.tanh(p.tanh_gain * v) + p.viscous_friction * v)
+                * math.copysign(1.0, v) + p.viscous_friction * v)
 
     def eqs(z):  # unknowns: v [m/s], pa, pb [MPa]
         v, pa, pb = z[0], z[1] * 1e6, z[2] * 1e6
@@ -336,7 +336,7 @@ def test_leakage_decay_matches_matrix_exponential_with_locked_piston():
     c = ShakingTableParams.preset("constant")
     v_half = c.dead_volume + 0.5 * c.piston_area * c.stroke
     p = dataclasses.replace(c, flow_coefficient=0.0, piston_area=1e-9, dead_volume=v_half - 0.5e-9 * c.stroke)
-    y0 = np.array([0.0, 0.0, 14e6, 4e6, 0.0, 0.0])
+    y0 = np.array([0.0, 0.0, 14e6, 4e6, 0.0, 0.0, 0.0])
     ys = simulate(p, y0, np.zeros(1000), n_sub=1)
     va, vb = st.chamber_volumes(p, 0.0)
     ci, ce, e = p.internal_leakage, p.external_leakage, p.e0
@@ -442,7 +442,7 @@ def test_air_band_substeps_follow_the_chambers_growth_rate():
     pa = p.to_array()
     band = air_release_pressure(p)
     pn = st.null_pressure(p)
-    y0 = np.array([0.0, 0.0, 0.5 * band, pn, 0.5, 0.0])
+    y0 = np.array([0.0, 0.0, 0.5 * band, pn, 0.5, 0.0, 0.0])
     for drop in (0.01, 0.1, 0.4, 0.9):  # the Euler prediction empties the chamber by this share
         x = y0.copy()
         x[st.PA] = y0[st.PA] * (1.0 - drop)
@@ -451,7 +451,7 @@ def test_air_band_substeps_follow_the_chambers_growth_rate():
     x[st.PA] = 10.0 * y0[st.PA]  # refilling: rate from the start state's pressure
     assert st.air_band_substeps(y0, x, pa) == min(st.AIR_BAND_MAX_SUBSTEPS, math.ceil(
         (1.0 + 1.0 / p.polytropic_exponent) * 9.0 / ACCURATE_H_LAMBDA))
-    above = np.array([0.0, 0.0, 2.0 * band, pn, 0.5, 0.0])
+    above = np.array([0.0, 0.0, 2.0 * band, pn, 0.5, 0.0, 0.0])
     out = above.copy()
     out[st.PA] = 1.5 * band
     assert st.air_band_substeps(above, out, pa) == 1  # neither state in the band
@@ -466,15 +466,19 @@ def test_fixed_step_matches_radau_under_a_command_drawn_every_step():
     """What an exploring agent does: a new command every 1 ms step, so the spool crosses the
     underlap's kinks (eq (3)) and the load pressure the notch edges (eq (19)) every few steps;
     the look-ahead refines those sub-steps. Without the kink refinement: x 2.2e-4, v 1.9e-4,
-    p 1.6e-4; uniform 3.65 sub-steps sized for the orifice core: 9.5e-5, 1.2e-4, 1.1e-4."""
+    p 1.6e-4; uniform 3.65 sub-steps sized for the orifice core: 9.5e-5, 1.2e-4, 1.1e-4 (with
+    the tanh friction of eq (12)). With the LuGre seals the table sticks and breaks away at
+    every reversal: the Stribeck dip's growth mode (+700 1/s at 0.7 mm/s) and the pre-sliding
+    oscillation (~220 rad/s) enter, and 2 sub-steps follow them within 3.1e-4 (x), 2.9e-4 (v)
+    of the range, p 2.7e-4 (16 sub-steps: x 1.4e-6)."""
     p = NOMINAL
     cmds = np.random.default_rng(0).uniform(-10.0, 10.0, 800)
     y0 = st.rest_state(p)
     fixed = simulate(p, y0, cmds, substeps_from_stiffness(st.stiffness_modes(p), DT)[0])
     ref = reference_rollout(registry.get("shaking_table"), y0, cmds[:, None], p.to_array(), DT, rtol=1e-10, atol=ATOL)
-    assert nrmse(fixed[:, st.X], ref[:, st.X]) <= 1.6e-4  # 1.1e-4
-    assert nrmse(fixed[:, st.V], ref[:, st.V]) <= 1.6e-4  # 1.2e-4
-    assert max(nrmse(fixed[:, st.PA], ref[:, st.PA]), nrmse(fixed[:, st.PB], ref[:, st.PB])) <= 1.5e-4  # 1.1e-4
+    assert nrmse(fixed[:, st.X], ref[:, st.X]) <= 4e-4  # 3.1e-4
+    assert nrmse(fixed[:, st.V], ref[:, st.V]) <= 4e-4  # 2.9e-4
+    assert max(nrmse(fixed[:, st.PA], ref[:, st.PA]), nrmse(fixed[:, st.PB], ref[:, st.PB])) <= 3.5e-4  # 2.7e-4
 
 
 def test_fixed_step_matches_radau_through_the_notch_at_the_steepest_corner(spec):
@@ -508,10 +512,11 @@ def test_rk4_converges_at_fourth_order_on_smooth_motion():
 
 
 def numerical_jacobian(y, p_arr):
-    J = np.empty((6, 6))
-    scale = np.array([1e-7, 1e-6, 1.0, 1.0, 1e-7, 1e-4])
-    fp, fm = np.empty(6), np.empty(6)
-    for j in range(6):
+    n = st.N_STATES
+    J = np.empty((n, n))
+    scale = np.array([1e-7, 1e-6, 1.0, 1.0, 1e-7, 1e-4, 1e-10])
+    fp, fm = np.empty(n), np.empty(n)
+    for j in range(n):
         yp, ym = y.copy(), y.copy()
         yp[j] += scale[j]
         ym[j] -= scale[j]
@@ -551,7 +556,7 @@ def test_stiffness_bound_covers_the_numerical_jacobian(spec):
                     if min(p1, p2) < 5e5 and abs(v) > 0.01:
                         continue
                     for xv in (0.0, 1.0, -1.0, 0.003, 0.3):
-                        y = np.array([x, v, p1, p2, xv, 0.0])
+                        y = np.array([x, v, p1, p2, xv, 0.0, 0.0])
                         ev = np.linalg.eigvals(numerical_jacobian(y, pa))
                         growth = (np.abs(ev.imag) < 1e-9) & (ev.real > 0)  # no RK4 stability limit
                         here = np.abs(ev[~growth]).max()
@@ -568,12 +573,13 @@ def test_stiffness_bound_covers_the_numerical_jacobian(spec):
 
 def test_substeps_nominal_and_at_the_randomisation_corners(spec):
     """Two sub-steps per ms at the nominal plant and every corner: the spool's accuracy bound
-    (h w_0 <= 0.41) sets them; the orifice cores are refined locally (2-4 fine steps)."""
+    (h w_0 <= 0.41) and the seals' bristle block (relaxation capped at 4000 1/s, just inside the
+    stable h |lambda| at 0.5 ms) set them; the orifice cores are refined locally (2-4 fine steps)."""
     assert substeps_from_stiffness(st.stiffness_modes(NOMINAL), DT)[0] == 2  # documented in the env
     for flags in (False, True):
         p = spec.corner(flags)
         n_sub, h, name = substeps_from_stiffness(st.stiffness_modes(p), DT)
-        assert (n_sub, name) == (2, "valve")
+        assert n_sub == 2 and name in ("valve", "friction")
         assert h * p.valve_natural_frequency <= SPOOL_H_OMEGA
         assert h * max(st.stiffness_modes(p).values()) <= DEFAULT_SAFETY * RK4_REAL_STABILITY_LIMIT + 1e-12
         m = st.local_mode_refinement(p.to_array(), h)
@@ -612,7 +618,7 @@ def test_local_refinement_decisions():
     m = st.local_mode_refinement(pa, h)
     assert m == 2
     pn = st.null_pressure(p)
-    mid = np.array([0.0, 0.1, pn + 30e5, pn - 30e5, 0.3, 0.0])  # drops of tens of bar, off the notch
+    mid = np.array([0.0, 0.1, pn + 30e5, pn - 30e5, 0.3, 0.0, 0.0])  # drops of tens of bar, off the notch
     assert st.local_mode_substeps(mid, mid, pa, h, m) == 1
     up = mid.copy()
     up[st.PA] = p.supply_pressure + 1e5
@@ -653,7 +659,7 @@ def test_rate_short_cut_gives_the_count_of_the_local_rates(spec):
         pn = st.null_pressure(q)
         for _ in range(300):
             a = np.array([rng.uniform(-0.55, 0.55) * q.stroke, rng.normal(0.0, 0.2), 0.0, 0.0,
-                          rng.uniform(-1.2, 1.2), 0.0])
+                          rng.uniform(-1.2, 1.2), 0.0, 0.0])
             if rng.random() < 0.5:  # the spool wide open, the piston near a stop: the stiffest orifice modes
                 a[st.X] = rng.choice([-0.49, 0.49]) * q.stroke
                 a[st.XV] = rng.choice([-1.1, 1.1])
@@ -687,7 +693,7 @@ def test_parallel_and_serial_kernels_are_bit_identical(spec):
     out = []
     for kernel in (registry.get("shaking_table").kernels.step_serial, registry.get("shaking_table").kernels.step_parallel):
         Y = Y0.copy()
-        W, c = np.zeros((48, 5, 6)), np.zeros(48, dtype=np.int64)
+        W, c = np.zeros((48, 5, st.N_STATES)), np.zeros(48, dtype=np.int64)
         rng_u = np.random.default_rng(2)
         for _ in range(200):
             kernel(Y, rng_u.uniform(-10, 10, (48, 1)), P, DT, nsub, W, c)
@@ -698,7 +704,7 @@ def test_parallel_and_serial_kernels_are_bit_identical(spec):
 def test_cavitation_floor_holds_when_the_table_is_thrown():
     p = dataclasses.replace(NOMINAL, flow_coefficient=0.0, bulk_modulus_model=0.0)
     Y = st.rest_state(NOMINAL, 0.0, 2.0)[None, :].copy()
-    P, W, c = p.to_array()[None, :], np.zeros((1, 5, 6)), np.zeros(1, dtype=np.int64)
+    P, W, c = p.to_array()[None, :], np.zeros((1, 5, st.N_STATES)), np.zeros(1, dtype=np.int64)
     lowest = np.inf
     for _ in range(300):
         registry.get("shaking_table").kernels.step_serial(Y, np.zeros((1, 1)), P, DT, np.array([4]), W, c)

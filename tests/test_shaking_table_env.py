@@ -41,7 +41,7 @@ ENV_ID = "hydro_envs/ShakingTable-v0"
 DT = 1e-3
 NOMINAL = ShakingTableParams()
 HALF = 0.5 * NOMINAL.stroke
-STATE_KEYS = ("x", "v", "pa", "pb", "xv", "vv")
+STATE_KEYS = ("x", "v", "pa", "pb", "xv", "vv", "z")
 PARAM_NAMES = ShakingTableParams.names()
 OBS_DIM = 13
 

@@ -50,14 +50,16 @@ physical; the position penalty discourages drifting into them).
 ``reference`` (a kind, or an array of accelerations [m/s^2], one per step, within the
 accelerometer's +-5 g).
 
-**Info** at every step: ``state`` (``x, v, pa, pb, xv, vv``; SI, absolute pressures) and
+**Info** at every step: ``state`` (``x, v, pa, pb, xv, vv, z``; SI, absolute pressures; ``z`` the
+seals' bristle deflection, :mod:`hydro_envs.plants.shaking_table.model`) and
 ``params`` (this episode's parameter set). ``env.unwrapped.sensor_values()`` returns the
 measured position, acceleration and velocity estimate; ``channel_values()`` the
 measured-data channels ``u`` [V], ``x`` [m], ``a`` [m/s^2].
 
 **Numerics**: one compiled kernel call per env step; RK4 sub-steps from the drawn
 parameters' stiffness bound (2 for the nominal plant and every randomisation corner,
-h = 0.5 ms, set by the spool's accuracy, :func:`hydro_envs.plants.shaking_table.stiffness_modes`),
+h = 0.5 ms, set by the spool's accuracy and the seals' bristle block,
+:func:`hydro_envs.plants.shaking_table.stiffness_modes`),
 each taken as finer ones (2, up to 4 at the randomisation corners) where a valve orifice's
 laminar core, a kink of the metering openings or an edge of the modified-IFAS notch needs them,
 and as many as keep RK4 accurate where a chamber empties into or refills from the air-release
@@ -81,6 +83,7 @@ from hydro_envs.envs.render import render_cylinder
 from hydro_envs.envs.shaking_table.references import (
     TABLE_REFERENCE_KINDS,
     generate_table_reference,
+    low_frequency_reference,
     reference_limits,
 )
 from hydro_envs.intrinsics import prefetch_row_element
@@ -99,6 +102,10 @@ __all__ = [
     "ShakingTableBatch",
     "ACCELEROMETER_RANGE",
     "VELOCITY_FILTER",
+    "ShakingTableLowFrequencyEnv",
+    "ShakingTableLowFrequencyVectorEnv",
+    "ShakingTableLowFrequencyBatch",
+    "LOW_FREQUENCY_STEPS",
 ]
 
 DT = 1e-3
@@ -443,3 +450,42 @@ class ShakingTableVectorEnv(BatchedVectorEnv):
         """Measured position, acceleration and velocity estimate of every copy (arrays)."""
         rows = [self._batch.sensor_values(i) for i in range(self.num_envs)]
         return {k: np.array([r[k] for r in rows]) for k in rows[0]}
+
+
+# ------------------------------------------------------------------ friction-critical task
+#: episode length of the low-frequency task [steps] (8 s: 4-8 reversals)
+LOW_FREQUENCY_STEPS = 8000
+
+
+class ShakingTableLowFrequencyBatch(ShakingTableBatch):
+    """``hydro_envs/ShakingTableLowFrequency-v0``: the acceleration-tracking table on a
+    low-frequency, low-velocity motion with reversals
+    (:func:`~hydro_envs.envs.shaking_table.references.low_frequency_reference`: velocity sine of
+    0.25-0.5 Hz, 5-25 mm/s peak, from rest). The reference's accelerations are below 0.08 m/s^2;
+    at each reversal the seals stick and break away (003 eq (11) as the LuGre steady state,
+    F_s = 1254 N on 850 kg), which puts acceleration spikes of the order of ``F_s / M`` into the
+    table's motion: friction, not the oil column, decides the error. Observation, action and
+    reward as ``ShakingTable-v0``; 8 s episodes; no domain option beyond the base env's."""
+
+    episode_steps_default = LOW_FREQUENCY_STEPS
+
+    def reset_task(self, i: int, rng: np.random.Generator, p: ShakingTableParams, options: Mapping[str, Any]) -> None:
+        opts = dict(options)
+        ref = opts.get("reference")
+        if ref is None or ref == "low_frequency":
+            opts["reference"] = low_frequency_reference(rng, self.REF.shape[1], DT)[0]
+        super().reset_task(i, rng, p, opts)
+
+
+class ShakingTableLowFrequencyEnv(BatchedEnv):
+    __doc__ = ShakingTableLowFrequencyBatch.__doc__
+    batch_cls = ShakingTableLowFrequencyBatch
+
+    def sensor_values(self) -> dict[str, float]:
+        """Measured position [m], acceleration [m/s^2] and velocity estimate [m/s]."""
+        return self._batch.sensor_values(0)
+
+
+class ShakingTableLowFrequencyVectorEnv(ShakingTableVectorEnv):
+    __doc__ = BatchedVectorEnv.__doc__
+    batch_cls = ShakingTableLowFrequencyBatch

@@ -53,6 +53,8 @@ __all__ = [
     "reference_limits",
     "generate_table_reference",
     "KANAI_TAJIMI",
+    "LOW_FREQUENCY",
+    "low_frequency_reference",
 ]
 
 TABLE_REFERENCE_KINDS = ("sine", "pulse", "transition", "earthquake")
@@ -231,3 +233,29 @@ def generate_table_reference(
     scale = min(lim / pk for lim, pk in zip(lims, peaks) if pk > 0.0) if max(peaks) > 0 else 0.0
     scale *= rng.uniform(*frac)
     return a * scale, d[1:-1] * scale
+
+
+#: ranges of the friction-critical low-frequency task (``ShakingTableLowFrequency-v0``):
+#: frequency [Hz] of the velocity sine and its peak [m/s]. 0.25-0.5 Hz puts 4-8 reversals into an
+#: 8 s episode; 5-25 mm/s peaks are 0.35-1.8 Stribeck velocities of 003 Table 2 (v_s = 14 mm/s),
+#: so every half period passes through stiction, the Stribeck dip and a reversal
+LOW_FREQUENCY = {"frequency": (0.25, 0.5), "peak_velocity": (5e-3, 25e-3)}
+
+
+def low_frequency_reference(rng: np.random.Generator, n: int, dt: float,
+                            ranges: dict | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """``n`` samples of acceleration [m/s^2] and displacement [m] of a low-frequency, low-velocity
+    motion with reversals: the velocity ``v = +-V sin(2 pi f t)`` from rest (displacement
+    ``V / w (1 - cos w t)``, ``d = v = 0`` at ``t = 0``), f and V drawn from ``ranges``
+    (:data:`LOW_FREQUENCY`), sign random. The acceleration is the displacement's second central
+    difference on the env grid (as :func:`generate_table_reference`). Its peak ``V w`` (0.008-0.08
+    m/s^2) is far below what friction's stick and breakaway give the table at each reversal
+    (``F_s / M`` = 1.5 m/s^2 nominal): the friction decides the acceleration error."""
+    r = {**LOW_FREQUENCY, **(ranges or {})}
+    f = rng.uniform(*r["frequency"])
+    v_peak = rng.uniform(*r["peak_velocity"]) * (1.0 if rng.uniform() < 0.5 else -1.0)
+    w = 2.0 * math.pi * f
+    t = dt * np.arange(-1, n + 1)
+    d = v_peak / w * (1.0 - np.cos(w * np.maximum(t, 0.0)))
+    a = (d[2:] - 2.0 * d[1:-1] + d[:-2]) / (dt * dt)
+    return a, d[1:-1]

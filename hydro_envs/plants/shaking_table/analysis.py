@@ -46,9 +46,9 @@ def _rhs_moduli(params: ShakingTableParams, pa: np.ndarray, pb: np.ndarray) -> n
     dy = np.empty(N_STATES)
     u = np.zeros(1)
     for k, (a_, b_) in enumerate(zip(pa.ravel(), pb.ravel())):
-        shaking_table_rhs(np.array([0.0, -v, a_, b_, 0.0, 0.0]), u, p, dy)
+        shaking_table_rhs(np.array([0.0, -v, a_, b_, 0.0, 0.0, 0.0]), u, p, dy)
         out[k, 0] = dy[PA] * va / (sealed.piston_area * v)
-        shaking_table_rhs(np.array([0.0, v, a_, b_, 0.0, 0.0]), u, p, dy)
+        shaking_table_rhs(np.array([0.0, v, a_, b_, 0.0, 0.0, 0.0]), u, p, dy)
         out[k, 1] = dy[PB] * vb / (sealed.piston_area * v)
     return out
 
@@ -107,7 +107,11 @@ def small_signal_frequency(params: ShakingTableParams, v_kick: float = 1e-3, sec
 
     The table rests at mid-stroke (spool centred, chambers at the null pressure) and gets a
     velocity ``v_kick``; the compiled kernel integrates the full nonlinear model (valve,
-    underlap flows, leakage, friction, modulus law). The velocity record is fitted by least
+    underlap flows, leakage, viscous friction, modulus law) *without dry friction*
+    (:meth:`~hydro_envs.spec.PlantSpec.without_dry_friction`): a 1 mm/s tap does not break the
+    LuGre seals away, so with them the table would ring on its bristle spring sigma0 in
+    parallel with the oil columns (about critically damped by the micro-damping), not at the
+    oil-column frequency this measures. The velocity record is fitted by least
     squares with ``exp(-s t) (a cos(w t) + b sin(w t)) + c exp(-l t)`` (oil-column mode plus the
     slow valve/leakage mode), started from the FFT peak; the undamped frequency of the
     oscillatory pole is ``sqrt(w^2 + s^2)``.
@@ -115,6 +119,7 @@ def small_signal_frequency(params: ShakingTableParams, v_kick: float = 1e-3, sec
     from scipy.optimize import least_squares
 
     n = int(round(seconds / dt))
+    params = ShakingTableParams.from_mapping(SPEC.without_dry_friction({}), base=params)
     v = simulate(SPEC, params, np.zeros((n, 1)), rest_state(params, 0.0, v_kick), dt, n_sub=n_sub)[:, V]
     t = dt * np.arange(n + 1)
     spec = np.abs(np.fft.rfft(v * np.hanning(v.size), 16 * v.size))

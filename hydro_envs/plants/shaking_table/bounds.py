@@ -33,11 +33,15 @@ import math
 from typing import Any
 
 from hydro_envs.laws.bulk_modulus import ifas_bulk_modulus
+from hydro_envs.laws.seal_friction import bristle_stiffness_bound, dissipative_fade_velocity, stribeck_slope_ratio_bound
 from hydro_envs.sim.rk4 import STABLE_H_LAMBDA
 from hydro_envs.sim.roots import brent_root
 
 __all__ = ["ACCURATE_H_LAMBDA", "SPOOL_H_OMEGA", "AIR_COMPLIANCE_SHARE", "stiffness_modes", "local_mode_rates",
-           "modulus_upper_bound", "air_release_pressure"]
+           "modulus_upper_bound", "air_release_pressure", "friction_bounds", "friction_rate"]
+
+#: the env's velocity limit in no-load velocities (hydro_envs.envs.base.VELOCITY_FACTOR)
+_VELOCITY_FACTOR = 2.0
 
 #: ``h |lambda|`` at which RK4's error per step on a mode ``e^(lambda t)``, about
 #: ``(h |lambda|)^5 / 120`` of its value (the leading term of ``R(z) - e^z``), is 1e-4
@@ -71,6 +75,34 @@ def _orifice_conductance(p: Any) -> float:
             + 2.0 * p.internal_leakage + p.external_leakage)
 
 
+def friction_bounds(p: Any) -> dict[str, float]:
+    """Bounds of the seals' LuGre friction over the state space (003 eq (11) as the steady
+    state): the smallest sliding level ``g_min = F_c``, the largest ``g_max = max(F_s, F_c)``,
+    the bristle deflection bound ``z_max = g_max / sigma0`` (LuGre keeps ``|z|`` inside it), the
+    bound of ``|v g'| / g`` (Gaussian curve,
+    :func:`~hydro_envs.laws.seal_friction.stribeck_slope_ratio_bound`) and the speed bound
+    ``v_max`` = 2 x the no-load velocity (the env's velocity limit). ``g_max = 0``: no dry
+    friction."""
+    g_max = max(p.static_friction, p.coulomb_friction)
+    v_nl = p.flow_coefficient * (1.0 + p.underlap) * math.sqrt(0.5 * (p.supply_pressure - p.tank_pressure)) \
+        / p.piston_area
+    return {"g_min": p.coulomb_friction, "g_max": g_max, "z_max": g_max / p.bristle_stiffness,
+            "slope_ratio": stribeck_slope_ratio_bound(p.coulomb_friction, p.static_friction, "gaussian"),
+            "v_max": _VELOCITY_FACTOR * v_nl}
+
+
+def friction_rate(p: Any) -> float:
+    """Upper bound [1/s] of the (velocity, bristle) block of the table on its seals over all
+    speeds (:func:`~hydro_envs.laws.seal_friction.bristle_stiffness_bound`, the lightest mass
+    ``M_b + M_s``, the viscous F_v as the other damping): the pre-sliding oscillation at rest
+    and the bristle relaxation at speed, capped at ``bristle_relaxation_cap``."""
+    b = friction_bounds(p)
+    v_d = dissipative_fade_velocity(p.bristle_damping, p.stribeck_velocity, p.coulomb_friction)
+    return bristle_stiffness_bound(b["g_min"], b["g_max"], b["slope_ratio"], p.bristle_stiffness, p.bristle_damping,
+                                   v_d, p.viscous_friction, p.platform_mass + p.specimen_mass, 1,
+                                   p.bristle_relaxation_cap, b["v_max"])
+
+
 def stiffness_modes(p: Any) -> dict[str, float]:
     """Upper estimates [1/s] of the modes that are stiff everywhere (module docstring):
 
@@ -79,8 +111,10 @@ def stiffness_modes(p: Any) -> dict[str, float]:
       :data:`SPOOL_H_OMEGA` (accuracy, not stability: stable up to ``h w_0 = 2.2``).
     * ``hydraulic``: oil springs on the lightest mass at the stroke end,
       ``sqrt(A^2 E_max (1/V_0 + 1/(V_0 + A L)) / M)``.
-    * ``friction``: slope of eq (11)-(12): ``F_s beta + F_v`` at v = 0 and the Stribeck dip's
-      steepest (negative) slope ``(F_s - F_c) sqrt(2/e) / v_s``, over M.
+    * ``friction``: the velocity-bristle block of the LuGre seals (:func:`friction_rate`): the
+      table's pre-sliding oscillation on its bristles at rest and the bristle relaxation at
+      speed, capped at ``bristle_relaxation_cap``; at least the Stribeck dip's steepest
+      (negative) slope of eq (11), ``(F_s - F_c) sqrt(2/e) / v_s / M``.
     * ``end_stop``: contact spring ``sqrt(k/M)`` plus its damping ``alpha F_max / M``.
 
     Not bounded, by design: a pressure-dependent modulus adds ``dP'/dP = (dE/dP) F / V`` (F the
@@ -97,7 +131,7 @@ def stiffness_modes(p: Any) -> dict[str, float]:
     return {
         "valve": p.valve_natural_frequency * STABLE_H_LAMBDA / SPOOL_H_OMEGA,
         "hydraulic": math.sqrt(k_h / m),
-        "friction": (max(p.static_friction * p.tanh_gain, dip) + p.viscous_friction) / m,
+        "friction": max(friction_rate(p), (dip + p.viscous_friction) / m),
         "end_stop": math.sqrt(p.stop_stiffness / m) + p.stop_damping * f_max / m,
     }
 

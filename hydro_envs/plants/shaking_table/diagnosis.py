@@ -8,11 +8,12 @@ value, draw range of hidden-effect records, value when absent, prerequisites, so
 nothing outside :mod:`hydro_envs`; the model is loaded when a function below is first called.
 
 Stribeck friction is kept here only for its null value (static = Coulomb level in the base
-model) and is never proposed (``diagnosable=False``): 003 eqs (11)-(12) multiply the whole
-friction curve by the soft sign tanh(7.33 v) (v_eps = 0.14 m/s), so the Stribeck excess is
-multiplied by <= 0.2 at any speed where it has not decayed; in simulated records with F_s =
-2 F_c hidden, the fitted Coulomb level absorbed it to within 4 % of the held-out error
-(measured while building the catalogue) -- the data cannot name it.
+model) and is never proposed (``diagnosable=False``): the catalogue was measured when the plant
+read eq (12)'s beta in s/m (the soft sign tanh(7.33 v), v_eps = 0.14 m/s), which multiplied the
+Stribeck excess by <= 0.2 at any speed where it had not decayed, and the fitted Coulomb level
+absorbed it to within 4 % of the held-out error. The plant now has LuGre seals whose steady
+state is eq (11) with the sign (beta read per mm/s, :class:`~.params.ShakingTableParams`); the
+Stribeck effect has not been re-measured for diagnosability since, so it stays unproposed.
 """
 
 from __future__ import annotations

@@ -10,7 +10,7 @@ from __future__ import annotations
 import numba as nb
 
 from hydro_envs.jit import njit_noalloc
-from hydro_envs.laws.friction import stribeck_gaussian
+from hydro_envs.laws.seal_friction import bristle_dissipation
 from hydro_envs.plants.shaking_table import model as st
 from hydro_envs.plants.shaking_table.model import shaking_table_guard as guard
 from hydro_envs.plants.shaking_table.model import shaking_table_rhs as rhs
@@ -24,15 +24,20 @@ N_BODIES = 1
 
 @njit_noalloc
 def mech_terms(y, p):
-    """Table and specimen: kinetic energy and stop spring; port A (p_a - p_b) v; friction
-    (003 eqs (11)-(12), memoryless: passive) and stop damping dissipate."""
+    """Table and specimen: kinetic energy, stop spring and the energy ``sigma0 z^2 / 2`` of the
+    seals' bristles; port A (p_a - p_b) v; the seal friction (LuGre with 003 eq (11) as its
+    steady state: its power less the bristles' stored-energy rate,
+    :func:`~hydro_envs.laws.seal_friction.bristle_dissipation`) and stop damping dissipate."""
     x = y[st.X]
     v = y[st.V]
+    z = y[st.Z]
     half = 0.5 * p[st.I_L]
-    ff = stribeck_gaussian(v, p[st.I_FC], p[st.I_FS], p[st.I_VS], p[st.I_FV], p[st.D_TANH_WIDTH])
+    s0 = p[st.I_SIG0]
+    ff, dz = st.seal_force(v, z, p)
+    d_f = bristle_dissipation(v, z, ff, dz, s0)
     u_st, d_st = stop_split(x, v, -half, half, p[st.I_KSTOP], p[st.I_ASTOP])
-    e = 0.5 * (p[st.I_MB] + p[st.I_MS]) * v * v + u_st
-    return e, p[st.I_A] * (y[st.PA] - y[st.PB]) * v, ff * v + d_st, abs(ff * v) + abs(d_st), u_st
+    e = 0.5 * (p[st.I_MB] + p[st.I_MS]) * v * v + u_st + 0.5 * s0 * z * z
+    return e, p[st.I_A] * (y[st.PA] - y[st.PB]) * v, d_f + d_st, abs(ff * v) + abs(s0 * z * dz) + abs(d_st), u_st
 
 
 @njit_noalloc

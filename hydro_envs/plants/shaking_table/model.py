@@ -18,6 +18,7 @@ State (SI, pressures absolute)::
     3      pb    Pa     chamber-b pressure
     4      xv    1      normalised spool position (+-1 = full stroke)
     5      vv    1/s    normalised spool velocity
+    6      z     m      bristle (pre-sliding) deflection of the seals (LuGre state)
 
 Input: ``u`` [V], valve command, +-10 V = full spool stroke.
 
@@ -30,9 +31,18 @@ Equations (numbers of 003)::
     P_a' = E_a / V_a (Q_a - Q_ia - Q_ea - A v),  V_a = V_0 + A (L/2 + x)             (6)
     P_b' = E_b / V_b (Q_b - Q_ib - Q_eb + A v),  V_b = V_0 + A (L/2 - x)             (7)
     Q_ia = C_il (P_a - P_b) = -Q_ib,  Q_ea = C_el (P_a - P_T),  Q_eb = C_el (P_b - P_T) (8)-(9)
-    M v' = A (P_a - P_b) - F_fric(v) + F_stop(x, v),  M = M_b + M_s                  (10)
-    F_fric = (F_C + (F_s - F_C) exp(-(v/v_s)^2)) tanh(beta v) + F_v v                 (11)-(12)
+    M v' = A (P_a - P_b) - F_fric + F_stop(x, v),  M = M_b + M_s                     (10)
+    F_fric = sigma0 z + sigma1(v) z' + F_v v,  z' = v - sigma0 |v| z / g(v)           (LuGre)
+    g(v) = F_C + (F_s - F_C) exp(-(v/v_s)^2)                                         (11)
     E = E_0 (constant) | E_IFAS(P) (13) | E_IFAS(P) h(P_a - P_b) (15)-(19)
+
+Friction: the seal-friction family of :mod:`hydro_envs.laws.seal_friction` (LuGre, n = 1,
+with its quasi-static limit above ``bristle_relaxation_cap``) with 003 eq (11) as its steady
+state: at constant v, ``F_fric = g(v) sign(v) + F_v v`` exactly -- eq (11) with the sign, the
+``beta -> infinity`` limit of eq (12). At v = 0 the seals hold the table on their bristle
+spring up to the breakaway force F_s, with the pre-sliding displacement ``F_s / sigma0``; the
+tanh of eq (12) (1/beta = 0.136 mm/s with beta read per mm/s, :class:`ShakingTableParams`)
+enters no kernel.
 
 ``sqrt~`` is the signed root ``sign(dp) sqrt(|dp|)`` of eqs (1)-(2) and (4), regularised below
 ``orifice_transition_pressure`` (:func:`hydro_envs.laws.orifice.regularized_signed_sqrt`) so
@@ -82,20 +92,23 @@ import numpy as np
 from hydro_envs.jit import NOALLOC_OPTIONS, njit_noalloc
 from hydro_envs.laws.bulk_modulus_fast import ifas_bulk_modulus_scaled, modified_ifas_shape_fast
 from hydro_envs.laws.contact import end_stop_force
-from hydro_envs.laws.friction import stribeck_gaussian
+from hydro_envs.laws.seal_friction import seal_friction
+from hydro_envs.libm import exp
 from hydro_envs.laws.orifice import (
     regularized_signed_sqrt,
     regularized_signed_sqrt_slope_bound,
     underlap_orifice_opening,
 )
 from hydro_envs.laws.valve import second_order_valve_acceleration
-from hydro_envs.plants.shaking_table.bounds import ACCURATE_H_LAMBDA, local_mode_rates, stiffness_modes
+from hydro_envs.plants.shaking_table.bounds import (  # noqa: F401  (re-exported)
+    ACCURATE_H_LAMBDA, friction_bounds, friction_rate, local_mode_rates, stiffness_modes,
+)
 from hydro_envs.plants.shaking_table.params import (  # noqa: F401  (re-exported)
     BULK_MODULUS_MODELS, D_EMAX, D_IFAS_ALPHA_KAPPA, D_IFAS_INV_KAPPA, D_IFAS_INV_M, D_IFAS_LN_P0, D_IFAS_M_E0,
-    D_IFAS_OIL_E0, D_INV_M, D_LOCAL, D_NOTCH_AMP, D_NOTCH_C2, D_NOTCH_FAR, D_NOTCH_ONE_C2, D_PAIR, D_TANH_WIDTH, I_A,
+    D_IFAS_OIL_E0, D_INV_M, D_LOCAL, D_NOTCH_AMP, D_NOTCH_C2, D_NOTCH_FAR, D_NOTCH_ONE_C2, D_PAIR, D_DFADE, I_A,
     I_ALPHA, I_ASTOP, I_BETA, I_CEL, I_CIL, I_DPTR, I_E0, I_FC, I_FS, I_FV, I_KAPPA, I_KSTOP, I_KU, I_L, I_L1, I_L2,
     I_M, I_MB, I_MODEL, I_MS, I_MU, I_P0, I_PFLOOR, I_PLT, I_PS, I_PT, I_R, I_U, I_UMAX, I_V0, I_VMIN, I_VS, I_W0,
-    I_ZETA,
+    I_ZETA, I_SIG0, I_SIG1, I_ZCAP,
     N_PARAMS, PLANT, PRESETS, SPECIMENS, ShakingTableParams,
 )
 from hydro_envs.sim.rk4 import STABLE_H_LAMBDA, local_substeps, worst_case_substeps
@@ -111,6 +124,10 @@ __all__ = [
     "shaking_table_rhs",
     "shaking_table_guard",
     "table_acceleration",
+    "friction_level",
+    "seal_force",
+    "friction_bounds",
+    "friction_rate",
     "valve_flows",
     "chamber_moduli",
     "stiffness_modes",
@@ -128,10 +145,10 @@ __all__ = [
     "ifas_relative_volume",
 ]
 
-STATE_NAMES = ("x", "v", "pa", "pb", "xv", "vv")
-STATE_UNITS = ("m", "m/s", "Pa", "Pa", "1", "1/s")
-N_STATES = 6
-X, V, PA, PB, XV, VV = range(N_STATES)
+STATE_NAMES = ("x", "v", "pa", "pb", "xv", "vv", "z")
+STATE_UNITS = ("m", "m/s", "Pa", "Pa", "1", "1/s", "m")
+N_STATES = 7
+X, V, PA, PB, XV, VV, Z = range(N_STATES)
 
 #: sensor outputs (noise-free): measured channel -> the state index it reads, and measured
 #: channel -> the state index whose time derivative it reads
@@ -196,24 +213,42 @@ def valve_flows(xv, pa, pb, p):
     return r * qa, r * qb
 
 
+@njit_noalloc
+def friction_level(v, p):
+    """Steady-state friction level ``g(v) = F_C + (F_s - F_C) exp(-(v/v_s)^2)`` [N] of 003 eq (11)
+    (without the sign; 0 without dry friction)."""
+    r = v / p[I_VS]
+    return p[I_FC] + (p[I_FS] - p[I_FC]) * exp(-r * r)
+
+
 @nb.njit(cache=True, error_model="numpy", inline="always")
-def _piston_force(x, v, pa, pb, p):
-    """Net force on the moving mass [N]: A (P_a - P_b) - F_fric + F_stop (003 eq (10))."""
+def seal_force(v, z, p):
+    """``(F_fric, dz/dt)``: the seals' friction force [N] and bristle rate [m/s], the family law
+    (:func:`~hydro_envs.laws.seal_friction.seal_friction`, LuGre n = 1) with 003 eq (11) as its
+    steady state and F_v as its viscous term."""
+    return seal_friction(v, z, friction_level(v, p), p[I_SIG0], p[I_SIG1], p[D_DFADE], p[I_FV], 1, p[I_ZCAP])
+
+
+@nb.njit(cache=True, error_model="numpy", inline="always")
+def _piston_force(x, v, z, pa, pb, p):
+    """``(net force on the moving mass [N], dz/dt)``: A (P_a - P_b) - F_fric + F_stop (003 eq (10))."""
     half = 0.5 * p[I_L]
-    f_fric = stribeck_gaussian(v, p[I_FC], p[I_FS], p[I_VS], p[I_FV], p[D_TANH_WIDTH])  # (11)-(12), 1/beta
+    f_fric, dz = seal_force(v, z, p)  # (11) as the LuGre steady state
     f_stop = end_stop_force(x, v, -half, half, p[I_KSTOP], p[I_ASTOP])
-    return p[I_A] * (pa - pb) - f_fric + f_stop
+    return p[I_A] * (pa - pb) - f_fric + f_stop, dz
 
 
 @njit_noalloc
 def table_acceleration(y, p):
     """Table acceleration dv/dt [m/s^2] of state ``y`` -- what the accelerometer reads."""
-    return _piston_force(y[X], y[V], y[PA], y[PB], p) * p[D_INV_M]
+    f, _ = _piston_force(y[X], y[V], y[Z], y[PA], y[PB], p)
+    return f * p[D_INV_M]
 
 
 @nb.njit(**NOALLOC_OPTIONS, inline="always")  # inlined into the step kernel: 4-5 % faster, +0.1 s to compile
 def shaking_table_rhs(y, u, p, dy):
-    """Time derivative ``dy`` of state ``y`` under command ``u[0]`` [V] (003 eqs (1)-(19))."""
+    """Time derivative ``dy`` of state ``y`` under command ``u[0]`` [V] (003 eqs (1)-(19); the
+    seals' bristle state by the family law with eq (11) as its steady state)."""
     x = y[X]
     v = y[V]
     pa = y[PA]
@@ -229,12 +264,14 @@ def shaking_table_rhs(y, u, p, dy):
         dpa = 0.0
     if pb <= p[I_PFLOOR] and dpb < 0.0:
         dpb = 0.0
+    f, dz = _piston_force(x, v, y[Z], pa, pb, p)
     dy[X] = v
-    dy[V] = _piston_force(x, v, pa, pb, p) * p[D_INV_M]  # (10)
+    dy[V] = f * p[D_INV_M]  # (10)
     dy[PA] = dpa
     dy[PB] = dpb
     dy[XV] = y[VV]
     dy[VV] = second_order_valve_acceleration(y[XV], y[VV], u[0], p[I_KU], p[I_W0], p[I_ZETA])  # (5)
+    dy[Z] = dz
 
 
 @njit_noalloc
@@ -358,7 +395,8 @@ def local_mode_substeps(y0, x, p, h, m):
     a kink of the metering openings (eq (3) at ``x_v = +-U``, the stroke limit at ``+-1``: the
     flow's slope jumps there, and RK4 across such a point loses its order), or the load pressure
     meets an edge of the modified-IFAS notch (eq (19), ``+-P_Lt`` within
-    :data:`NOTCH_EDGE_WIDTHS` ``/ mu``); else the count for the larger :func:`local_mode_rate`
+    :data:`NOTCH_EDGE_WIDTHS` ``/ mu``) or the table reverses (the LuGre seals' rate
+    ``v - sigma0 |v| z / g`` has a kink at v = 0, across which RK4 loses its order); else the count for the larger :func:`local_mode_rate`
     of the two (:func:`hydro_envs.sim.rk4.local_substeps`), 1 without the rates where
     :func:`_orifice_modes_surely_stable` says so."""
     ps = p[I_PS]
@@ -373,6 +411,8 @@ def local_mode_substeps(y0, x, p, h, m):
     u_lap = p[I_U]
     if (_crossed(s0, s1, -u_lap) or _crossed(s0, s1, u_lap) or _crossed(s0, s1, 1.0)
             or _crossed(s0, s1, -1.0)):  # a kink of the openings: eq (3) at +-U, the stroke limit
+        return m
+    if _crossed(y0[V], x[V], 0.0) and p[I_FS] > 0.0:  # a reversal: the seals' |v| kink (LuGre)
         return m
     if p[I_MODEL] > 1.5:  # does the load pressure's path meet a notch edge +-P_Lt (+- w)?
         lo = min(a0 - b0, a1 - b1)
@@ -454,7 +494,9 @@ def hydraulic_natural_frequency(
         omega_h^2 = A^2 (E_a / V_a + E_b / V_b) / M
 
     with E at the equilibrium pressures (default: the null pressure). The valve's
-    pressure-flow slope, leakage and friction add damping, not stiffness.
+    pressure-flow slope, leakage and viscous friction add damping, not stiffness; the LuGre
+    seals in stick add their bristle spring sigma0 (the oil column of the sliding table, or of
+    the plant without dry friction, is this one).
     """
     if pa is None or pb is None:
         pa = pb = null_pressure(params)

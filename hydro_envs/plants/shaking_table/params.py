@@ -33,6 +33,29 @@ class ShakingTableParams(PhysicalParams):
 
     Defaults: Table 1, Table 2 "modified IFAS" column (with the valid lambda_2), specimen
     200 kg. Named variants: :data:`PRESETS` / :meth:`preset`.
+
+    **Friction** (``003_54985feb8193da53.txt`` eqs (10)-(12), Table 2). Eq (11) is the steady
+    Stribeck law with ``sign(v)``; eq (12) replaces the sign by ``tanh(beta v)`` "for avoiding
+    discontinuity", as ``beta -> infinity``. Table 2 prints beta = 7.33 (5.8 for the IFAS
+    column) without a unit. *beta is read per mm/s* (7.33 s/mm = 7330 s/m):
+
+    * Physics and the paper's own intent: eq (12) is meant to be the sign. Read in s/m, tanh
+      reaches 0.76 only at 1/beta = 0.136 m/s -- ten times the fitted Stribeck velocity
+      v_s = 0.014 m/s and about the table's working speeds (003 sec. 1: LuGre is said valid
+      "under 0.15 m/s"). The Stribeck dip would then sit where tanh is still ~0.1: at 10 mm/s
+      it gives 76 N where eq (11) gives 987 N, and F_s, v_s would hardly enter the force.
+    * The fit: NLSM (eqs (20)-(22)) could not identify F_s = 1254 N and v_s = 0.014 m/s (nor
+      tell them from F_c and F_v) if the sign were smeared over 0.136 m/s: the exponential
+      term would be multiplied by tanh(7.33 v) <= 0.25 wherever it is non-negligible. Figure 6
+      (bottom) shows the fitted eq (11) as a Stribeck curve with a distinct static peak, which
+      needs 1/beta << v_s. Per mm/s, 1/beta = 0.136 mm/s = v_s / 100: a near-sign law, and
+      the fitted F_s, v_s act as printed (the IFAS column: 1/beta = 0.17 mm/s vs v_s = 80 mm/s).
+
+    The plant uses the family's stick-capable dynamic law
+    (:mod:`hydro_envs.laws.seal_friction`, LuGre n = 1) whose steady state is eq (11) with the
+    sign exactly, so beta enters no kernel; it stays a field for the static reference law and
+    the identification's sign width ``1/beta``. Bristle stiffness and micro-damping are not in
+    003 (it uses the static law, sec. 1): assumed from the literature (fields' sources).
     """
 
     plant = PLANT
@@ -83,7 +106,31 @@ class ShakingTableParams(PhysicalParams):
         0.014, "m/s", (1e-5, 10.0), "003 Table 2 (modified IFAS): v_s"
     )
     tanh_gain: float = physical(
-        7.33, "s/m", (0.0, 1e6), "003 Table 2 (modified IFAS): beta of tanh(beta v), eq (12)", open_low=True
+        7330.0, "s/m", (0.0, 1e7),
+        "003 Table 2 (modified IFAS): beta = 7.33 of tanh(beta v), eq (12), read per mm/s (7.33 s/mm = "
+        "7330 s/m; ShakingTableParams docstring); the dynamic law does not use it (its steady state is "
+        "eq (11) with the sign itself); kept as the sign width 1/beta of the static fit",
+        open_low=True,
+    )
+    bristle_stiffness: float = physical(
+        4e7, "N/m", (1e4, 1e10),
+        "assumed: LuGre sigma0 of the CGH2 piston and rod seals (003 uses the static law eq (11)); "
+        "pre-sliding displacement F_s/sigma0 = 31 um, inside the 10-100 um of elastomer hydraulic "
+        "seals (the force actuator's 001 seals: 26 um; servo cylinder 30 um)",
+    )
+    bristle_damping: float = physical(
+        3.7e5, "N s/m", (0.0, 1e8),
+        "assumed: LuGre sigma1 = 2 sqrt(sigma0 M), critically damped pre-sliding oscillation of the "
+        "850 kg table (200 kg specimen) on its seals (Astrom and Canudas de Wit 2008); fades with "
+        "speed as exp(-(v/v_d)^2), v_d = v_s or less (hydro_envs.laws.seal_friction), which keeps "
+        "the law dissipative",
+    )
+    bristle_relaxation_cap: float = physical(
+        2000.0, "1/s", (0.0, 1e7),
+        "assumed (numerics): bristle relaxation faster than this is taken as instantaneous, the "
+        "quasi-static limit of LuGre (hydro_envs.laws.seal_friction): 1/(0.5 ms), one 0.5 ms sub-step "
+        "(h a <= 1: RK4 follows the relaxation within 2 %); LuGre exactly below |v| = cap F_c / sigma0 = "
+        "29 mm/s (2 v_s); 0 = none",
     )
     bulk_modulus_model: float = physical(
         2.0, "1", (0.0, 2.0), "003 sec. 3.3: 0 constant E_0, 1 IFAS eq (13), 2 modified IFAS eqs (15)-(19)"
@@ -126,6 +173,12 @@ class ShakingTableParams(PhysicalParams):
                 f"{name}.static_friction = {self.static_friction} must be >= coulomb_friction = "
                 f"{self.coulomb_friction} (Stribeck: F_s >= F_c)"
             )
+        if self.static_friction > 0.0 and not self.coulomb_friction > 0.0:
+            raise ParameterError(
+                f"{name}.coulomb_friction = {self.coulomb_friction} must be > 0 when static_friction = "
+                f"{self.static_friction} > 0 (the LuGre level must stay positive at speed); set both to 0 "
+                "for seals without dry friction"
+            )
         if not (self.pressure_floor < self.tank_pressure < self.supply_pressure):
             raise ParameterError(
                 f"{name}: need pressure_floor < tank_pressure < supply_pressure, got "
@@ -160,7 +213,7 @@ class ShakingTableParams(PhysicalParams):
     derived_names: ClassVar[tuple[str, ...]] = (
         "modulus_max", "local_rate", "air_release_pressure", "inv_mass",
         "ifas_m_over_e0", "ifas_inv_m", "ifas_inv_kappa", "ifas_ln_p0", "ifas_oil_over_e0", "ifas_alpha_over_kappa",
-        "notch_amplitude", "notch_c2", "notch_one_plus_c2", "notch_far", "tanh_width",
+        "notch_amplitude", "notch_c2", "notch_one_plus_c2", "notch_far", "micro_damping_velocity",
     )
 
     def derived_columns(self) -> list[float]:
@@ -169,12 +222,17 @@ class ShakingTableParams(PhysicalParams):
         (:mod:`.bounds`), ``1/M``, and the parameter-only terms of the IFAS law (eq (13),
         :func:`~hydro_envs.laws.bulk_modulus_fast.ifas_constants`) and of the notch's shape (eq
         (19), :func:`~hydro_envs.laws.bulk_modulus_fast.modified_ifas_shape_constants`), and the
-        width ``1/beta`` [m/s] of the friction's tanh sign (eq (12)); the laws' Python bodies, so
-        that making a parameter set compiles nothing."""
+        speed [m/s] over which the seals' micro-damping fades (the Stribeck velocity or less where
+        that keeps the friction dissipative,
+        :func:`~hydro_envs.laws.seal_friction.dissipative_fade_velocity` at the Coulomb level); the
+        laws' Python bodies, so that making a parameter set compiles nothing."""
+        from hydro_envs.laws.seal_friction import dissipative_fade_velocity
+
         ifas = ifas_constants.py_func(self.e0, self.p0, self.oil_exponent, self.air_content, self.polytropic_exponent)
         notch = modified_ifas_shape_constants.py_func(self.lambda_1, self.lambda_2, self.mu, self.threshold_pressure)
         return [modulus_upper_bound(self), max(local_mode_rates(self).values()), air_release_pressure(self),
-                1.0 / self.mass, *ifas, *notch, 1.0 / self.tanh_gain]
+                1.0 / self.mass, *ifas, *notch,
+                dissipative_fade_velocity(self.bristle_damping, self.stribeck_velocity, self.coulomb_friction)]
 
     # ------------------------------------------------------------------ presets
     @property
@@ -209,7 +267,7 @@ PRESETS: dict[str, dict[str, float]] = {
         "static_friction": 952.6,
         "viscous_friction": 153.4,
         "stribeck_velocity": 0.08,
-        "tanh_gain": 5.8,
+        "tanh_gain": 5800.0,
         "e0": 4.7e8,
         "p0": 8.7 * _BAR,
         "oil_exponent": 7.88,
@@ -227,16 +285,17 @@ SPECIMENS: dict[str, float] = {"none": 0.0, "200kg": 200.0, "500kg": 500.0}
 # Column indices of the packed parameter array (declaration order of the dataclass).
 (
     I_PS, I_PT, I_MB, I_MS, I_A, I_L, I_V0, I_R, I_U, I_KU, I_UMAX, I_W0, I_ZETA, I_CIL, I_CEL,
-    I_FC, I_FS, I_FV, I_VS, I_BETA, I_MODEL, I_E0, I_P0, I_M, I_ALPHA, I_KAPPA, I_L1, I_L2, I_MU,
+    I_FC, I_FS, I_FV, I_VS, I_BETA, I_SIG0, I_SIG1, I_ZCAP, I_MODEL, I_E0, I_P0, I_M, I_ALPHA, I_KAPPA, I_L1, I_L2, I_MU,
     I_PLT, I_KSTOP, I_ASTOP, I_DPTR, I_PFLOOR, I_VMIN,
-) = range(35)
-N_FIELDS = 35
+) = range(38)
+N_FIELDS = 38
 assert ShakingTableParams.names()[I_VMIN] == "min_chamber_volume"
 assert ShakingTableParams.names()[I_MODEL] == "bulk_modulus_model"
+assert ShakingTableParams.names()[I_SIG1] == "bristle_damping"
 assert len(ShakingTableParams.names()) == N_FIELDS
 #: derived columns (:meth:`ShakingTableParams.derived_columns`)
 (
     D_EMAX, D_LOCAL, D_PAIR, D_INV_M, D_IFAS_M_E0, D_IFAS_INV_M, D_IFAS_INV_KAPPA, D_IFAS_LN_P0, D_IFAS_OIL_E0,
-    D_IFAS_ALPHA_KAPPA, D_NOTCH_AMP, D_NOTCH_C2, D_NOTCH_ONE_C2, D_NOTCH_FAR, D_TANH_WIDTH,
+    D_IFAS_ALPHA_KAPPA, D_NOTCH_AMP, D_NOTCH_C2, D_NOTCH_ONE_C2, D_NOTCH_FAR, D_DFADE,
 ) = range(N_FIELDS, N_FIELDS + len(ShakingTableParams.derived_names))
 N_PARAMS = N_FIELDS + len(ShakingTableParams.derived_names)

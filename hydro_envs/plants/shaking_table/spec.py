@@ -23,9 +23,16 @@ SPEC = PlantSpec(
             "hydro_envs.envs.shaking_table:ShakingTableVectorEnv",
             6000,
         ),
+        EnvEntry(
+            "hydro_envs/ShakingTableLowFrequency-v0",
+            "hydro_envs.envs.shaking_table:ShakingTableLowFrequencyEnv",
+            "hydro_envs.envs.shaking_table:ShakingTableLowFrequencyVectorEnv",
+            8000,
+        ),
     ),
     stroke_parameter="stroke",
     pressure_parameter="supply_pressure",
     # assumed: 003 records at 1 kHz; coarser than 100 Hz misses the table's oil-column resonance
     max_sample_time=0.01,
+    dry_friction_parameters=("coulomb_friction", "static_friction"),
 )
