@@ -19,6 +19,10 @@ from hydro_envs.params import ParameterError
 
 #: random-action steps per range end (the non-finite cases this guards against diverge in < 120)
 STEPS = 150
+#: range ends the plant steps on but an env refuses by name, with the reason
+ENV_REFUSALS = {
+    ("shaking_table", "flow_coefficient", "low"): "a sealed valve (the plant's physics tests) moves no table",
+}
 
 
 def _env_of(plant: str) -> str:
@@ -45,11 +49,14 @@ def _cases():
     return [pytest.param(p, id=p) for p in plants]
 
 
-def _step_at(env_id: str, name: str, value: float) -> str:
-    """``""`` when the env steps finitely, else what went wrong."""
+def _step_at(env_id: str, name: str, value: float, by_name: bool = False) -> str:
+    """``""`` when the env steps finitely (or, ``by_name``, refuses the value naming it), else
+    what went wrong."""
     try:
         env = gym.make(env_id, randomize=False, params={name: value})
     except ParameterError as exc:
+        if by_name and f"{name} = " in str(exc):
+            return ""
         others = str(exc).replace(name, "")
         return "" if any(f in others for f in env_fields(env_id) if f != name) else f"refused: {exc}"
     except Exception as exc:  # noqa: BLE001 - every other error is a finding
@@ -64,6 +71,8 @@ def _step_at(env_id: str, name: str, value: float) -> str:
             if term or trunc:
                 env.reset(seed=k)
     except Exception as exc:  # noqa: BLE001
+        if by_name and isinstance(exc, ParameterError) and f"{name} = " in str(exc):
+            return ""
         return f"{type(exc).__name__}: {str(exc)[:200]}"
     finally:
         env.close()
@@ -81,7 +90,7 @@ def test_every_range_end_steps_finitely(plant):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         for name, end, value in _ends(registry.get(plant).params_cls):
-            why = _step_at(env_id, name, value)
+            why = _step_at(env_id, name, value, by_name=(plant, name, end) in ENV_REFUSALS)
             if why:
                 bad.append(f"{name} = {value:g} ({end} end): {why}")
     assert not bad, f"{plant}: range ends the plant does not step on:\n" + "\n".join(bad)

@@ -97,7 +97,12 @@ def reference_limits(
       6.3 m/s^2 with 500 kg).
     """
     from hydro_envs.plants.shaking_table.model import max_drive_force, no_load_velocity
+    from hydro_envs.params import ParameterError
 
+    if not params.flow_coefficient > 0.0:
+        raise ParameterError(
+            f"ShakingTableParams.flow_coefficient = {params.flow_coefficient} m^3/(s Pa^0.5): a sealed valve "
+            "(the plant's physics tests use it) moves no table; an env's references need flow_coefficient > 0")
     f_avail = max(max_drive_force(params) - params.static_friction, 1e-6)
     return ReferenceLimits(
         displacement=displacement_fraction * 0.5 * params.stroke,

@@ -81,7 +81,7 @@ class ShakingTableParams(PhysicalParams):
         open_low=True,
     )
     flow_coefficient: float = physical(
-        1.28e-7, "m^3/(s Pa^0.5)", (1e-10, 2e-5),
+        1.28e-7, "m^3/(s Pa^0.5)", (0.0, 2e-5),
         "003 Table 1: R = C_d w / sqrt(rho) per unit normalised opening (20.3 l/min at 70 bar/edge)",
     )
     underlap: float = physical(0.005, "1", (0.0, 0.5), "003 Table 1: U = 0.005 (normalised spool underlap)")
@@ -99,8 +99,8 @@ class ShakingTableParams(PhysicalParams):
     external_leakage: float = physical(
         4.05e-14, "m^3/(s Pa)", (0.0, 1e-9), "003 Table 2: C_el (both columns)"
     )
-    coulomb_friction: float = physical(573.72, "N", (0.0, 1e5), "003 Table 2 (modified IFAS): F_c")
-    static_friction: float = physical(1254.16, "N", (0.0, 1e5), "003 Table 2 (modified IFAS): F_s")
+    coulomb_friction: float = physical(573.72, "N", (0.0, 2e4), "003 Table 2 (modified IFAS): F_c")
+    static_friction: float = physical(1254.16, "N", (0.0, 2e4), "003 Table 2 (modified IFAS): F_s")
     viscous_friction: float = physical(429.4, "N s/m", (0.0, 1e6), "003 Table 2 (modified IFAS): F_v")
     stribeck_velocity: float = physical(
         0.014, "m/s", (1e-5, 10.0), "003 Table 2 (modified IFAS): v_s"
