@@ -163,18 +163,38 @@ def seal_friction(v, z, g, sigma0, sigma1, v_d, sigma2, exponent, rate_cap):
     ``F = eps sigma0 z + (1 - eps) g sgn(v) + sigma1(v) dz/dt + sigma2 v``, ``dz/dt = eps``
     :func:`bristle_rate`, with :func:`micro_damping` and the quasi-static weight ``eps``
     (:func:`quasi_static_weight`; 1, i.e. plain LuGre or Dahl, for ``rate_cap <= 0``); for
-    ``g <= 0`` (no dry friction) ``(sigma2 v, 0)``.
+    ``g <= 0`` (no dry friction) ``(sigma2 v, 0)``. Written out once (the fading factor
+    ``exp(-(v/v_d)^2)`` left out where it is below 1e-300): those functions composed.
     Units: v [m/s], z [m], g [N], sigma0 [N/m], sigma1 and sigma2 [N s/m], v_d [m/s],
     rate_cap [1/s].
     """
     if not g > 0.0:
         return sigma2 * v, 0.0
-    eps = quasi_static_weight(v, z, g, sigma0, exponent, rate_cap)
-    dz = eps * bristle_rate(v, z, g, sigma0, exponent)
     f = sigma0 * z
-    if eps < 1.0:
-        f = eps * f + (1.0 - eps) * (g if v > 0.0 else -g)
-    return f + micro_damping(v, sigma1, v_d) * dz + sigma2 * v, dz
+    if v == 0.0:  # the bristles hold: a spring, eps = 1, dz/dt = 0
+        return f, 0.0
+    s = 1.0 if v > 0.0 else -1.0
+    u = 1.0 - sigma0 * z * s / g
+    av = abs(v)
+    if exponent == 2:
+        dz = v * u * abs(u)
+        a = 2.0 * (sigma0 * av / g) * abs(u)
+    else:
+        dz = v * u
+        a = sigma0 * av / g
+    if rate_cap > 0.0 and a > rate_cap:
+        eps = rate_cap / a
+        dz *= eps
+        f = eps * f + (1.0 - eps) * g * s
+    if sigma1 != 0.0:
+        if v_d > 0.0:
+            r = v / v_d
+            r2 = r * r
+            if r2 < 690.0:
+                f += sigma1 * exp(-r2) * dz
+        else:
+            f += sigma1 * dz
+    return f + sigma2 * v, dz
 
 
 @numba.njit(cache=True, error_model="numpy", inline="always")
@@ -247,10 +267,19 @@ def bristle_stiffness_bound(g_min: float, g_max: float, slope_ratio: float, sigm
     ``g_max <= 0`` (no dry friction): ``damping / mass``. Python (parameter analysis)."""
     if not g_max > 0.0:
         return damping / mass
-    z = g_max / sigma0
-    speeds = [0.0] + [v_max * 10.0 ** (-6.0 + 6.0 * i / 399.0) for i in range(400)]
-    f = bristle_block_rate_bound.py_func
-    return max(f(v, z, g_min, slope_ratio, sigma0, sigma1, v_d, damping, mass, exponent, rate_cap) for v in speeds)
+    return float(_bristle_bound_over_speeds(g_min, g_max / sigma0, slope_ratio, sigma0, sigma1, v_d, damping, mass,
+                                            int(exponent), rate_cap, v_max))
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _bristle_bound_over_speeds(g_min, z, slope_ratio, sigma0, sigma1, v_d, damping, mass, exponent, rate_cap, v_max):
+    """:func:`bristle_block_rate_bound` at 0 and 400 log-spaced speeds from 1e-6 ``v_max``: the largest."""
+    out = bristle_block_rate_bound(0.0, z, g_min, slope_ratio, sigma0, sigma1, v_d, damping, mass, exponent, rate_cap)
+    for i in range(400):
+        v = v_max * 10.0 ** (-6.0 + 6.0 * i / 399.0)
+        out = max(out, bristle_block_rate_bound(v, z, g_min, slope_ratio, sigma0, sigma1, v_d, damping, mass,
+                                                exponent, rate_cap))
+    return out
 
 
 def stribeck_slope_ratio_bound(f_c: float, f_s: float, shape: str) -> float:
