@@ -272,7 +272,7 @@ def test_quasi_static_limit_keeps_the_steady_state_and_is_dissipative():
     for v in (-0.8, -0.2, 0.09, 0.5, 1.2):
         g = sf.stribeck_curve_exponential(v, FC, FS, VS)
         f, dz = law(v, g * math.copysign(1.0, v) / s0, g, s0, s1, VS, S2, 1, CAP)
-        assert dz == 0.0
+        assert abs(dz) <= 1e-15 * abs(v)  # zero to rounding
         assert f == pytest.approx(g * math.copysign(1.0, v) + S2 * v, rel=1e-12)
     for n in (1, 2):
         for _ in range(3000):

@@ -92,6 +92,11 @@ __all__ = [
 ]
 
 
+#: exponent beyond which a fading term ``exp(-x)`` of the law is left out (exp(-40) = 4e-18: the
+#: term is then below the rounding of the level it is added to)
+FADE_CUTOFF = 40.0
+
+
 @numba.njit(cache=True, error_model="numpy")
 def stribeck_curve_exponential(v, f_c, f_s, v_s):
     """Exponential Stribeck level ``g(v) = f_c + (f_s - f_c) exp(-|v| / v_s)`` [N].
@@ -163,8 +168,9 @@ def seal_friction(v, z, g, sigma0, sigma1, v_d, sigma2, exponent, rate_cap):
     ``F = eps sigma0 z + (1 - eps) g sgn(v) + sigma1(v) dz/dt + sigma2 v``, ``dz/dt = eps``
     :func:`bristle_rate`, with :func:`micro_damping` and the quasi-static weight ``eps``
     (:func:`quasi_static_weight`; 1, i.e. plain LuGre or Dahl, for ``rate_cap <= 0``); for
-    ``g <= 0`` (no dry friction) ``(sigma2 v, 0)``. Written out once (the fading factor
-    ``exp(-(v/v_d)^2)`` left out where it is below 1e-300): those functions composed.
+    ``g <= 0`` (no dry friction) ``(sigma2 v, 0)``. Written out once: those functions composed,
+    the fading factor ``exp(-(v/v_d)^2)`` left out beyond :data:`FADE_CUTOFF` (below 4e-18,
+    under the rounding of ``F``).
     Units: v [m/s], z [m], g [N], sigma0 [N/m], sigma1 and sigma2 [N s/m], v_d [m/s],
     rate_cap [1/s].
     """
@@ -174,14 +180,15 @@ def seal_friction(v, z, g, sigma0, sigma1, v_d, sigma2, exponent, rate_cap):
     if v == 0.0:  # the bristles hold: a spring, eps = 1, dz/dt = 0
         return f, 0.0
     s = 1.0 if v > 0.0 else -1.0
-    u = 1.0 - sigma0 * z * s / g
+    k = sigma0 / g  # the one division
+    u = 1.0 - k * z * s
     av = abs(v)
     if exponent == 2:
         dz = v * u * abs(u)
-        a = 2.0 * (sigma0 * av / g) * abs(u)
+        a = 2.0 * (k * av) * abs(u)
     else:
         dz = v * u
-        a = sigma0 * av / g
+        a = k * av
     if rate_cap > 0.0 and a > rate_cap:
         eps = rate_cap / a
         dz *= eps
@@ -190,7 +197,7 @@ def seal_friction(v, z, g, sigma0, sigma1, v_d, sigma2, exponent, rate_cap):
         if v_d > 0.0:
             r = v / v_d
             r2 = r * r
-            if r2 < 690.0:
+            if r2 < FADE_CUTOFF:
                 f += sigma1 * exp(-r2) * dz
         else:
             f += sigma1 * dz

@@ -78,7 +78,12 @@ import numpy as np
 
 from hydro_envs.jit import njit_noalloc
 from hydro_envs.laws.contact import end_stop_force
-from hydro_envs.laws.seal_friction import bristle_stiffness_bound, seal_friction, stribeck_slope_ratio_bound
+from hydro_envs.laws.seal_friction import (
+    FADE_CUTOFF,
+    bristle_stiffness_bound,
+    seal_friction,
+    stribeck_slope_ratio_bound,
+)
 from hydro_envs.sim.stiffness import second_order_pole_magnitude
 from hydro_envs.laws.orifice import orifice_flow, spool_edge_opening, supply_pressure_at_flow
 from hydro_envs.laws.valve import second_order_valve_acceleration
@@ -195,7 +200,11 @@ def friction_level(v, dp, p):
     (asymmetry ``a`` and pressure coefficient ``c_p`` 0 in the seed; 0 without dry friction)."""
     s = 1.0 if v > 0.0 else (-1.0 if v < 0.0 else 0.0)
     level = 1.0 + p[I_FASYM] * s
-    return level * (p[I_FC] + p[I_FPC] * abs(dp) + (p[I_FS] - p[I_FC]) * exp(-abs(v) / p[I_VS]))
+    g = p[I_FC] + p[I_FPC] * abs(dp)
+    r = abs(v) / p[I_VS]
+    if r < FADE_CUTOFF:  # the Stribeck dip; beyond, below the rounding of g
+        g += (p[I_FS] - p[I_FC]) * exp(-r)
+    return level * g
 
 
 @njit_noalloc
