@@ -434,7 +434,7 @@ def test_reset_params_override_errors():
     env = gym.make(ENV_ID)
     with pytest.raises(ParameterError, match="no_such_param"):
         env.reset(seed=0, options={"params": {"no_such_param": 1.0}})
-    with pytest.raises(ParameterError, match=r"mass.*\(0, 10000\] kg"):
+    with pytest.raises(ParameterError, match=r"mass.*\[0.05, 10000\] kg"):
         env.reset(seed=0, options={"params": {"mass": -1.0}})
     with pytest.raises(ParameterError, match="bulk_modulus"):
         env.reset(seed=0, options={"params": {"bulk_modulus": float("nan")}})

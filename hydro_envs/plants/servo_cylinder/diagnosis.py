@@ -68,7 +68,7 @@ _EFFECTS = {
         null={"coulomb_friction": 0.0},
         source=f"{_SERVO} eq (1) F_C; range: tens of N for a 6.63 cm^2 seal set"),
     "stribeck": dict(
-        parameters=(dict(field="static_friction", bounds=(0.5, 4e3), start=1.6, draw=(1.4, 2.2),
+        parameters=(dict(field="static_friction", bounds=(0.5, 3e3), start=1.6, draw=(1.4, 2.2),
                          relative_to="coulomb_friction"),
                     dict(field="stribeck_velocity", bounds=(5e-4, 0.5), start=0.01, draw=(5e-3, 2e-2))),
         null={"static_friction": "coulomb_friction"}, requires=("coulomb",),

@@ -69,7 +69,7 @@ _EFFECTS = {
         null={"coulomb_friction": 0.0},
         source=f"{_TABLE} eq (11) F_c; Table 2: 573.7 N (modified IFAS), 531.9 N (IFAS)"),
     "stribeck": dict(
-        parameters=(dict(field="static_friction", bounds=(5.0, 4e4), start=1.8, draw=(1.5, 2.4),
+        parameters=(dict(field="static_friction", bounds=(5.0, 2e4), start=1.8, draw=(1.5, 2.4),
                          relative_to="coulomb_friction"),
                     dict(field="stribeck_velocity", bounds=(1e-3, 0.5), start=0.06, draw=(0.04, 0.1))),
         null={"static_friction": "coulomb_friction"}, requires=("coulomb",),
