@@ -150,7 +150,7 @@ class FeedForwardFriction:
         """Friction force [N] at velocities ``v`` [m/s] (numpy)."""
         v = np.asarray(v, dtype=float)
         z = v[..., None] / self.v_scale
-        return self.f_scale * (self.b2 + np.tanh(z * self.w1 + self.b1) @ self.w2)
+        return self.f_scale * (self.b2 + _dot_last(np.tanh(z * self.w1 + self.b1), self.w2))
 
     __call__ = predict
 
@@ -180,6 +180,12 @@ class FeedForwardFriction:
         return {"kind": self.kind, "w1": self.w1.tolist(), "b1": self.b1.tolist(),
                 "w2": self.w2.tolist(), "b2": self.b2, "v_scale": self.v_scale,
                 "f_scale": self.f_scale, "metrics": dict(self.metrics)}
+
+
+def _dot_last(a: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """``a @ w`` over the last axis as numpy's own sum: the same bits on every run (a threaded
+    BLAS product may sum in a load-dependent order, and a fit or a closed loop amplifies that)."""
+    return (a * w).sum(axis=-1)
 
 
 def _nguyen_widrow(rng: np.random.Generator, n_hidden: int) -> np.ndarray:
@@ -228,7 +234,7 @@ def fit_feedforward(
 
     def resid(w):
         w1, b1, w2, b2 = unpack(w)
-        return b2 + np.tanh(np.outer(z, w1) + b1) @ w2 - y
+        return b2 + _dot_last(np.tanh(np.outer(z, w1) + b1), w2) - y
 
     def jac(w):
         w1, b1, w2, _ = unpack(w)
@@ -280,7 +286,7 @@ class RBFFriction:
     def predict(self, v: Any) -> np.ndarray:
         v = np.asarray(v, dtype=float)
         r = (v[..., None] / self.v_scale - self.centres) / self.widths
-        return self.f_scale * (self.bias + np.exp(-r * r) @ self.weights)
+        return self.f_scale * (self.bias + _dot_last(np.exp(-r * r), self.weights))
 
     __call__ = predict
 
