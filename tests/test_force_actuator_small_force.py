@@ -69,7 +69,7 @@ def test_stiction_decides_the_pid_error():
 def test_virtual_friction_test_identifies_the_seals():
     """The closed-form Dahl loading branch gives back the plant's static levels and bristle
     stiffness; the slide gives its Coulomb level; the test shows Table 2's breakaway."""
-    from agents.controllers.force_friction import identify_seal_friction, valve_force_gain
+    from agents.controllers.force_actuator import identify_seal_friction, valve_force_gain
     from hydro_envs.plants.force_actuator.params import ForceActuatorParams
 
     p = ForceActuatorParams()
@@ -87,11 +87,11 @@ def test_virtual_friction_test_identifies_the_seals():
 def test_dahl_feedforward_pays_against_its_blind_twin():
     """pid_dahl vs pid (its blind twin) on the same draws and episodes: well below the PID's error."""
     from agents.benchmark import draw_parameters, rollout
-    from agents.controllers import force_friction
+    from agents.controllers import force_actuator
     from agents.controllers.force_actuator import ForcePIDController
 
     draws = draw_parameters(ENV_ID, "in", 6, 0)
     base = rollout(ENV_ID, ForcePIDController.from_params(), draws, seed=0)
-    dahl = rollout(ENV_ID, force_friction.controllers()["pid_dahl"](), draws, seed=0)
+    dahl = rollout(ENV_ID, force_actuator.controllers()["pid_dahl"](), draws, seed=0)
     ratio = math.sqrt(np.mean((dahl.y - dahl.ref) ** 2) / np.mean((base.y - base.ref) ** 2))
     assert ratio < 0.6, ratio
