@@ -25,7 +25,8 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["ANTI_WINDUP", "BaseController", "PIDCore", "check_positive"]
+__all__ = [
+    "bristle_step_at_frozen_velocity","ANTI_WINDUP", "BaseController", "PIDCore", "check_positive"]
 
 ANTI_WINDUP = ("back_calculation", "conditional", "none")
 
@@ -153,3 +154,13 @@ class ZeroController:
         if obs.ndim == 1:
             return np.zeros(self.action_dim, dtype=np.float32), state
         return np.zeros((obs.shape[0], self.action_dim), dtype=np.float32), state
+
+
+def bristle_step_at_frozen_velocity(z: np.ndarray, v: np.ndarray, g: np.ndarray, sigma0: float,
+                                    t: float) -> np.ndarray:
+    """LuGre bristle deflection [m] after ``t`` seconds at frozen velocity ``v`` [m/s]: the exact
+    solution of ``dz/dt = v - sigma0 |v| z / g`` (level ``g`` [N], stiffness ``sigma0`` [N/m]),
+    ``z_ss + (z - z_ss) exp(-sigma0 |v| t / g)`` with ``z_ss = sgn(v) g / sigma0``."""
+    z_ss = np.sign(v) * g / sigma0
+    return z_ss + (z - z_ss) * np.exp(-(sigma0 * np.abs(v) / g) * t)
+

@@ -50,7 +50,7 @@ from typing import Any
 
 import numpy as np
 
-from agents.controllers.core import BaseController, PIDCore, check_positive
+from agents.controllers.core import BaseController, PIDCore, bristle_step_at_frozen_velocity, check_positive
 from hydro_envs.plants.shaking_table import model as st
 from hydro_envs.plants.shaking_table.params import ShakingTableParams
 
@@ -308,8 +308,7 @@ class TableLuGreFlowController(TableFlowController):
 
     def _advance(self, z: np.ndarray, v: np.ndarray, t: float) -> np.ndarray:
         g = self.f_c + (self.f_s - self.f_c) * np.exp(-((v / self.v_s) ** 2))
-        z_ss = np.sign(v) * g / self.sigma0
-        return z_ss + (z - z_ss) * np.exp(-self.sigma0 * np.abs(v) / g * t)
+        return bristle_step_at_frozen_velocity(z, v, g, self.sigma0, t)
 
     def _lugre(self, v: np.ndarray) -> np.ndarray:
         """Called twice per step by :meth:`TableFlowController._act`: first at ``v_ref`` (advance

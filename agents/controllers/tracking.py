@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from agents.controllers.core import ANTI_WINDUP, BaseController, PIDCore
+from agents.controllers.core import ANTI_WINDUP, BaseController, PIDCore, bristle_step_at_frozen_velocity
 
 __all__ = ["TrackingPID", "PressureLoopPID", "FrictionObserver", "LuGreFeedforward", "LuGreObserver", "ANTI_WINDUP", "DT",
            "PREVIEW_DT"]
@@ -243,10 +243,8 @@ class LuGreFeedforward:
     def friction_target(self, v: np.ndarray, dp: np.ndarray, obs: np.ndarray) -> np.ndarray:
         g = self.f_c + (self.f_s - self.f_c) * np.exp(-np.abs(v) / self.v_s)
         a = self.sigma0 * np.abs(v) / g
-        z_ss = np.sign(v) * g / self.sigma0
-        decay = np.exp(-a * self.dt)  # type: ignore[attr-defined]
         corr = self.bristle_correction(obs)
-        self._z = z_ss + (self._z - z_ss) * decay + corr * self.dt  # type: ignore[attr-defined]
+        self._z = bristle_step_at_frozen_velocity(self._z, v, g, self.sigma0, self.dt) + corr * self.dt  # type: ignore[attr-defined]
         z_max = max(self.f_s, self.f_c) / self.sigma0
         self._z = np.clip(self._z, -z_max, z_max)
         dz = v - a * self._z + corr

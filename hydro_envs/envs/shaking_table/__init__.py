@@ -477,13 +477,9 @@ class ShakingTableLowFrequencyBatch(ShakingTableBatch):
         super().reset_task(i, rng, p, opts)
 
 
-class ShakingTableLowFrequencyEnv(BatchedEnv):
+class ShakingTableLowFrequencyEnv(ShakingTableEnv):
     __doc__ = ShakingTableLowFrequencyBatch.__doc__
     batch_cls = ShakingTableLowFrequencyBatch
-
-    def sensor_values(self) -> dict[str, float]:
-        """Measured position [m], acceleration [m/s^2] and velocity estimate [m/s]."""
-        return self._batch.sensor_values(0)
 
 
 class ShakingTableLowFrequencyVectorEnv(ShakingTableVectorEnv):
