@@ -314,3 +314,29 @@ def test_quasi_static_limit_against_lugre():
     assert np.abs(y_lugre[1]).max() > 0.3  # fast enough for the cap to act (above 0.08 m/s)
     assert np.abs(y_cap[0] - y_lugre[0]).max() < 0.2e-6
     assert np.abs(y_cap[1] - y_lugre[1]).max() < 2e-4
+
+
+def _composed(v, z, g, s0, s1, vd, s2, n, cap):
+    """The family from its parts (bristle_rate, quasi_static_weight, micro_damping)."""
+    if not g > 0.0:
+        return s2 * v, 0.0
+    eps = sf.quasi_static_weight(v, z, g, s0, n, cap)
+    dz = eps * sf.bristle_rate(v, z, g, s0, n)
+    f = s0 * z if eps == 1.0 else eps * s0 * z + (1.0 - eps) * math.copysign(g, v)
+    return f + sf.micro_damping(v, s1, vd) * dz + s2 * v, dz
+
+
+@pytest.mark.parametrize("n", [1, 2])
+def test_written_out_law_equals_its_parts(n):
+    """seal_friction is written out once for speed; it is the composition of the documented
+    parts to rounding, at rest, in pre-sliding, through the dip and above the rate cap."""
+    rng = np.random.default_rng(7)
+    s0, s1 = 2e6, sf.critical_micro_damping(2e6, 12.3) if n == 1 else 0.0
+    for _ in range(5000):
+        v = float(rng.choice([0.0, rng.normal(0.0, 0.003), rng.normal(0.0, 0.5)]))
+        z = float(rng.uniform(-1.5, 1.5) * FS / s0)
+        g = sf.stribeck_curve_exponential(v, FC, FS, VS)
+        got = sf.seal_friction(v, z, g, s0, s1, VS, S2, n, CAP)
+        want = _composed(v, z, g, s0, s1, VS, S2, n, CAP)
+        assert got[0] == pytest.approx(want[0], rel=1e-12, abs=1e-9)
+        assert got[1] == pytest.approx(want[1], rel=1e-12, abs=1e-15)
