@@ -107,6 +107,11 @@ def main() -> int:
     p.add_argument("--dir", default=str(Path(__file__).resolve().parents[1] / "docs" / "benchmarks"))
     p.add_argument("--friction", action="store_true", help="the friction tasks' tables instead")
     a = p.parse_args()
+    missing = sorted({f"{tag}_{s}.csv" for tag, *_ in (FRICTION_TASKS if a.friction else PLANTS)
+                      for s in (("in",) if a.friction else SETS) if not (Path(a.dir) / f"{tag}_{s}.csv").is_file()})
+    if missing:
+        p.exit(2, f"benchmark_summary: error: --dir {a.dir}: no {', '.join(missing[:3])}"
+                  f"{' ...' if len(missing) > 3 else ''}; make them with hydro benchmark --config <task> --out {a.dir}\n")
     if a.friction:
         for tag, unit, scale, twins in FRICTION_TASKS:
             print(friction_table(Path(a.dir), tag, unit, scale, twins))

@@ -7,7 +7,7 @@ mean with a 95 % percentile-bootstrap interval over the draws (:mod:`agents.benc
 A gain that comes from the friction model falls towards the blind twin as the scale goes to 0
 and grows again when the model is over-scaled.
 
-Usage: ``python bench/friction_ablation.py [--tasks NAME ...] [--n 20] [--markdown FILE]``.
+Usage: ``python bench/friction_ablation.py [--tasks NAME ...] [--n 20] [--markdown FILE [--force]]``.
 """
 
 from __future__ import annotations
@@ -23,6 +23,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 from agents.benchmark import draw_parameters, rollout  # noqa: E402
 from agents.benchmark_stats import draw_bootstrap_ci  # noqa: E402
 from agents.controllers import make_controller  # noqa: E402
+from hydro_envs.outputs import OutputError, atomic_write, check_output_file  # noqa: E402
 
 #: task -> (env id, the best friction-aware controller of the task's benchmark and, for the servo,
 #: the best pure feed-forward: the observer's scale multiplies its feedback on the error too)
@@ -58,7 +59,13 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--tasks", nargs="+", default=list(TASKS), choices=list(TASKS))
     ap.add_argument("--n", type=int, default=20)
     ap.add_argument("--markdown", metavar="FILE", help="also write the table as markdown")
+    ap.add_argument("--force", action="store_true", help="replace an existing --markdown file")
     a = ap.parse_args(argv)
+    if a.markdown:  # checked before the work (hydro_envs.outputs: the command line's convention)
+        try:
+            check_output_file(a.markdown, flag="--markdown", force=a.force, suffixes=(".md",))
+        except OutputError as exc:
+            ap.exit(2, f"friction_ablation: error: {exc}\n")
     lines = ["| task | controller | " + " | ".join(f"x {k:g}" for k in SCALES) + " |",
              "|---|---|" + "---|" * len(SCALES)]
     for task in a.tasks:
@@ -69,7 +76,7 @@ def main(argv: list[str] | None = None) -> int:
             lines.append(f"| {task} | {name} | " + " | ".join(cells) + " |")
             print(lines[-1], flush=True)
     if a.markdown:
-        Path(a.markdown).write_text("\n".join(lines) + "\n", encoding="utf-8")
+        atomic_write(a.markdown, "\n".join(lines) + "\n")
     return 0
 
 
