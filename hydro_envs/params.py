@@ -18,7 +18,7 @@ from typing import Any, ClassVar, Mapping, Sequence
 
 import numpy as np
 
-__all__ = ["ParameterError", "PhysicalParams", "physical"]
+__all__ = ["ParameterError", "PhysicalParams", "geometry_text", "missing_geometry_error", "physical"]
 
 
 class ParameterError(ValueError):
@@ -70,6 +70,11 @@ class PhysicalParams:
     #: plant's right-hand side that depend on the parameters only, computed once per set by
     #: :meth:`derived_columns` (none by default).
     derived_names: ClassVar[tuple[str, ...]] = ()
+    #: The rig's dimensions: fields a measured record cannot reveal, so identification and
+    #: diagnosis never take them from the defaults silently (the seed rig's values) -- a command
+    #: fitting a record asks for each (a flag, a preset, the file's metadata) or for an explicit
+    #: "use the seed rig" flag (see :func:`geometry_text`).
+    geometry: ClassVar[tuple[str, ...]] = ()
 
     def __post_init__(self) -> None:
         for f in self._fields():
@@ -186,3 +191,27 @@ class PhysicalParams:
                 }
             )
         return rows
+
+
+def geometry_text(params: PhysicalParams, names: Sequence[str] | None = None) -> str:
+    """``name value unit`` of the geometry fields ``names`` (default: all of
+    :attr:`PhysicalParams.geometry`) of ``params``, comma-separated, for messages."""
+    meta = {f.name: f.metadata for f in dataclasses.fields(params)}
+    names = type(params).geometry if names is None else names
+    return ", ".join(f"{n} {getattr(params, n):g} {meta[n]['unit']}".rstrip() for n in names)
+
+
+def missing_geometry_error(params_cls: type[PhysicalParams], given: Sequence[str], where: str,
+                           how: str, nominal_flag: str) -> ParameterError | None:
+    """The one-line error a command raises when a record is fitted without the rig's dimensions:
+    ``None`` when every :attr:`PhysicalParams.geometry` field of ``params_cls`` is in ``given``;
+    else an error naming the missing fields with their units, ``how`` to give them, and
+    ``nominal_flag``, which takes the defaults (the seed rig's, printed) on purpose."""
+    missing = [n for n in params_cls.geometry if n not in set(given)]
+    if not missing:
+        return None
+    meta = {f.name: f.metadata for f in dataclasses.fields(params_cls)}
+    names = ", ".join(f"{n} [{meta[n]['unit']}]" for n in missing)
+    return ParameterError(
+        f"{where}: the rig's geometry is not given ({names}); {how}, or {nominal_flag} to use "
+        f"the seed rig's ({geometry_text(params_cls(), missing)})")

@@ -27,6 +27,8 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
+from hydro_envs.cli_errors import CliError
+
 __all__ = ["Method", "METHODS", "register_method", "add_identify_parser", "main"]
 
 EXIT_OK = 0
@@ -662,6 +664,58 @@ def _greybox_arguments(p: argparse.ArgumentParser) -> None:
                    help="override a start/fixed parameter value (repeatable)")
     p.add_argument("--outputs", default=None, metavar="CH[,CH...]",
                    help="output channels to fit (default: every measured one of the plant)")
+    p.add_argument("--nominal-geometry", action="store_true",
+                   help="take the rig's dimensions (areas, stroke, volumes) not given by --set, --preset "
+                   "or the file's metadata from the seed rig (printed); without it they are required")
+
+
+def _metadata_value(where: str, key: str, text: Any, unit: str) -> float:
+    """A number of a record's metadata, ``V`` or ``V [unit]`` (as ``hydro simulate`` writes the
+    parameters), in ``unit``; else a one-line error naming the key, the value and the unit."""
+    raw = str(text).strip()
+    if raw.endswith("]") and "[" in raw:
+        raw, got = raw[:-1].split("[", 1)
+        if got.strip() != unit:
+            raise CliError(f"{where}: metadata {key} = {text!r}: unit [{got.strip()}]; allowed [{unit}]")
+    try:
+        value = float(raw)
+    except ValueError:
+        raise CliError(f"{where}: metadata {key} = {text!r}; allowed a number in {unit}") from None
+    if not math.isfinite(value):
+        raise CliError(f"{where}: metadata {key} = {text!r}; allowed a finite number in {unit}")
+    return value
+
+
+def _greybox_geometry(args: argparse.Namespace, base: Any, over: dict[str, float], fit: list[str],
+                      data: Any) -> Any:
+    """``base`` with the record's geometry metadata applied (a field name of the plant's geometry
+    in the file's ``#`` metadata, unless ``--set`` gives it), after checking that every geometry
+    field is given: by ``--set``, a ``--preset``, the metadata, ``--fit`` -- or ``--nominal-geometry``."""
+    from hydro_envs.params import geometry_text, missing_geometry_error
+
+    cls = type(base)
+    units = {d["name"]: d.get("unit", "") for d in cls.describe()}
+    meta = {}
+    for name in cls.geometry:
+        key = next((k for k in (name, f"param.{name}") if k in data.metadata), None)
+        if key is None or name in over:
+            continue
+        meta[name] = _metadata_value(str(args.data), key, data.metadata[key], units[name])
+    if meta:
+        base = cls.from_mapping(meta, base=base)
+        print(f"hydro identify: note: geometry from the file's metadata: {geometry_text(base, list(meta))}",
+              file=sys.stderr)
+    given = [*over, *meta, *fit, *(cls.geometry if args.preset or args.nominal_geometry else ())]
+    err = missing_geometry_error(cls, given, str(args.data), "give each with --set NAME=VALUE (SI units), "
+                                 "a --preset or the file's metadata", "--nominal-geometry")
+    if err is not None:
+        raise CliError(str(err))
+    if args.nominal_geometry:
+        rest = [n for n in cls.geometry if n not in over and n not in meta]
+        if rest:
+            print(f"hydro identify: note: --nominal-geometry: the seed rig's {geometry_text(base, rest)}",
+                  file=sys.stderr)
+    return base
 
 
 def _greybox_run(args: argparse.Namespace) -> dict[str, Any]:
@@ -688,6 +742,7 @@ def _greybox_run(args: argparse.Namespace) -> dict[str, Any]:
 
     data = _contiguous(load_measured(args.data, plant=args.plant, required=tuple(registry.get(args.plant).inputs),
                                      **_record_kwargs(args)), args)
+    base = _greybox_geometry(args, base, over, names, data)
     outs = ([c.strip() for c in args.outputs.split(",")] if args.outputs
             else [c for c in default_out if c in data])
     if not outs:

@@ -279,10 +279,11 @@ def write_preset(path: str | os.PathLike[str], mapping: Mapping[str, Any], heade
     return _dump(path, mapping, header or f"Plant preset {mapping.get('name', '')} of {mapping.get('plant', '')}.")
 
 
-def load_preset(path: str | os.PathLike[str], params_cls: type) -> Any:
+def load_preset(path: str | os.PathLike[str], params_cls: type, require: Sequence[str] = ()) -> Any:
     """Parameter set of a preset file (fields not listed keep their defaults), read with
     :func:`hydro_envs.yamlio.load_yaml` (duplicate keys and alias bombs refused); every entry is
-    ``{value: number, unit: the field's unit, source: text}``."""
+    ``{value: number, unit: the field's unit, source: text}``. A field in ``require`` (the rig's
+    geometry, say) must be listed."""
     from hydro_envs.yamlio import YamlError, load_yaml, number, short
 
     try:
@@ -314,4 +315,9 @@ def load_preset(path: str | os.PathLike[str], params_cls: type) -> Any:
             values[f] = number(entry["value"], f"parameters.{f}.value", where)
         except YamlError as exc:
             raise RangesError(str(exc)) from None
+    missing = [f for f in require if f not in values]
+    if missing:
+        listed = ", ".join(f"{f} [{meta[f]['unit']}]" for f in missing)
+        raise RangesError(f"{where}: the rig's geometry is not listed ({listed}); add each under parameters "
+                          "as {value, unit, source}")
     return dataclasses.replace(params_cls(), **values)

@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import yaml
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -40,6 +41,8 @@ def files(tmp_path_factory):
     p = {"u": u, "x": 0.03 + 0.01 * np.sin(2 * np.pi * 2 * t), "p1": 5e6 + 0 * t, "p2": 4e6 + 0 * t}
     write_measured(d / "servo_noarea.csv", t, p, plant="servo_cylinder")
     write_measured(d / "servo_bar.csv", t, dict(p, p1=p["p1"] / 1e5, p2=p["p2"] / 1e5), plant="servo_cylinder")
+    part = {"plant": "servo_cylinder", "parameters": {"coulomb_friction": {"value": 40.0, "unit": "N", "source": "t"}}}
+    (d / "servo_partial.yaml").write_text(yaml.safe_dump(part))
     (d / "taken.txt").write_text("keep\n")
     (d / "full").mkdir()
     (d / "full" / "old.md").write_text("old\n")
@@ -89,6 +92,13 @@ def _cases(d: Path):
         (["identify", "greybox", "--plant", "servo_cylinder", "--data", slider, "--fit", "mass", "--set", "x"], 2,
          "NAME=VALUE"),
         (["identify", "greybox", "--plant", "slider", "--data", slider, "--fit", "mass"], 2, "not supported"),
+        (["identify", "greybox", "--plant", "servo_cylinder", "--data", str(d / "servo_noarea.csv"), "--fit",
+          "mass"], 2, "--nominal-geometry"),
+        (["identify", "greybox", "--plant", "servo_cylinder", "--data", str(d / "servo_noarea.csv"), "--fit",
+          "mass", "--set", "piston_area=6e-4"], 2, "line_volume_1 [m^3]"),
+        (["diagnose", "--plant", "servo_cylinder", "--data", str(d / "servo_noarea.csv")], 2, "--nominal-geometry"),
+        (["diagnose", "--plant", "servo_cylinder", "--data", str(d / "servo_noarea.csv"), "--base",
+          str(d / "servo_partial.yaml")], 2, "geometry is not listed (piston_area [m^2]"),
         (["diagnose", "--plant", "nope", "--data", slider], 2, "nope"),
         (["diagnose", "--plant", "slider", "--data", str(d / "missing.csv")], 2, "not found"),
         (["diagnose", "--plant", "slider", "--data", slider, "--out", str(d / "taken.txt")], 2, "is a file"),

@@ -135,7 +135,7 @@ def test_cli_greybox_servo(tmp_path, capsys):
     write_measured(f, t, {"u": u, **meas}, plant="servo_cylinder")
     rc = main(["identify", "greybox", "--plant", "servo_cylinder", "--data", str(f),
                "--fit", "bulk_modulus,viscous_friction,coulomb_friction",
-               "--set", "bulk_modulus=5e8", "--json"])
+               "--set", "bulk_modulus=5e8", "--nominal-geometry", "--json"])
     assert rc == 0
     res = json.loads(capsys.readouterr().out)
     assert res["parameters"]["bulk_modulus"] == pytest.approx(truth.bulk_modulus, rel=0.05)

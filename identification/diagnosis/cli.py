@@ -1,10 +1,13 @@
 """``hydro diagnose``: run the diagnosis workflow on measured-data files.
 
-    hydro diagnose --plant P --data FILE [--data FILE2 ...] [--holdout FILE] [--base CONFIG]
+    hydro diagnose --plant P --data FILE [--data FILE2 ...] [--holdout FILE] [--base CONFIG | --nominal-geometry]
                    [--effects a,b] [--max-effects N] [--out DIR] [--json]
 
-``--base`` is a YAML preset (``configs/plants/*.yaml`` format: ``plant:`` and ``parameters:``)
-or omitted for the plant's nominal parameters with every catalogue effect at its null value.
+``--base`` is a YAML preset (``plant:`` and ``parameters:``, each ``{value, unit, source}``, as
+:func:`identification.ranges.write_preset` writes them) that lists at least the rig's geometry
+(``PhysicalParams.geometry``: areas, stroke, volumes -- a record cannot reveal them); with
+``--nominal-geometry`` and no ``--base``, the plant's nominal parameters (the seed rig) with every
+catalogue effect at its null value.
 ``--out`` is checked before the work: a folder (created), empty unless ``--force``, never a file.
 Errors follow the command line's convention (:mod:`hydro_envs.cli_errors`): one line, no
 traceback. Exit codes: 0 done (any verdict: named, none, ambiguous, unexplained), 1 the data
@@ -35,7 +38,11 @@ def add_diagnose_parser(subparsers: Any) -> argparse.ArgumentParser:
                    help="measured record (CSV, Parquet or MATLAB .mat; see --map); repeat for several records")
     p.add_argument("--holdout", action="append", metavar="FILE",
                    help="held-out record(s) for scoring (default: the last 30 %% of every --data record)")
-    p.add_argument("--base", metavar="CONFIG", help="YAML parameter preset of the base model")
+    p.add_argument("--base", metavar="CONFIG", help="YAML parameter preset of the base model (it must list the "
+                   "rig's geometry: areas, stroke, volumes)")
+    p.add_argument("--nominal-geometry", action="store_true",
+                   help="without --base: the plant's nominal parameters, the seed rig's geometry (printed); "
+                   "with --base: geometry fields the preset does not list from the seed rig")
     p.add_argument("--effects", help="comma-separated catalogue effects to consider (default: all applicable)")
     p.add_argument("--max-effects", type=int, default=3, metavar="N")
     p.add_argument("--out", metavar="DIR", help="write a report (markdown + PNG figures) into this folder "
@@ -49,11 +56,24 @@ def add_diagnose_parser(subparsers: Any) -> argparse.ArgumentParser:
     return p
 
 
-def _load_base(path: str, plant: str):
+def _load_base(args: argparse.Namespace):
+    """The base model's parameters: the ``--base`` preset (listing the rig's geometry unless
+    ``--nominal-geometry``), or ``None`` (the nominal base) when the geometry is the seed rig's on
+    purpose or the plant has none; else a one-line error naming both flags."""
+    from hydro_envs.params import geometry_text, missing_geometry_error
     from identification.diagnosis.plants import diagnosis_plant
     from identification.ranges import load_preset
 
-    return load_preset(path, diagnosis_plant(plant).params_cls)
+    cls = diagnosis_plant(args.plant).params_cls
+    if args.base:
+        return load_preset(args.base, cls, require=() if args.nominal_geometry else cls.geometry)
+    err = missing_geometry_error(cls, (), f"hydro diagnose --plant {args.plant}",
+                                 "give --base PRESET.yaml listing them", "--nominal-geometry")
+    if err is not None and not args.nominal_geometry:
+        raise err
+    if cls.geometry:
+        print(f"hydro diagnose: note: --nominal-geometry: the seed rig's {geometry_text(cls())}", file=sys.stderr)
+    return None
 
 
 def _cmd_diagnose(args: argparse.Namespace) -> int:
@@ -78,6 +98,7 @@ def _diagnose(args: argparse.Namespace) -> int:
     from identification.diagnosis import diagnose, diagnosis_plant, record_from_measured
 
     spec = diagnosis_plant(args.plant)
+    base = _load_base(args)
     if args.out:
         check_output_dir(args.out, force=bool(args.force), inputs=[*args.data, *(args.holdout or [])])
     import hydro_envs.plants  # noqa: F401  (registers the plants' channels)
@@ -90,7 +111,6 @@ def _diagnose(args: argparse.Namespace) -> int:
 
     records = [load(p) for p in args.data]
     holdout = [load(p) for p in args.holdout] if args.holdout else None
-    base = _load_base(args.base, args.plant) if args.base else None
     effects = [e.strip() for e in args.effects.split(",")] if args.effects else None
     progress = None if args.json else (lambda m: print(m, flush=True))
     res = diagnose(spec, records, holdout, base=base, effects=effects, max_effects=args.max_effects,

@@ -2,9 +2,10 @@
 
 One case per plant folder whose diagnosis settings name a demo (hidden effect, seed): Stribeck
 friction hidden in the servo cylinder (base model: Coulomb + viscous friction), and the
-modified-IFAS stiffness dip hidden in the shaking table (base model: IFAS bulk modulus). For each, the closed-loop records are written as measured-data
-files, the equivalent ``hydro diagnose`` command is printed, the workflow runs with progress
-and writes its report (markdown + figures) under ``--out``.
+modified-IFAS stiffness dip hidden in the shaking table (base model: IFAS bulk modulus). For
+each, the closed-loop records are written as measured-data files and the base model as a preset
+(``base.yaml``), the equivalent ``hydro diagnose`` command is printed, the workflow runs with
+progress and writes its report (markdown + figures) under ``--out``.
 
     python -m identification.diagnosis.demo [--out runs/diagnosis-demo] [--seconds 10]
 """
@@ -23,6 +24,7 @@ from identification.diagnosis.plants import demo_cases, diagnosis_plant
 from identification.diagnosis.report import write_report
 from identification.diagnosis.synthetic import hidden_effect_records
 from identification.diagnosis.workflow import diagnose
+from identification.ranges import preset_mapping, write_preset
 
 CASES = demo_cases()  # (base, hidden effect, seed)
 
@@ -49,8 +51,10 @@ def main(argv=None) -> int:
         d.mkdir(parents=True, exist_ok=True)
         _write(d / "fit.csv", case.fit, spec)
         _write(d / "holdout.csv", case.holdout, spec)
+        write_preset(d / "base.yaml", preset_mapping(case.base.params, f"{plant} base model",
+                                                     "the demo's base model (the hidden effect absent)"))
         print(f"equivalent command: hydro diagnose --plant {plant} --data {d / 'fit.csv'} "
-              f"--holdout {d / 'holdout.csv'} --out {d / 'report'}")
+              f"--holdout {d / 'holdout.csv'} --base {d / 'base.yaml'} --out {d / 'report'}")
         t0 = time.perf_counter()
         res = diagnose(spec, [case.fit], [case.holdout], base=case.base.params, progress=lambda m: print(m, flush=True))
         print(summary_text(res))

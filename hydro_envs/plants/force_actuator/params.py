@@ -52,6 +52,8 @@ class ForceActuatorParams(PhysicalParams):
     """
 
     plant = PLANT
+    #: the rig's dimensions (see PhysicalParams.geometry)
+    geometry = ('bore_area', 'rod_area', 'stroke')
 
     supply_pressure: float = physical(
         _PS, "Pa", (1e5, 35e6), "001 sec. 2-3: 345 N/cm^2 (500 psi), gauge; return at atmosphere"

@@ -40,6 +40,8 @@ class LoadSensingParams(PhysicalParams):
     """Parameters of the load-sensing circuit of 000 Fig. 1 (SI, absolute pressures)."""
 
     plant = PLANT
+    #: the rig's dimensions (see PhysicalParams.geometry)
+    geometry = ('piston_area', 'stroke', 'line_volume', 'pump_displacement', 'spool_diameter')
 
     # ---- oil
     oil_grade: float = physical(46.0, "mm^2/s", (2.0, 1500.0), "000 sec. 3.3: ISO VG 46")

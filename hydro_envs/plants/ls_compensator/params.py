@@ -64,6 +64,8 @@ class LSCompensatorParams(PhysicalParams):
     """
 
     plant = PLANT
+    #: the rig's dimensions (see PhysicalParams.geometry)
+    geometry = ('spool_diameter', 'pipe_length', 'pipe_diameter', 'chamber_volume')
 
     oil_grade: float = physical(
         46.0, "mm^2/s", (2.0, 1500.0), "000 sec. 3.3: ISO VG 46 oil (grade = nu at 40 C in mm^2/s)"

@@ -36,6 +36,8 @@ class RodlessCylinderParams(PhysicalParams):
     """
 
     plant = PLANT
+    #: the rig's dimensions (see PhysicalParams.geometry)
+    geometry = ('bore', 'stroke', 'dead_volume_a', 'dead_volume_b')
 
     supply_pressure: float = physical(
         0.6e6 + ATM, "Pa", (1.5e5, 1.2e6),

@@ -26,6 +26,8 @@ class ServoCylinderParams(PhysicalParams):
     """
 
     plant = PLANT
+    #: the rig's dimensions (see PhysicalParams.geometry)
+    geometry = ('piston_area', 'stroke', 'line_volume_1', 'line_volume_2')
 
     supply_pressure: float = physical(
         13.8e6 + _ATM, "Pa", (2e5, 35e6),

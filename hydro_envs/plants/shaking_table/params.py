@@ -59,6 +59,8 @@ class ShakingTableParams(PhysicalParams):
     """
 
     plant = PLANT
+    #: the rig's dimensions (see PhysicalParams.geometry)
+    geometry = ('piston_area', 'stroke', 'dead_volume')
 
     supply_pressure: float = physical(
         206 * _BAR + _ATM, "Pa", (2e5, 35e6), "003 Table 1: P_s = 206 bar (gauge) + 1 bar atmosphere"

@@ -17,6 +17,8 @@ class SliderParams(PhysicalParams):
     """Parameters of the generic force-driven slider (SI)."""
 
     plant = PLANT
+    #: a force-driven axis: no dimension the record cannot reveal
+    geometry = ()
 
     mass: float = physical(1.0, "kg", (0.0, 1e5), f"{_GENERIC} (1 kg carriage)", open_low=True)
     coulomb_friction: float = physical(
