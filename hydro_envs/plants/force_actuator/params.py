@@ -112,7 +112,7 @@ class ForceActuatorParams(PhysicalParams):
         425.0, "N s/m", (0.0, 1e5), "001 Table 1: b_s = 4.25 N/cm/s"
     )
     piston_mass: float = physical(
-        0.052, "kg", (1e-4, 100.0), "001 Table 1: m_a - m = 0.612 - 0.560 kg", open_low=True
+        0.052, "kg", (3e-4, 100.0), "001 Table 1: m_a - m = 0.612 - 0.560 kg"
     )
     load_mass: float = physical(
         0.0, "kg", (0.0, 1e3), "assumed: no payload on the rod (free piston only)"
@@ -126,14 +126,14 @@ class ForceActuatorParams(PhysicalParams):
     )
     coulomb_friction: float = physical(26.0, "N", (0.0, 5000.0), "001 eq (1) and Table 2: F_c = 26 N")
     stiction_retract: float = physical(
-        107.0, "N", (0.0, 5000.0),
+        107.0, "N", (0.0, 4000.0),
         "001 Table 2: stiction pushing on the piston 99 N (v_p < 0), measured as the force at the "
         "breaking point; the Dahl seals (n = 2) creep before they break, so the static level g(0) is "
         "set where a 5 N/s ramp of the push on the free piston breaks it away at a peak friction of "
         "99.0 N (experiments.breakaway_force; tested)",
     )
     stiction_extend: float = physical(
-        57.6, "N", (0.0, 5000.0),
+        57.6, "N", (0.0, 4000.0),
         "001 Table 2: stiction pulling on the piston -54 N (v_p > 0); static level g(0) set where a "
         "5 N/s pull on the free piston breaks it away at a peak friction of 54.0 N (experiments.breakaway_force; tested)",
     )
@@ -141,7 +141,7 @@ class ForceActuatorParams(PhysicalParams):
         5e-3, "m/s", (1e-5, 1.0), "assumed: 5 mm/s, typical of lubricated hydraulic seals"
     )
     friction_stiffness: float = physical(
-        1.0e6, "N/m", (1e3, 1e8),
+        1.0e6, "N/m", (1e3, 1e7),
         "assumed: bristle stiffness sigma0 of the seal-friction family (hydro_envs.laws.seal_friction, "
         "n = 2: 001 eq (1) with gamma = sigma0 / F_c^2); 1e6 N/m = 26 um pre-sliding at F_c, 99 um at "
         "the 99 N breakaway (seals 10-100 um); eq (1)'s gamma = 100 1/(N cm) gives 6.76e6 (needs ~10 us steps)",
