@@ -266,7 +266,6 @@ _GATED = ("arx", "frf", "greybox")
 def _cmd_identify(args: argparse.Namespace) -> int:
     """Run the chosen method; errors propagate to the command line's one-line convention
     (:func:`hydro_envs.cli_errors.guarded`)."""
-    from hydro_envs.cli_errors import CliError
 
     name = getattr(args, "method", None)
     if name is None:
@@ -366,7 +365,6 @@ _AREA_RANGE = (1e-7, 1.0)
 def _geometry_value(flag: str, value: float | None, unit: str, lo: float, hi: float) -> float | None:
     """``value`` if it is a plausible bore / rod [m] or area [m^2], else a one-line error naming the
     flag, the value, the allowed range and (for a value in mm or mm^2) the SI value meant."""
-    from hydro_envs.cli_errors import CliError
 
     if value is None:
         return None
@@ -380,7 +378,6 @@ def _geometry_value(flag: str, value: float | None, unit: str, lo: float, hi: fl
 
 def _check_geometry_flags(args: argparse.Namespace) -> None:
     """``--area``, ``--bore``, ``--rod``: each plausible, and a consistent combination (before any work)."""
-    from hydro_envs.cli_errors import CliError
 
     _geometry_value("--area", args.area, "m^2", *_AREA_RANGE)
     _geometry_value("--bore", args.bore, "m", *_BORE_RANGE)
@@ -400,7 +397,6 @@ def _check_geometry_flags(args: argparse.Namespace) -> None:
 def _servo_area(args: argparse.Namespace, data: Any) -> tuple[float, str]:
     """The annulus area of a servo-cylinder record and a note on where it came from: ``--area``,
     ``--bore`` with ``--rod``, or the file's ``piston_area`` metadata; never assumed."""
-    from hydro_envs.cli_errors import CliError
 
     if args.area is not None:
         return float(args.area), ""
@@ -421,7 +417,6 @@ def _servo_area(args: argparse.Namespace, data: Any) -> tuple[float, str]:
 def _friction_run(args: argparse.Namespace) -> dict[str, Any]:
     import numpy as np
 
-    from hydro_envs.cli_errors import CliError
 
     from identification.constant_velocity import friction_points_from_square_wave
     from identification.seal_friction import load_seal_friction, seal_friction_points
@@ -672,18 +667,24 @@ def _greybox_arguments(p: argparse.ArgumentParser) -> None:
 def _metadata_value(where: str, key: str, text: Any, unit: str) -> float:
     """A number of a record's metadata, ``V`` or ``V [unit]`` (as ``hydro simulate`` writes the
     parameters), in ``unit``; else a one-line error naming the key, the value and the unit."""
-    raw = str(text).strip()
+    from hydro_envs.data.units import UnitError, conversion
+
+    raw, got = str(text).strip(), unit
     if raw.endswith("]") and "[" in raw:
         raw, got = raw[:-1].split("[", 1)
-        if got.strip() != unit:
-            raise CliError(f"{where}: metadata {key} = {text!r}: unit [{got.strip()}]; allowed [{unit}]")
+        got = got.strip()
     try:
         value = float(raw)
     except ValueError:
         raise CliError(f"{where}: metadata {key} = {text!r}; allowed a number in {unit}") from None
     if not math.isfinite(value):
         raise CliError(f"{where}: metadata {key} = {text!r}; allowed a finite number in {unit}")
-    return value
+    if got == unit:
+        return value
+    try:  # another unit of the same dimension (mm, cm^2): the record reader's own table
+        return float(conversion(got, unit, column=f"metadata {key}").apply(value))
+    except UnitError as exc:
+        raise CliError(f"{where}: {exc}") from None
 
 
 def _greybox_geometry(args: argparse.Namespace, base: Any, over: dict[str, float], fit: list[str],
@@ -709,7 +710,7 @@ def _greybox_geometry(args: argparse.Namespace, base: Any, over: dict[str, float
     err = missing_geometry_error(cls, given, str(args.data), "give each with --set NAME=VALUE (SI units), "
                                  "a --preset or the file's metadata", "--nominal-geometry")
     if err is not None:
-        raise CliError(str(err))
+        raise err
     if args.nominal_geometry:
         rest = [n for n in cls.geometry if n not in over and n not in meta]
         if rest:

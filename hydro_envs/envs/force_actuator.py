@@ -68,9 +68,9 @@ from hydro_envs.envs.friction_tasks import (
 )
 from hydro_envs.envs.render import render_cylinder
 from hydro_envs.jit import njit_noalloc
+from hydro_envs.params import ParameterError
 from hydro_envs.plants.force_actuator import model as plant
 from hydro_envs.plants.force_actuator.kernels import step_serial
-from hydro_envs.params import ParameterError
 from hydro_envs.plants.force_actuator.params import ForceActuatorParams
 from hydro_envs.plants.force_actuator.spec import SPEC
 from hydro_envs.sim.rk4 import n_blocks, step_block
@@ -370,13 +370,14 @@ class ForceActuatorSmallForceBatch(ForceActuatorBatch):
 
     def reset_task(self, i: int, rng: np.random.Generator, p: ForceActuatorParams, options: Mapping[str, Any]) -> None:
         ref = options.get("reference")
-        reach = self.small_ranges.amplitude[1]
-        if (ref is None or isinstance(ref, str)) and min(-p.min_thrust, p.max_thrust) * REF_FRACTION < reach:
-            raise ParameterError(
-                f"ForceActuatorSmallForce: supply_pressure = {p.supply_pressure:g} Pa (bore_area {p.bore_area:g}, "
-                f"rod_area {p.rod_area:g} m^2) gives the blocked-force range [{p.min_thrust:.4g}, "
-                f"{p.max_thrust:.4g}] N; the task's references reach +-{reach:g} N within {REF_FRACTION:.0%} of it")
         if ref is None or (isinstance(ref, str) and ref in SMALL_FORCE_KINDS + ("small",)):
+            reach = self.small_ranges.amplitude[1]
+            if min(-p.min_thrust, p.max_thrust) * REF_FRACTION < reach:
+                raise ParameterError(
+                    f"ForceActuatorSmallForce: supply_pressure = {p.supply_pressure:g} Pa (bore_area "
+                    f"{p.bore_area:g}, rod_area {p.rod_area:g} m^2) gives the blocked-force range "
+                    f"[{p.min_thrust:.4g}, {p.max_thrust:.4g}] N; the task's references reach +-{reach:g} N "
+                    f"within {REF_FRACTION:.0%} of it")
             kind = self.small_kind if ref is None else ref
             arr = generate_small_force_reference(kind, rng, self.REF.shape[1], DT, self.small_ranges)
             options = {**options, "reference": arr}

@@ -67,12 +67,12 @@ def _load_base(args: argparse.Namespace):
     cls = diagnosis_plant(args.plant).params_cls
     if args.base:
         return load_preset(args.base, cls, require=() if args.nominal_geometry else cls.geometry)
-    err = missing_geometry_error(cls, (), f"hydro diagnose --plant {args.plant}",
-                                 "give --base PRESET.yaml listing them", "--nominal-geometry")
-    if err is not None and not args.nominal_geometry:
-        raise err
-    if cls.geometry:
-        print(f"hydro diagnose: note: --nominal-geometry: the seed rig's {geometry_text(cls())}", file=sys.stderr)
+    if not cls.geometry:
+        return None
+    if not args.nominal_geometry:
+        raise missing_geometry_error(cls, (), f"hydro diagnose --plant {args.plant}",
+                                     "give --base PRESET.yaml listing them", "--nominal-geometry")
+    print(f"hydro diagnose: note: --nominal-geometry: the seed rig's {geometry_text(cls())}", file=sys.stderr)
     return None
 
 
