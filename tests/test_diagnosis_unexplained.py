@@ -231,3 +231,47 @@ def test_a_winner_correlated_with_an_earlier_effect_is_ambiguous():
     w = winner("force_offset", [("force_offset", "stribeck_velocity", 0.96)])
     assert _check_correlated(spec, w, ["stribeck"], "force_offset", "")[0] == "force_offset"
     assert "correlated with stribeck_velocity of stribeck" in w.reasons[0]
+
+
+def test_final_model_lists_every_fitted_parameter_with_its_uncertainty(backlash):
+    """The report's final model: every base-fit parameter (and each named effect's) with a
+    finite standard error and its unit; the on-bound flag is set exactly on a bound."""
+    from identification.diagnosis.cli import summary_text
+    from identification.diagnosis.final_model import on_bound
+
+    rows = {r["name"]: r for r in backlash.final_model_table}
+    spec = diagnosis_plant("slider")
+    assert set(spec.base_fit) <= set(rows), (spec.base_fit, list(rows))
+    for e in backlash.effects:
+        assert set(e["parameters"]) <= set(rows)
+    for n in spec.base_fit:
+        r = rows[n]
+        assert r["role"] == "base" and np.isfinite(r["value"]) and np.isfinite(r["std_error"]) and r["unit"], r
+        assert r["lower"] <= r["value"] <= r["upper"]
+    d = json.loads(json.dumps(backlash.to_json_dict(), allow_nan=False))
+    assert [r["name"] for r in d["final_model"]] == list(rows)
+    assert "final model (value +- standard error):" in summary_text(backlash)
+    assert on_bound(1.0, 1.0, 10.0) and on_bound(10.0, 1.0, 10.0) and not on_bound(3.0, 1.0, 10.0)
+    assert on_bound(-1.0, -1.0, 1.0) and not on_bound(0.0, -1.0, 1.0)
+
+
+def test_report_figures_have_units_on_every_axis_and_tell_base_from_final(backlash_run, tmp_path, monkeypatch):
+    from matplotlib.figure import Figure
+
+    from identification.diagnosis.report import write_report
+
+    seen: list[Figure] = []
+    orig = Figure.savefig
+    monkeypatch.setattr(Figure, "savefig", lambda self, *a, **k: (seen.append(self), orig(self, *a, **k))[1])
+    res, fit, hold = backlash_run
+    md = write_report(res, diagnosis_plant("slider"), [fit], [hold], tmp_path).read_text()
+    assert "## Final model" in md and "| on a bound |" in md
+    assert len(seen) == 3
+    for fig in seen:
+        for ax in fig.axes:
+            assert "[" in ax.get_ylabel(), ax.get_ylabel()
+            if ax.get_xlabel():
+                assert "[" in ax.get_xlabel(), ax.get_xlabel()
+            styles = {(ln.get_color(), ln.get_linestyle()) for ln in ax.get_lines() if "model" in ln.get_label()}
+            assert len(styles) == len([ln for ln in ax.get_lines() if "model" in ln.get_label()]), styles
+        assert all(ax.get_xlabel() for ax in fig.axes[-1:])

@@ -134,7 +134,7 @@ def _fmt(values: dict, floor: dict) -> str:
 
 def summary_text(res) -> str:
     """The verdict, its reason, the noise floor, the held-out residual after each step (channel
-    units and noise floors) and the effects found."""
+    units and noise floors), the effects found and the final model."""
     lines = [f"verdict: {res.verdict}" + (f" ({res.ambiguous})" if res.ambiguous else "")]
     if res.reason:
         lines.append(f"  reason: {res.reason}")
@@ -152,6 +152,11 @@ def summary_text(res) -> str:
         lines.append(f"  {e['name']}: {ps}; held-out NRMSE {e['nrmse_before']:.4f} -> {e['nrmse_after']:.4f} "
                      f"(gap shrink {e['shrink']:.0%} on {', '.join(e['shrink_channels'])}"
                      + (f"; named with {e['pair']}: neither alone lowered it" if e.get("pair") else "") + ")")
+    if res.final_model_table:
+        from identification.diagnosis.final_model import final_model_lines
+
+        lines.append("  final model (value +- standard error):")
+        lines += [f"    {line}" for line in final_model_lines(res.final_model_table)]
     for n in res.notes:
         lines.append(f"  note: {n}")
     return "\n".join(lines)

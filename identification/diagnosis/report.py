@@ -3,11 +3,12 @@
 ``report.md`` holds the verdict and its reason, the noise floor per channel and the held-out
 residual after each step (channel units and floors), where a mismatch above the floor remains,
 the effects found with their parameters and the held-out
-NRMSE before/after, every round's candidate table (signature score, held-out NRMSE, gain,
+NRMSE before/after, the final model (every fitted parameter with its standard error, bounds
+flagged), every round's candidate table (signature score, held-out NRMSE, gain,
 plausibility, identifiability, reasons) and the notes; the figures are the residual maps of
 the base and the final model (RMS weighted residual binned by velocity, position, pressure
-difference and command), the residual spectrum and time traces of held-out windows
-(measured, base model, final model).
+difference and command, each axis in its unit), the residual spectrum and time traces of
+held-out windows (measured and final model; the residual of the base and the final model).
 """
 
 from __future__ import annotations
@@ -26,7 +27,14 @@ from identification.diagnosis.workflow import DiagnosisResult, _simulate, residu
 __all__ = ["write_report"]
 
 
-def _fig_maps(path: Path, before: dict, after: dict) -> None:
+def _feature_units(spec: DiagnosisPlant) -> dict[str, str]:
+    """SI unit of each residual-map feature (the x axes of the maps)."""
+    pos = spec.units.get(spec.position_channel, "")
+    return {"velocity": f"{pos}/s" if pos else "", "position": pos, "pressure_difference": "Pa",
+            "command": spec.units.get(spec.inputs[0], "") if spec.inputs else ""}
+
+
+def _fig_maps(path: Path, before: dict, after: dict, spec: DiagnosisPlant) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -34,19 +42,21 @@ def _fig_maps(path: Path, before: dict, after: dict) -> None:
 
     feats = [k for k in ("velocity", "position", "pressure_difference", "command") if k in before]
     chans = list(before[feats[0]]["rms"]) if feats else []
+    units = _feature_units(spec)
     fig, axes = plt.subplots(len(chans), len(feats), figsize=(3.2 * len(feats), 2.4 * len(chans)), squeeze=False)
     for j, f in enumerate(feats):
         for i, c in enumerate(chans):
             ax = axes[i, j]
-            ax.plot(before[f]["bin_centres"], before[f]["rms"][c], "o-", label="base model")
+            ax.plot(before[f]["bin_centres"], before[f]["rms"][c], "o-", color="C0", label="base model")
             if f in after:
-                ax.plot(after[f]["bin_centres"], after[f]["rms"][c], "s-", label="final model")
-            ax.set_xlabel(f)
-            ax.set_ylabel(f"RMS residual {c} [noise]")
+                ax.plot(after[f]["bin_centres"], after[f]["rms"][c], "s--", color="C3", mfc="none",
+                        label="final model")
+            ax.set_xlabel(f"{f.replace('_', ' ')} [{units.get(f) or '-'}]")
+            ax.set_ylabel(f"RMS residual {c} [noise std]")
             ax.grid(alpha=0.3)
     if chans and feats:
         axes[0, 0].legend(fontsize=7)
-    fig.suptitle("Residual maps: where the model disagrees (weighted by noise level)")
+    fig.suptitle("Residual maps: where the model disagrees (in units of the channel's noise)")
     fig.tight_layout()
     fig.savefig(path, dpi=80)
     plt.close(fig)
@@ -58,12 +68,13 @@ def _fig_spectrum(path: Path, before: dict, after: dict) -> None:
     spec_b = before.get("frequency", {})
     fig, ax = plt.subplots(figsize=(6, 3.2))
     for c, d in spec_b.items():
-        ax.loglog(d["frequency"][1:], d["residual_over_measured"][1:], label=f"{c} base")
+        line, = ax.loglog(d["frequency"][1:], d["residual_over_measured"][1:], label=f"{c} base")
         if c in after.get("frequency", {}):
             da = after["frequency"][c]
-            ax.loglog(da["frequency"][1:], da["residual_over_measured"][1:], "--", label=f"{c} final")
+            ax.loglog(da["frequency"][1:], da["residual_over_measured"][1:], ":", lw=2, color=line.get_color(),
+                      label=f"{c} final")
     ax.set_xlabel("frequency [Hz]")
-    ax.set_ylabel("residual PSD / measured PSD")
+    ax.set_ylabel("residual PSD / measured PSD [-]")
     ax.grid(alpha=0.3, which="both")
     ax.legend(fontsize=7)
     fig.tight_layout()
@@ -72,25 +83,37 @@ def _fig_spectrum(path: Path, before: dict, after: dict) -> None:
 
 
 def _fig_traces(path: Path, res: DiagnosisResult, spec: DiagnosisPlant, records: Sequence[Record]) -> None:
+    """Per channel two rows: the signal (measured, final model) and the residual of the base
+    and the final model (measured - model), where the two models differ visibly even when
+    both signals lie on the measured one."""
     import matplotlib.pyplot as plt
 
     sims = _simulate(spec, [res.base_model, res.final_model], records)
     (exps, base_out), (exps_f, fin_out) = sims
     n = min(3, len(exps))
     chans = list(base_out[0])
-    fig, axes = plt.subplots(len(chans), n, figsize=(3.6 * n, 2.2 * len(chans)), squeeze=False)
+    fig, axes = plt.subplots(2 * len(chans), n, figsize=(3.6 * n, 1.9 * 2 * len(chans)), squeeze=False,
+                             sharex="col")
     for j in range(n):
         e = exps[j]
         t = e.dt * np.arange(e.n_samples)
+        has_final = j < len(fin_out) and exps_f[j].n_samples == e.n_samples
         for i, c in enumerate(chans):
-            ax = axes[i, j]
+            unit = spec.units.get(c, "") or "-"
+            ax, ax_r = axes[2 * i, j], axes[2 * i + 1, j]
             ax.plot(t, e.outputs[c], "k.", ms=1.5, label="measured")
-            ax.plot(t, base_out[j][c], label="base model")
-            if j < len(fin_out) and exps_f[j].n_samples == e.n_samples:
-                ax.plot(t, fin_out[j][c], "--", label="final model")
-            ax.set_ylabel(c)
-            ax.set_xlabel(f"t [s] in window {e.name}")
+            ax.plot(t, (fin_out[j] if has_final else base_out[j])[c], color="C3", lw=1,
+                    label="final model" if has_final else "base model")
+            ax.set_ylabel(f"{c} [{unit}]")
+            ax_r.plot(t, e.outputs[c] - base_out[j][c], color="C0", lw=1, label="base model")
+            if has_final:
+                ax_r.plot(t, e.outputs[c] - fin_out[j][c], "--", color="C3", lw=1, label="final model")
+            ax_r.set_ylabel(f"residual {c} [{unit}]")
+            ax_r.grid(alpha=0.3)
+        axes[0, j].set_title(f"window {e.name}", fontsize=7)
+        axes[-1, j].set_xlabel("t [s]")
     axes[0, 0].legend(fontsize=7)
+    axes[1, 0].legend(fontsize=7)
     fig.suptitle("Held-out windows (free run from the measured start state)")
     fig.tight_layout()
     fig.savefig(path, dpi=80)
@@ -117,7 +140,7 @@ def _write_report(stage: Any, res: DiagnosisResult, spec: DiagnosisPlant, record
     after = residual_maps(spec, res.final_model, data, res.sigma)
     figs = {}
     try:
-        _fig_maps(stage.path("residual_maps.png"), before, after)
+        _fig_maps(stage.path("residual_maps.png"), before, after, spec)
         _fig_spectrum(stage.path("residual_spectrum.png"), before, after)
         _fig_traces(stage.path("traces.png"), res, spec, list(holdout) if holdout else data)
         figs = {"residual maps": "residual_maps.png", "residual spectrum": "residual_spectrum.png",
@@ -177,6 +200,14 @@ def _write_report(stage: Any, res: DiagnosisResult, spec: DiagnosisPlant, record
             ps = "; ".join(f"{k} = {v:.4g}" for k, v in c.parameters.items())
             lines.append(f"| {c.name} | {c.signature_score:.3f} | {c.heldout:.4f} | {c.gain:+.1%} | {c.plausible} | "
                          f"{c.identifiable} | {ps} | {'; '.join(c.reasons)} |")
+        lines.append("")
+    if res.final_model_table:
+        lines += ["## Final model", "", "Every parameter of the last fit (standard error from its covariance); a "
+                  "parameter on a bound of its fit is flagged.", "",
+                  "| parameter | belongs to | value | std. error | unit | bounds | on a bound |", "|---|---|---|---|---|---|---|"]
+        for r in res.final_model_table:
+            lines.append(f"| {r['name']} | {r['role']} | {r['value']:.4g} | {r['std_error']:.2g} | {r['unit']} | "
+                         f"[{r['lower']:.4g}, {r['upper']:.4g}] | {'**yes**' if r['on_bound'] else 'no'} |")
         lines.append("")
     if res.notes:
         lines += ["## Notes", ""] + [f"- {n}" for n in res.notes] + [""]

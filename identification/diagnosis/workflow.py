@@ -162,6 +162,7 @@ from identification.diagnosis.residuals import (  # noqa: F401
     residual_maps,
     signature_scores,
 )
+from identification.diagnosis.final_model import final_model_rows
 from identification.diagnosis.floor import UNEXPLAINED_FACTOR, heldout_rms, noise_floor, ratios, where_mismatch
 from identification.diagnosis.candidates import (  # noqa: F401
     Candidate,
@@ -220,6 +221,8 @@ class DiagnosisResult:
     mismatch: dict[str, Any] = dataclasses.field(default_factory=dict)  # where it remains (unexplained)
     reason: str = ""  # why this verdict
     unexplained_factor: float = UNEXPLAINED_FACTOR  # the plant's threshold of the verdict, in noise floors
+    # every parameter of the final model with its standard error, unit, bounds, on-bound flag
+    final_model_table: list[dict[str, Any]] = dataclasses.field(default_factory=list)
 
     def to_json_dict(self) -> dict[str, Any]:
         cands = []
@@ -232,7 +235,7 @@ class DiagnosisResult:
             "plant": self.plant, "verdict": self.verdict, "reason": self.reason, "effects": self.effects,
             "noise_floor": self.noise_floor, "residual": self.residual, "mismatch": self.mismatch,
             "unexplained_factor": self.unexplained_factor, "candidates": cands,
-            "ambiguous": self.ambiguous, "base_fit": self.base_fit,
+            "ambiguous": self.ambiguous, "base_fit": self.base_fit, "final_model": self.final_model_table,
             "rounds": [r.to_json_dict() for r in self.rounds], "notes": self.notes, "seconds": self.seconds,
         })
 
@@ -476,7 +479,8 @@ def diagnose(plant: str | DiagnosisPlant, records: Sequence[Record], holdout: Se
     if cur is not base_outcome:
         notes += _stiffness_cap_notes(cur, "final model")
     return DiagnosisResult(spec.name, verdict, accepted, rounds, base_model, cur.model, base_fit, notes,
-                           time.perf_counter() - t0, sigma, ambiguous, floor, residual, mismatch, reason, factor)
+                           time.perf_counter() - t0, sigma, ambiguous, floor, residual, mismatch, reason, factor,
+                           final_model_rows(spec, cur, accepted))
 
 
 
