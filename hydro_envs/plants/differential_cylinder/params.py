@@ -73,7 +73,7 @@ class DifferentialCylinderParams(PhysicalParams):
         1.2e9, "Pa", (1e7, 3e9), "assumed: effective bulk modulus of mineral oil with short hoses (1.0-1.4 GPa)"
     )
     rated_flow: float = physical(
-        40.0 / 60e3, "m^3/s", (0.0, 1.0), f"{_SHEET}: 40 L/min at the rated pressure drop", open_low=True
+        float(f"{40.0 / 60e3:.15g}"), "m^3/s", (0.0, 1.0), f"{_SHEET}: 40 L/min at the rated pressure drop", open_low=True
     )
     rated_pressure_drop: float = physical(
         70e5, "Pa", (1e5, 700e5),

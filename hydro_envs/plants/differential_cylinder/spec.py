@@ -22,6 +22,18 @@ SPEC = PlantSpec(
             "hydro_envs.envs.differential_cylinder:DifferentialCylinderPositionVectorEnv",
             2000,
         ),
+        EnvEntry(
+            "hydro_envs/DifferentialCylinderSlowSine-v0",
+            "hydro_envs.envs.differential_cylinder:DifferentialCylinderSlowSineEnv",
+            "hydro_envs.envs.differential_cylinder:DifferentialCylinderSlowSineVectorEnv",
+            8000,
+        ),
+        EnvEntry(
+            "hydro_envs/DifferentialCylinderMicroPosition-v0",
+            "hydro_envs.envs.differential_cylinder:DifferentialCylinderMicroPositionEnv",
+            "hydro_envs.envs.differential_cylinder:DifferentialCylinderMicroPositionVectorEnv",
+            8000,
+        ),
     ),
     stroke_parameter="stroke",
     pressure_parameter="supply_pressure",
