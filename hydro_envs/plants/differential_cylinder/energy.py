@@ -25,7 +25,7 @@ N_BODIES = 1
 @njit_noalloc
 def mech_terms(y, p):
     """Piston: kinetic energy, load potential, stop spring and the bristles' ``sigma0 z^2 / 2``;
-    port power ``(A1 p1 - A2 p2) v``; the seal friction (less the bristles' stored-energy rate)
+    port power ``(A1 p1 - A2 p2 - (A1 - A2) p_amb) v``; the seal friction (less the bristles' stored-energy rate)
     and the stop damping dissipate."""
     x = y[dc.X]
     v = y[dc.V]
@@ -36,7 +36,7 @@ def mech_terms(y, p):
     d_f = bristle_dissipation(v, z, ff, dz, s0)
     u_st, d_st = stop_split(x, v, 0.0, p[dc.I_L], p[dc.I_KSTOP], p[dc.I_ASTOP])
     e = 0.5 * p[dc.I_M] * v * v + p[dc.I_FL] * x + u_st + 0.5 * s0 * z * z
-    f_fluid = p[dc.I_A1] * y[dc.P1] - p[dc.I_A2] * y[dc.P2]
+    f_fluid = p[dc.I_A1] * y[dc.P1] - p[dc.I_A2] * y[dc.P2] - p[dc.I_FAMB]
     return e, f_fluid * v, d_f + d_st, abs(ff * v) + abs(s0 * z * dz) + abs(d_st), u_st
 
 
@@ -49,7 +49,7 @@ def state_breaches(Y, P, RUN, flags):
         p = P[i]
         fl = p[dc.I_PFLOOR]
         fp = int(not (y[dc.P1] >= fl)) + int(not (y[dc.P2] >= fl))
-        f = abs(p[dc.I_A1] * y[dc.P1] - p[dc.I_A2] * y[dc.P2]) + abs(p[dc.I_FL])
+        f = abs(p[dc.I_A1] * y[dc.P1] - p[dc.I_A2] * y[dc.P2] - p[dc.I_FAMB]) + abs(p[dc.I_FL])
         fs, _, _ = stroke_check(y[dc.X], 0.0, p[dc.I_L], abs(y[dc.V]), f, p[dc.I_M], p[dc.I_KSTOP], RUN[i], 0)
         flags[i, 0] = fp
         flags[i, 1] = 1 if fs else 0

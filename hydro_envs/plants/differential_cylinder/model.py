@@ -18,7 +18,7 @@ Systems*, 1967, ch. 5; Jelali & Kroll, *Hydraulic Servo-systems*, 2003, sec. 3.3
 
     A1 = pi/4 D^2,  A2 = pi/4 (D^2 - d^2)                              areas of bore D, rod d
     x'  = v
-    m v' = A1 p1 - A2 p2 - F_f - F_L + F_stop(x, v)
+    m v' = A1 p1 - A2 p2 - (A1 - A2) p_amb - F_f - F_L + F_stop(x, v)   (ambient on the rod's end)
     p1' = beta / (A1 x + V01) (Q1 - A1 v)
     p2' = beta / (A2 (L - x) + V02) (Q2 + A2 v)
     xv'' = -w_v^2 xv - 2 zeta_v w_v xv' + w_v^2 u / u_max              (second-order spool)
@@ -60,7 +60,7 @@ from hydro_envs.laws.seal_friction import (
 from hydro_envs.laws.valve import second_order_valve_acceleration
 from hydro_envs.libm import exp
 from hydro_envs.plants.differential_cylinder.params import (  # noqa: F401  (indices re-exported)
-    I_A1, I_A2, I_ASTOP, I_BETA, I_D, I_DFADE, I_DPTR, I_FC, I_FL, I_FS, I_KQ, I_KSTOP, I_L, I_LAP, I_M,
+    I_A1, I_A2, I_FAMB, I_ASTOP, I_BETA, I_D, I_DFADE, I_DPTR, I_FC, I_FL, I_FS, I_KQ, I_KSTOP, I_L, I_LAP, I_M,
     I_PFLOOR, I_PS, I_PT, I_SIG0, I_SIG1, I_UMAX, I_V1, I_V2, I_VMIN, I_VS, I_WV, I_ZCAP, I_ZV, N_FIELDS,
     N_PARAMS, PLANT, DifferentialCylinderParams, edge_flow_coefficient,
 )
@@ -135,7 +135,7 @@ def differential_cylinder_rhs(y, u, p, dy):
                                    p[I_ZCAP])
     f_stop = end_stop_force(x, v, 0.0, p[I_L], p[I_KSTOP], p[I_ASTOP])
     dy[X] = v
-    dy[V] = (a1 * p1 - a2 * p2 - f_friction - p[I_FL] + f_stop) / p[I_M]
+    dy[V] = (a1 * p1 - a2 * p2 - p[I_FAMB] - f_friction - p[I_FL] + f_stop) / p[I_M]
     dy[P1] = dp1
     dy[P2] = dp2
     dy[XV] = y[VV]
@@ -189,7 +189,8 @@ def minimum_natural_frequency(params: DifferentialCylinderParams) -> float:
 def no_load_velocity(params: DifferentialCylinderParams, direction: int = 1) -> float:
     """Steady piston speed [m/s] at full opening without load or friction, extending
     (``direction`` +1) or retracting (-1), from the orifice law with the force balance
-    ``A1 p1 = A2 p2`` (gauge pressures over tank, ``p_s`` for ``p_s - p_T``, ``alpha = A2/A1``):
+    ``A1 p1 = A2 p2`` (pressures over tank, ``p_s`` for ``p_s - p_T``, ``alpha = A2/A1``; exact for a
+    tank at ambient pressure, the ambient force on the rod's end then cancelling):
 
     * extend: ``p_s - p1 = (A1 v / K)^2``, ``p2 = (A2 v / K)^2`` -> ``v = K sqrt(p_s) / (A1 sqrt(1 + alpha^3))``
     * retract: ``p_s - p2 = (A2 v / K)^2``, ``p1 = (A1 v / K)^2`` -> ``v = K sqrt(p_s) / (A1 sqrt(alpha^2 + 1/alpha))``
@@ -248,12 +249,14 @@ def bandwidth_to_omega(params: DifferentialCylinderParams) -> float:
 
 def rest_state(params: DifferentialCylinderParams, x: float | None = None) -> np.ndarray:
     """At rest at ``x`` (mid-stroke by default), valve at null, the rod side at the valve's null
-    pressure ``(p_s + p_T)/2`` and the cap side at the pressure that balances it and the load,
-    ``p1 = (A2 p2 + F_L) / A1`` (floored at the cavitation floor)."""
+    pressure ``(p_s + p_T)/2`` and the cap side at the pressure that balances it, the load and the
+    ambient pressure on the rod's end, ``p1 = (A2 p2 + (A1 - A2) p_amb + F_L) / A1`` (floored at the
+    cavitation floor)."""
     y = np.zeros(N_STATES)
     y[X] = 0.5 * params.stroke if x is None else x
     y[P2] = 0.5 * (params.supply_pressure + params.tank_pressure)
-    y[P1] = max((params.annulus_area * y[P2] + params.load_force) / params.piston_area, params.pressure_floor)
+    a1, a2 = params.piston_area, params.annulus_area
+    y[P1] = max((a2 * y[P2] + (a1 - a2) * params.ambient_pressure + params.load_force) / a1, params.pressure_floor)
     return y
 
 

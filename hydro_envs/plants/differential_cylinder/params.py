@@ -69,6 +69,10 @@ class DifferentialCylinderParams(PhysicalParams):
     )
     supply_pressure: float = physical(160e5 + ATMOSPHERE, "Pa", (2e5, 70e6), f"{_SHEET}: 160 bar (gauge) supply")
     tank_pressure: float = physical(ATMOSPHERE, "Pa", (0.0, 1e6), "assumed: tank line at atmosphere")
+    ambient_pressure: float = physical(
+        ATMOSPHERE, "Pa", (0.0, 2e5),
+        "ISO 2533 standard atmosphere: acts on the rod's end face A1 - A2 (cancels on a double-rod cylinder)",
+    )
     bulk_modulus: float = physical(
         1.2e9, "Pa", (1e7, 3e9), "assumed: effective bulk modulus of mineral oil with short hoses (1.0-1.4 GPa)"
     )
@@ -168,10 +172,11 @@ class DifferentialCylinderParams(PhysicalParams):
         """alpha = A2 / A1."""
         return self.annulus_area / self.piston_area
 
-    #: derived kernel columns: the two areas, one edge's flow coefficient at full opening, the
-    #: spool's natural frequency, the seals' micro-damping fade velocity
+    #: derived kernel columns: the two areas, the ambient force on the rod's end face
+    #: (A1 - A2) p_amb, one edge's flow coefficient at full opening, the spool's natural
+    #: frequency, the seals' micro-damping fade velocity
     derived_names: ClassVar[tuple[str, ...]] = (
-        "piston_area_1", "annulus_area_2", "edge_flow_coefficient", "valve_natural_frequency",
+        "piston_area_1", "annulus_area_2", "ambient_rod_force", "edge_flow_coefficient", "valve_natural_frequency",
         "micro_damping_velocity",
     )
 
@@ -181,6 +186,7 @@ class DifferentialCylinderParams(PhysicalParams):
         return [
             self.piston_area,
             self.annulus_area,
+            (self.piston_area - self.annulus_area) * self.ambient_pressure,
             edge_flow_coefficient(self.rated_flow, self.rated_pressure_drop),
             bandwidth_to_natural_frequency(self.valve_bandwidth, self.valve_damping),
             dissipative_fade_velocity(self.bristle_damping, self.stribeck_velocity, self.coulomb_friction),
@@ -190,9 +196,9 @@ class DifferentialCylinderParams(PhysicalParams):
 # Column indices of the packed parameter row, generated from the dataclass' field order.
 _COLUMNS = DifferentialCylinderParams.names() + DifferentialCylinderParams.derived_names
 (
-    I_BORE, I_ROD, I_L, I_V1, I_V2, I_M, I_PS, I_PT, I_BETA, I_QN, I_DPN, I_FB, I_ZV, I_LAP, I_UMAX,
+    I_BORE, I_ROD, I_L, I_V1, I_V2, I_M, I_PS, I_PT, I_PAMB, I_BETA, I_QN, I_DPN, I_FB, I_ZV, I_LAP, I_UMAX,
     I_D, I_FC, I_FS, I_VS, I_SIG0, I_SIG1, I_ZCAP, I_FL, I_KSTOP, I_ASTOP, I_DPTR, I_PFLOOR, I_VMIN,
-    I_A1, I_A2, I_KQ, I_WV, I_DFADE,
+    I_A1, I_A2, I_FAMB, I_KQ, I_WV, I_DFADE,
 ) = range(len(_COLUMNS))
 N_FIELDS = len(DifferentialCylinderParams.names())
 N_PARAMS = len(_COLUMNS)

@@ -1,0 +1,188 @@
+"""Differential cylinder (issue 54): data-sheet arithmetic, analytic results, the parameter file
+with units, the env from a file, the controllers."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import hydro_envs  # noqa: F401  (registers the envs)
+from hydro_envs import registry
+from hydro_envs.params import ParameterError
+from hydro_envs.plants.differential_cylinder import model as dc
+from hydro_envs.plants.differential_cylinder.datasheet import load_rig, shipped_files
+from hydro_envs.plants.differential_cylinder.params import (
+    DifferentialCylinderParams, bandwidth_to_natural_frequency, edge_flow_coefficient,
+)
+from hydro_envs.sim.simulate import simulate
+
+ENV = "hydro_envs/DifferentialCylinderPosition-v0"
+SPEC = registry.get("differential_cylinder")
+NOMINAL = DifferentialCylinderParams()
+
+
+def test_areas_and_valve_from_the_data_sheet():
+    # 63/36 mm: A1 = 31.17 cm^2, A2 = 20.99 cm^2 (hand calculation pi/4 d^2)
+    assert NOMINAL.piston_area == pytest.approx(31.172e-4, rel=1e-4)
+    assert NOMINAL.annulus_area == pytest.approx(20.994e-4, rel=1e-4)
+    # 40 L/min at 35 bar per edge: K = 6.667e-4 / sqrt(3.5e6)
+    assert edge_flow_coefficient(NOMINAL.rated_flow, NOMINAL.rated_pressure_drop) == pytest.approx(
+        6.6667e-4 / 1870.83, rel=1e-4)
+    # the -3 dB frequency of the spool the natural frequency implies is the data sheet's 60 Hz
+    for zeta in (0.3, 0.7, 1.2):
+        wn = bandwidth_to_natural_frequency(60.0, zeta)
+        w = 2 * math.pi * 60.0
+        gain = wn**2 / abs(complex(wn**2 - w**2, 2 * zeta * wn * w))
+        assert gain == pytest.approx(1 / math.sqrt(2), rel=1e-9)
+
+
+def test_rated_flow_through_the_valve_at_the_rated_drop():
+    # a fully open valve with p_s - p1 = 35 bar into a chamber: the flow is Q_N (laminar core aside)
+    row = NOMINAL.to_array()
+    ps, pt = NOMINAL.supply_pressure, NOMINAL.tank_pressure
+    q1, q2 = dc.valve_flows(1.0, ps - 35e5, pt + 35e5, row)
+    assert q1 == pytest.approx(NOMINAL.rated_flow, rel=2e-3)
+    assert -q2 == pytest.approx(NOMINAL.rated_flow, rel=2e-3)
+
+
+def test_minimum_natural_frequency_location_is_the_minimum():
+    xs = np.linspace(0.0, NOMINAL.stroke, 3001)
+    w = [dc.hydraulic_natural_frequency(NOMINAL, x) for x in xs]
+    assert dc.minimum_natural_frequency(NOMINAL) == pytest.approx(min(w), rel=1e-6)
+    assert dc.minimum_natural_frequency_position(NOMINAL) == pytest.approx(xs[int(np.argmin(w))], abs=2e-4)
+
+
+def test_substeps_and_stiffness_modes_bound_the_jacobian():
+    y = dc.rest_state(NOMINAL, 0.0)
+    y[dc.V] = 0.0
+    row = NOMINAL.to_array()
+    u = np.zeros(1)
+
+    def f(s):
+        d = np.zeros(dc.N_STATES)
+        dc.differential_cylinder_rhs(s, u, row, d)
+        return d
+
+    jac = np.zeros((dc.N_STATES, dc.N_STATES))
+    for j in range(dc.N_STATES):
+        h = 1e-7 * max(1.0, abs(y[j]))
+        a, b = y.copy(), y.copy()
+        a[j] += h
+        b[j] -= h
+        jac[:, j] = (f(a) - f(b)) / (2 * h)
+    assert np.abs(np.linalg.eigvals(jac)).max() <= max(dc.stiffness_modes(NOMINAL).values())
+
+
+def test_parameter_file_loads_and_equals_the_nominal_rig():
+    assert load_rig("configs/differential_cylinder_63_36_300.yaml") == NOMINAL
+    assert load_rig("differential_cylinder_63_36_300") == NOMINAL  # shipped as package data
+    shipped = shipped_files()["differential_cylinder_63_36_300"].read_text()
+    with open("configs/differential_cylinder_63_36_300.yaml") as fh:
+        assert fh.read() == shipped
+
+
+def test_units_convert_once():
+    assert load_rig({"bore": "63 mm"}).bore == load_rig({"bore": 0.063}).bore == 0.063
+    assert load_rig({"bore": "6.3 cm"}).bore == 0.063
+    p = load_rig({"valve": {"rated_flow": "60 L/min", "bandwidth": "0.1 kHz"}, "mass": "250 kg"})
+    assert p.rated_flow == pytest.approx(1e-3, rel=1e-12) and p.valve_bandwidth == 100.0 and p.mass == 250.0
+    # pressure levels are gauge unless marked absolute; differences are not shifted
+    assert load_rig({"supply_pressure": "200 bar"}).supply_pressure == 200e5 + 101325.0
+    assert load_rig({"supply_pressure": "200 bar(a)"}).supply_pressure == 200e5
+    assert load_rig({"valve": {"rated_pressure_drop": "10 bar"}}).rated_pressure_drop == 10e5
+
+
+@pytest.mark.parametrize("mapping, words", [
+    ({"bore": "63 kg"}, ("bore", "63 kg", "[m]")),
+    ({"valve": {"rated_flow": "40 bar"}}, ("rated_flow", "bar", "m^3/s")),
+    ({"stroke": "-300 mm"}, ("stroke", "-300 mm", "allowed")),
+    ({"mass": "0 kg"}, ("mass", "0 kg", "allowed")),
+    ({"rod": "70 mm"}, ("rod", "bore")),
+    ({"valve": {"flow": "40 L/min"}}, ("valve.flow",)),
+    ({"bore": "sixty mm"}, ("bore", "sixty")),
+])
+def test_a_wrong_unit_or_impossible_value_is_refused_by_name(mapping, words):
+    with pytest.raises(ParameterError) as exc:
+        load_rig(mapping)
+    for w in words:
+        assert w in str(exc.value)
+
+
+def test_env_made_from_a_file_is_that_rig_and_randomised_around_it(tmp_path):
+    f = tmp_path / "rig.yaml"
+    f.write_text("bore: 80 mm\nrod: 45 mm\nstroke: 500 mm\nsupply_pressure: 200 bar\n"
+                 "valve: {rated_flow: 60 L/min, rated_pressure_drop: 70 bar, bandwidth: 40 Hz}\n")
+    env = gym.make(ENV, params=str(f), randomize=False)
+    env.reset(seed=0)
+    p = env.unwrapped.params
+    assert (p.bore, p.rod, p.stroke, p.valve_bandwidth) == (0.08, 0.045, 0.5, 40.0)
+    env = gym.make(ENV, params=str(f))
+    masses = []
+    for s in range(20):
+        env.reset(seed=s)
+        q = env.unwrapped.params
+        assert q.bore == 0.08  # geometry is not drawn
+        masses.append(q.mass / NOMINAL.mass)
+        assert 0.9 * 60 / 60e3 <= q.rated_flow <= 1.1 * 60 / 60e3
+    assert 1.0 <= min(masses) < max(masses) <= 2.0
+    obs, *_ = env.step(np.zeros(1, dtype=np.float32))
+    assert np.all(np.isfinite(obs))
+
+
+def _run(params, command, duration=0.4, x0=0.01):
+    dt = 1e-4
+    y0 = dc.rest_state(params, x0)
+    return simulate(SPEC, params, np.full((int(round(duration / dt)), 1), command), y0, dt)
+
+
+def test_speed_ratio_of_a_constant_command_run():
+    # no friction: the analytic no-load speeds of the orifice law with the force balance
+    p = dataclasses.replace(NOMINAL, coulomb_friction=0.0, static_friction=0.0, viscous_friction=0.0)
+    v_out = _run(p, p.command_max, x0=0.01)[-1, dc.V]
+    v_in = _run(p, -p.command_max, x0=p.stroke - 0.01)[-1, dc.V]
+    assert v_out == pytest.approx(dc.no_load_velocity(p, 1), rel=2e-3)
+    assert -v_in == pytest.approx(dc.no_load_velocity(p, -1), rel=2e-3)
+    assert v_out / -v_in == pytest.approx(1 / math.sqrt(p.area_ratio), rel=3e-3)
+
+
+def test_validation_rows_pass():
+    rows = SPEC.validation_rows()
+    assert len(rows) == 3 and all(r.kind == "consistency" for r in rows)
+    for r in rows:
+        assert r.passed, (r.name, r.published, r.reproduced)
+
+
+def test_rest_state_is_at_rest_under_load():
+    p = dataclasses.replace(NOMINAL, load_force=5e3, coulomb_friction=0.0, static_friction=0.0)
+    y = dc.rest_state(p, 0.1)
+    d = np.zeros(dc.N_STATES)
+    dc.differential_cylinder_rhs(y, np.zeros(1), p.to_array(), d)
+    assert abs(d[dc.V]) < 1e-9 and d[dc.P1] == 0.0 and d[dc.P2] == 0.0
+    # gauge balance: A1 (p1 - p_amb) = A2 (p2 - p_amb) + F_L
+    amb = p.ambient_pressure
+    assert p.piston_area * (y[dc.P1] - amb) == pytest.approx(p.annulus_area * (y[dc.P2] - amb) + 5e3, rel=1e-12)
+
+
+def test_controllers_track_and_the_compensation_evens_the_directions():
+    from agents.controllers import make_controller
+
+    env = gym.make(ENV, randomize=False)
+    rmse = {}
+    for name in ("pid", "pid_vff_arc", "pid_vff_arc_stribeck"):
+        errs = []
+        for seed in (0, 1):
+            ctrl = make_controller(ENV, name)
+            obs, _ = env.reset(seed=seed, options={"reference": "sine"})
+            e = []
+            for _ in range(1500):
+                a, _ = ctrl.predict(obs)
+                obs, *_ = env.step(a)
+                e.append(obs[0] * 0.01)
+            errs.append(np.sqrt(np.mean(np.square(e[300:]))))
+        rmse[name] = float(np.mean(errs))
+    assert rmse["pid"] < 5e-3
+    assert rmse["pid_vff_arc"] < 0.7 * rmse["pid"]
