@@ -186,3 +186,25 @@ def test_controllers_track_and_the_compensation_evens_the_directions():
         rmse[name] = float(np.mean(errs))
     assert rmse["pid"] < 5e-3
     assert rmse["pid_vff_arc"] < 0.7 * rmse["pid"]
+
+
+def test_cli_simulate_and_benchmark_take_a_parameter_file(tmp_path, capsys):
+    from hydro_envs.cli import main as hydro_main
+    from hydro_envs.data.measured import load_measured
+
+    rig = tmp_path / "rig.yaml"
+    rig.write_text("bore: 80 mm\nrod: 45 mm\nstroke: 400 mm\nmass: 60 kg\n")
+    out = tmp_path / "rec.csv"
+    assert hydro_main(["simulate", ENV, "--params", str(rig), "--nominal", "--steps", "50", "--policy", "prbs",
+                       "--out", str(out)]) == 0
+    meta = load_measured(out).metadata
+    assert meta["param.bore"].startswith("0.08 ") and meta["param.stroke"].startswith("0.4 ")
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("bore: 80 kg\n")
+    assert hydro_main(["simulate", ENV, "--params", str(bad), "--steps", "5", "--out", str(tmp_path / "b.csv")]) == 2
+    assert "bore" in capsys.readouterr().err
+    assert hydro_main(["benchmark", "--env", ENV, "--controllers", "pid,pid_vff_arc_stribeck", "--params",
+                       f"{rig},nominal", "--n", "2", "--steps", "300", "--no-figures"]) == 0
+    assert "| pid_vff_arc_stribeck |" in capsys.readouterr().out
+    assert hydro_main(["benchmark", "--env", ENV, "--params", "sideways", "--n", "2"]) == 2
+    assert "nominal, in, out" in capsys.readouterr().err

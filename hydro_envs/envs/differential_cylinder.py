@@ -26,7 +26,8 @@ position error ``e`` after the step (sensor noise does not enter the reward).
 
 **Reset**: draws the plant parameters from the plant's ``randomization.yaml`` (scale factors
 around the nominal rig; unless ``randomize=False``), a reference (``steps``, ``smooth``,
-``sine``, ``chirp`` or ``mixed``) and a rest state with the piston in the middle half of the
+``sine``, ``chirp`` or ``mixed``; centred on mid-stroke, as wide as the retracting no-load speed
+crosses in 0.15 s: 49 mm on the nominal rig) and a rest state with the piston in the middle half of the
 stroke, the rod side at the valve's null pressure ``(p_s + p_T)/2`` and the cap side at the
 pressure that balances it and the load (:func:`~hydro_envs.plants.differential_cylinder.model.rest_state`).
 ``reset(options=...)`` accepts ``params``, ``state`` and ``reference`` as the servo env.
@@ -70,7 +71,12 @@ __all__ = ["DifferentialCylinderPositionEnv", "DifferentialCylinderPositionVecto
 
 DT = 1e-3
 EPISODE_STEPS = 2000
+#: band of the friction tasks' references (fractions of the stroke)
 REF_BAND = (0.1, 0.9)
+#: the tracking references' band: centred on mid-stroke, as wide as the retracting no-load speed
+#: crosses in this time [s] (at most REF_BAND): a long stroke's steps would otherwise be ramps at
+#: full opening for most of their 0.2-0.6 s holds (0.24 m at 0.33 m/s on the 300 mm rig)
+REF_CROSSING_TIME = 0.15
 #: the largest reference rate as a fraction of the slower (retracting) no-load speed
 REF_RATE_FRACTION = 0.6
 
@@ -141,9 +147,11 @@ class DifferentialCylinderBatch(CylinderTrackingBatch):
                 raise ValueError(f"options['state'][{name!r}] = {y[j]} Pa is below the pressure floor "
                                  f"{p.pressure_floor} Pa (pressures are absolute)")
         self.Y[i] = y
-        rate = REF_RATE_FRACTION * plant.no_load_velocity(p, -1)
+        v_ret = plant.no_load_velocity(p, -1)
+        half = min(0.5 * (REF_BAND[1] - REF_BAND[0]) * L, 0.5 * REF_CROSSING_TIME * v_ret)
+        rate = REF_RATE_FRACTION * v_ret
         self.set_reference(i, options.get("reference"), lambda kind, n: generate_reference(
-            kind or self.reference_kind, rng, n, DT, REF_BAND[0] * L, REF_BAND[1] * L, rate))
+            kind or self.reference_kind, rng, n, DT, 0.5 * L - half, 0.5 * L + half, rate))
         self.draw_noise(i, rng)
 
     def apply_actions(self) -> None:
