@@ -246,3 +246,52 @@ def test_identify_friction_recovers_coulomb_and_viscous_with_both_areas(tmp_path
     assert hydro_main(["identify", "friction", "--plant", "differential_cylinder", "--data", str(path),
                        "--area", "0.003"]) == 2
     assert "two areas" in capsys.readouterr().err
+
+
+def _linear_plant(p, x):
+    from agents.controllers.margins import dry_free_linearization
+
+    Ad, Bd, C = dry_free_linearization(SPEC, p, dc.rest_state(p, x), [0.0], 1e-3, (dc.X, dc.P1, dc.P2))
+    # the loops measure x and the load pressure p1 - alpha p2: the pressure level of the sealed
+    # chambers at rest that leaves the force unchanged is a mode no feedback moves
+    C = np.vstack([C[0], C[1] - p.area_ratio * C[2]])
+    return Ad, Bd * p.command_max, C
+
+
+def _loops(nominal):
+    from agents.controllers.differential_cylinder import K_DP, P_BANDWIDTH, P_K_DP, pid_tuning
+    from agents.controllers.margins import pid_state_space
+
+    t = pid_tuning(nominal)
+    out = {}
+    for name, (kp, ti, td) in {"pid": (t["kp"], t["ti"], t["td"]), "p": (P_BANDWIDTH / t["k_q"], math.inf, 0.0)}.items():
+        if math.isfinite(ti):
+            Ac, Bc, Cc, Dc = pid_state_space(kp, ti, td, t["tf"], 1e-3)
+        else:  # the P loop: a static gain (pid_state_space's idle integrator would be a pole at 1)
+            Ac, Bc, Cc, Dc = np.zeros((1, 1)), np.zeros((1, 1)), np.zeros((1, 1)), np.array([[-kp]])
+        k_dp = K_DP if name == "pid" else P_K_DP
+        Bc = np.hstack([Bc, np.zeros((Bc.shape[0], 1))])
+        Dc = np.hstack([Dc, [[-k_dp / nominal.supply_pressure]]])  # -k_dp (p1 - alpha p2) / p_s
+        # the area-ratio compensation (of the PID) scales the retracting half by 1/sqrt(alpha): both gains
+        for g in ((1.0, 1.0 / math.sqrt(nominal.area_ratio)) if name == "pid" else (1.0,)):
+            out[f"{name} x{g:.2f}"] = (Ac, Bc, g * Cc, g * Dc)
+    return out
+
+
+def test_classical_loops_are_stable_without_dry_friction_over_the_randomisation():
+    from agents.controllers.margins import loop_margins
+    from hydro_envs.randomization import load_randomization
+
+    spec = load_randomization("differential_cylinder", DifferentialCylinderParams)
+    rng = np.random.default_rng(3)
+    corners = [NOMINAL, spec.corner(False), spec.corner(True)] + [
+        spec.corner(rng.integers(0, 2, len(spec.entries)).astype(bool)) for _ in range(12)]
+    worst = {}
+    for p in corners:
+        for x in (dc.minimum_natural_frequency_position(p), 0.5 * p.stroke, 0.9 * p.stroke):
+            Ad, Bd, C = _linear_plant(p, x)
+            for name, ctrl in _loops(NOMINAL).items():
+                m = loop_margins(Ad, Bd, C, ctrl, 1e-3)
+                assert m.stable, (name, x, m)
+                worst[name] = min(worst.get(name, np.inf), m.gain_margin_db)
+    assert worst["p x1.00"] >= 15.0 and min(worst["pid x1.00"], worst["pid x1.22"]) >= 10.0, worst

@@ -8,7 +8,9 @@ drop ``dp_N`` (the usual convention: ``dp_N`` over the valve, two metering edges
 ``dp_N / 2`` = 35 bar per edge), the -3 dB bandwidth and damping of its spool, and its lap.
 Terms that depend on the parameters only (areas, flow coefficient, spool natural frequency) are
 derived kernel columns (``derived_names``). Column indices ``I_*`` are generated from the
-dataclass' field order.
+dataclass' field order. The allowed ranges are physical and keep every range end under the
+envs' sub-step cap (1000 per 1 ms step; tests/test_range_ends.py): rated flow up to 0.1 m^3/s
+(6000 L/min), friction levels up to 5 kN, an orifice transition pressure of at least 100 Pa.
 """
 
 from __future__ import annotations
@@ -77,7 +79,7 @@ class DifferentialCylinderParams(PhysicalParams):
         1.2e9, "Pa", (1e7, 3e9), "assumed: effective bulk modulus of mineral oil with short hoses (1.0-1.4 GPa)"
     )
     rated_flow: float = physical(
-        float(f"{40.0 / 60e3:.15g}"), "m^3/s", (0.0, 1.0), f"{_SHEET}: 40 L/min at the rated pressure drop", open_low=True
+        float(f"{40.0 / 60e3:.15g}"), "m^3/s", (0.0, 0.1), f"{_SHEET}: 40 L/min at the rated pressure drop", open_low=True
     )
     rated_pressure_drop: float = physical(
         70e5, "Pa", (1e5, 700e5),
@@ -102,10 +104,10 @@ class DifferentialCylinderParams(PhysicalParams):
         "assumed: servo plant's 250 N s/m (002 Table 1) x 63/29.05, the ratio of the seal circumferences",
     )
     coulomb_friction: float = physical(
-        87.0, "N", (0.0, 2e4), "assumed: servo plant's 40 N x 63/29.05 (seal circumference ratio)"
+        87.0, "N", (0.0, 5000.0), "assumed: servo plant's 40 N x 63/29.05 (seal circumference ratio)"
     )
     static_friction: float = physical(
-        130.0, "N", (0.0, 3e4), "assumed: servo plant's 60 N x 63/29.05 (F_S/F_C = 1.5)"
+        130.0, "N", (0.0, 5000.0), "assumed: servo plant's 60 N x 63/29.05 (F_S/F_C = 1.5)"
     )
     stribeck_velocity: float = physical(
         0.01, "m/s", (1e-5, 1.0), "assumed: 10 mm/s, as the servo plant (lubricated hydraulic seals)"
@@ -130,7 +132,7 @@ class DifferentialCylinderParams(PhysicalParams):
         2.0, "s/m", (0.0, 100.0), "assumed: Hunt-Crossley alpha, as the servo plant"
     )
     orifice_transition_pressure: float = physical(
-        2e5, "Pa", (1.0, 1e7), "assumed: laminar core of the regularised root (NOTES.md), 2 bar"
+        2e5, "Pa", (100.0, 1e7), "assumed: laminar core of the regularised root (NOTES.md), 2 bar"
     )
     pressure_floor: float = physical(
         1e3, "Pa", (0.0, 1e5), "assumed: cavitation floor, about the oil's vapour/gas-release pressure"
