@@ -259,7 +259,7 @@ def test_configs_resolve_by_name_from_any_directory(tmp_path, monkeypatch):
     for name in ("servo_cylinder", "rodless_cylinder_slow_sine.yaml"):
         assert bcli.load_config(name)["env"].startswith("hydro_envs/")
     assert bcli._policy_path("agents/pretrained/servo_cylinder/ppo_s0").startswith(str(bcli.Path(bcli.__file__).resolve().parents[1]))
-    with pytest.raises(FileNotFoundError, match="shipped: force_actuator"):
+    with pytest.raises(FileNotFoundError, match="shipped: differential_cylinder, .*force_actuator"):
         bcli.load_config("no_such_config")
 
 

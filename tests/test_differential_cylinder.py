@@ -131,6 +131,10 @@ def test_env_made_from_a_file_is_that_rig_and_randomised_around_it(tmp_path):
     assert 1.0 <= min(masses) < max(masses) <= 2.0
     obs, *_ = env.step(np.zeros(1, dtype=np.float32))
     assert np.all(np.isfinite(obs))
+    # a rig without stiction data (F_S = F_C) is randomised too: F_S >= F_C at every corner
+    env = gym.make(ENV, params={"friction": {"coulomb": "100 N", "static": "100 N"}})
+    env.reset(seed=3)
+    assert env.unwrapped.params.static_friction >= env.unwrapped.params.coulomb_friction
 
 
 def _run(params, command, duration=0.4, x0=0.01):
