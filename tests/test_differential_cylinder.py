@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
@@ -21,6 +22,8 @@ from hydro_envs.plants.differential_cylinder.params import (
 from hydro_envs.sim.simulate import simulate
 
 ENV = "hydro_envs/DifferentialCylinderPosition-v0"
+#: the shipped example parameter file (configs/ of the repository)
+RIG_FILE = str(Path(__file__).resolve().parents[1] / "configs" / "differential_cylinder_63_36_300.yaml")
 SPEC = registry.get("differential_cylinder")
 NOMINAL = DifferentialCylinderParams()
 
@@ -78,10 +81,10 @@ def test_substeps_and_stiffness_modes_bound_the_jacobian():
 
 
 def test_parameter_file_loads_and_equals_the_nominal_rig():
-    assert load_rig("configs/differential_cylinder_63_36_300.yaml") == NOMINAL
+    assert load_rig(RIG_FILE) == NOMINAL
     assert load_rig("differential_cylinder_63_36_300") == NOMINAL  # shipped as package data
     shipped = shipped_files()["differential_cylinder_63_36_300"].read_text()
-    with open("configs/differential_cylinder_63_36_300.yaml") as fh:
+    with open(RIG_FILE) as fh:
         assert fh.read() == shipped
 
 
@@ -233,7 +236,7 @@ def test_identify_friction_recovers_coulomb_and_viscous_with_both_areas(tmp_path
     assert fit["F_c"] == pytest.approx(150.0, rel=0.05) and fit["F_v"] == pytest.approx(900.0, rel=0.05)
     # from the parameter file's geometry too
     assert hydro_main(["identify", "friction", "--plant", "differential_cylinder", "--data", str(path), "--json",
-                       "--params", "configs/differential_cylinder_63_36_300.yaml"]) == 0
+                       "--params", RIG_FILE]) == 0
     assert json.loads(capsys.readouterr().out)["parameters"]["F_c"] == pytest.approx(150.0, rel=0.05)
     # the equal-area formula F = A1 (p1 - p2) does not: the rod side's 20 % smaller area is a force
     # of the annulus pressure, not friction
@@ -299,3 +302,27 @@ def test_classical_loops_are_stable_without_dry_friction_over_the_randomisation(
                 assert m.stable, (name, x, m)
                 worst[name] = min(worst.get(name, np.inf), m.gain_margin_db)
     assert worst["p x1.00"] >= 15.0 and min(worst["pid x1.00"], worst["pid x1.22"]) >= 10.0, worst
+
+
+def test_greybox_round_trip_through_the_cli_recovers_mass_bulk_modulus_and_viscous_friction(tmp_path, capsys):
+    # hydro simulate (PRBS valve steps, a rig from a parameter file) -> file -> hydro identify
+    # greybox from a start 20-30 % off; the geometry comes from the file's param.NAME metadata
+    import json
+
+    from hydro_envs.cli import main as hydro_main
+
+    rig = tmp_path / "rig.yaml"
+    rig.write_text("bore: 50 mm\nrod: 28 mm\nstroke: 200 mm\nmass: 25 kg\nbulk_modulus: 1.0 GPa\n"
+                   "friction: {viscous: 800 N s/m}\n")
+    rec = tmp_path / "rec.csv"
+    assert hydro_main(["simulate", ENV, "--params", str(rig), "--nominal", "--steps", "1500", "--policy", "prbs",
+                       "--amplitude", "0.3", "--out", str(rec)]) == 0
+    true = {"mass": 25.0, "bulk_modulus": 1.0e9, "viscous_friction": 800.0}
+    start = {k: v * f for (k, v), f in zip(true.items(), (1.3, 0.8, 1.2))}
+    argv = ["identify", "greybox", "--plant", "differential_cylinder", "--data", str(rec), "--json",
+            "--fit", ",".join(start)] + [a for k, v in start.items() for a in ("--set", f"{k}={v!r}")]
+    capsys.readouterr()
+    assert hydro_main(argv) == 0
+    out = json.loads(capsys.readouterr().out)
+    for name, value in true.items():
+        assert out["parameters"][name] == pytest.approx(value, rel=0.03), name
