@@ -326,3 +326,25 @@ def test_greybox_round_trip_through_the_cli_recovers_mass_bulk_modulus_and_visco
     out = json.loads(capsys.readouterr().out)
     for name, value in true.items():
         assert out["parameters"][name] == pytest.approx(value, rel=0.03), name
+
+
+def test_the_plant_gives_what_the_registry_sim_envs_and_identification_ask():
+    model, kernels, params_cls = SPEC.model, SPEC.kernels, SPEC.params_cls
+    need = {
+        model: ("STATE_NAMES", "STATE_UNITS", "N_STATES", "STATE_OUTPUTS", "DERIVATIVE_OUTPUTS", "FIT_OUTPUTS",
+                "stiffness_modes", "rest_state", "rest_state_from_measurement"),
+        kernels: ("step_serial", "step_parallel", "trajectories", "derivatives", "rhs", "guard"),
+    }
+    for module, names in need.items():
+        missing = [n for n in names if not hasattr(module, n)]
+        assert not missing, f"{module.__name__} lacks {missing}"
+    assert len(model.STATE_NAMES) == len(model.STATE_UNITS) == model.N_STATES
+    assert set(params_cls.geometry) <= set(params_cls.names())
+    assert set(SPEC.dry_friction_parameters) <= set(params_cls.names())
+    # the kernel row's columns are the fields and the derived names, the indices generated from them
+    from hydro_envs.plants.differential_cylinder import params as pm
+
+    assert NOMINAL.to_array().shape == (pm.N_PARAMS,)
+    for name, col in (("stroke", pm.I_L), ("supply_pressure", pm.I_PS), ("command_max", pm.I_UMAX)):
+        assert NOMINAL.to_array()[col] == getattr(NOMINAL, name)
+    assert NOMINAL.to_array()[pm.I_A1] == NOMINAL.piston_area and NOMINAL.to_array()[pm.I_A2] == NOMINAL.annulus_area
