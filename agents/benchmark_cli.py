@@ -38,7 +38,8 @@ def add_cli(subparsers: Any) -> argparse.ArgumentParser:
     p.add_argument("--env", metavar="ID", help="env id, e.g. hydro_envs/ServoCylinderPosition-v0")
     p.add_argument("--controllers", metavar="LIST",
                    help="comma-separated: classical names and/or sb3:RUN_DIR (NAME=sb3:RUN_DIR)")
-    p.add_argument("--params", metavar="SET", help="nominal|in|out, or a comma-separated list")
+    p.add_argument("--params", metavar="SET", help="nominal|in|out, or a comma-separated list; may include one "
+                   "parameter file with units (its rig is the nominal set the others are drawn around)")
     p.add_argument("--n", type=int, metavar="N", help="number of parameter draws (default 20)")
     p.add_argument("--seed", type=int, metavar="S", help="seed of draws and episodes (default 0)")
     p.add_argument("--out", metavar="DIR", help="output folder (tables, figures); a non-empty folder only with --force")
@@ -173,6 +174,20 @@ def _preflight_randomization(env: str, path: str) -> None:
     RandomizationSpec.from_yaml(path, spec.params_cls)
 
 
+def _rig_file(psets: list[str]) -> tuple[list[str], str | None]:
+    """The set names of ``--params`` and the parameter file among them (at most one; an env that
+    reads parameter files takes it as its nominal rig): ``(sets or ["nominal"], file or None)``."""
+    files = [s for s in psets if s not in PARAM_SETS]
+    for s in files:
+        if not Path(s).is_file():
+            raise ValueError(f"--params: {s!r} is neither a set ({', '.join(PARAM_SETS)}) nor an existing "
+                             "parameter file")
+    if len(files) > 1:
+        raise ValueError(f"--params: one parameter file at most, got {', '.join(files)}")
+    sets = [s for s in psets if s in PARAM_SETS] or ["nominal"]
+    return sets, (files[0] if files else None)
+
+
 def cli_benchmark(args: argparse.Namespace) -> int:
     """Run ``hydro benchmark``; errors propagate to the command line's one-line convention."""
     from hydro_envs.outputs import check_output_dir
@@ -189,9 +204,7 @@ def cli_benchmark(args: argparse.Namespace) -> int:
     ctrls += [f"sb3:{r}" for r in args.policy]
     psets = args.params if args.params is not None else cfg.get("params", "nominal")
     psets = [s.strip() for s in (psets.split(",") if isinstance(psets, str) else psets)]
-    for s in psets:
-        if s not in PARAM_SETS:
-            raise ValueError(f"--params: {s!r} is not allowed; allowed {', '.join(PARAM_SETS)}")
+    psets, rig = _rig_file(psets)
     n = _positive("--n", args.n) if args.n is not None else int(cfg.get("n", 20))
     seed = args.seed if args.seed is not None else int(cfg.get("seed", 0))
     if seed < 0:
@@ -203,13 +216,15 @@ def cli_benchmark(args: argparse.Namespace) -> int:
     chunk = _positive("--chunk-size", getattr(args, "chunk_size", None))
     rand = getattr(args, "randomization", None) or cfg.get("randomization")
     env_kwargs = {"randomization": str(rand)} if rand else None
+    if rig:  # the env's nominal rig is the file's; the sets are drawn around it
+        env_kwargs = {**(env_kwargs or {}), "params": rig}
     # everything the run reads and writes, before any controller runs
     from agents.benchmark import _adapter, parse_controllers
 
     _adapter(env)
     parse_controllers(env, ctrls)
     if out:
-        inputs = [rand, str(config_path(args.config)) if args.config else None]
+        inputs = [rand, rig, str(config_path(args.config)) if args.config else None]
         check_output_dir(out, force=bool(getattr(args, "force", False)), inputs=[i for i in inputs if i])
     if rand:
         _preflight_randomization(env, str(rand))

@@ -104,6 +104,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="prbs clock: control periods per bit (default 20)")
     p.add_argument("--nominal", action="store_true",
                    help="nominal parameters (no domain randomisation)")
+    p.add_argument("--params", metavar="FILE", default=None,
+                   help="parameter file with units for an env that reads one (gym.make(ENV_ID, params=FILE)): "
+                   "its rig is the nominal set, randomised around unless --nominal")
     p.add_argument("--seed", type=int, default=0, metavar="S",
                    help="seed for reset() and the input signal (default: 0)")
     p.add_argument("--out", required=True, metavar="FILE",
@@ -312,8 +315,14 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
     from hydro_envs.outputs import check_output_file
 
     check_output_file(args.out, force=bool(getattr(args, "force", False)), suffixes=SIMULATE_SUFFIXES)
+    make_kwargs = {"randomize": not args.nominal}
+    if args.params is not None:
+        make_kwargs["params"] = args.params
     try:
-        env = gym.make(args.env_id, randomize=not args.nominal)
+        env = gym.make(args.env_id, **make_kwargs)
+    except (TypeError, ValueError) as e:  # a parameter file the env refuses, or one it cannot read
+        _err(f"--params {args.params}: {e}" if args.params is not None else str(e), "hydro simulate")
+        return EXIT_USAGE
     except gym.error.Error as e:  # NameNotFound, NamespaceNotFound, VersionNotFound, ...
         ours = sorted(k for k in gym.registry if k.startswith("hydro_envs/"))
         _err(f"cannot make {args.env_id!r}: {e}; registered hydro_envs envs: "
@@ -356,6 +365,7 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
             "policy": args.policy,
             "amplitude": args.amplitude,
             "randomized": not args.nominal,
+            **({"params_file": str(args.params)} if args.params is not None else {}),
             "steps": steps_done,
             "dt": repr(dt),
             "convention": "row k: sensors at t_k, input held over [t_k, t_k+1); last row repeats the input",

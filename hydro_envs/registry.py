@@ -28,6 +28,7 @@ PLANT_NAMES: tuple[str, ...] = (
     "rodless_cylinder",
     "slider",
     "seal_friction",
+    "differential_cylinder",
 )
 
 _SPECS: dict[str, PlantSpec] = {}

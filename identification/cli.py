@@ -315,7 +315,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 # method: friction
 # ======================================================================================
 
-_FRICTION_PLANTS = ("servo_cylinder", "seal_friction")
+_FRICTION_PLANTS = ("servo_cylinder", "seal_friction", "differential_cylinder")
 _FRICTION_MODELS = ("stribeck", "stribeck_gaussian", "coulomb_viscous", "coulomb", "neural_ff",
                     "neural_rbf")
 
@@ -324,8 +324,12 @@ def _friction_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--plant", required=True, choices=_FRICTION_PLANTS,
                    help="servo_cylinder: square-wave constant-velocity test (002 sec. 4; "
                    "channels u, x, p1, p2); seal_friction: constant-speed strokes (original "
-                   "whitespace files or measured-data CSV)")
+                   "whitespace files or measured-data CSV); differential_cylinder: the square wave of a "
+                   "single-rod cylinder, F = A1 p1 - A2 p2 (gauge), its areas from --bore/--rod, --params "
+                   "or the file's param.bore/param.rod metadata")
     p.add_argument("--data", required=True, metavar="FILE", help="measured-data file")
+    p.add_argument("--params", default=None, metavar="FILE",
+                   help="differential_cylinder: parameter file with units giving bore and rod")
     p.add_argument("--model", default="stribeck", choices=_FRICTION_MODELS,
                    help="stribeck (002 eq (1)), stribeck_gaussian (003 eq (11)), "
                    "coulomb_viscous, coulomb, neural_ff / neural_rbf (002 sec. 5); "
@@ -384,14 +388,68 @@ def _check_geometry_flags(args: argparse.Namespace) -> None:
     _geometry_value("--rod", args.rod, "m", *_BORE_RANGE)
     if args.bore is not None and args.area is not None:
         raise CliError(f"give --bore ({args.bore:g} m) or --area ({args.area:g} m^2), not both")
-    if args.rod is not None and (args.plant != "servo_cylinder" or args.bore is None):
-        raise CliError(f"--rod = {args.rod:g} m: only with --bore, for the double-rod servo_cylinder")
+    if args.rod is not None and (args.plant not in _ROD_PLANTS or args.bore is None):
+        raise CliError(f"--rod = {args.rod:g} m: only with --bore, for {' or '.join(_ROD_PLANTS)}")
+    if getattr(args, "params", None) is not None and args.plant != "differential_cylinder":
+        raise CliError(f"--params: only for --plant differential_cylinder (got {args.plant})")
+    if args.plant == "differential_cylinder" and args.area is not None:
+        raise CliError(f"--area = {args.area:g} m^2: a differential cylinder has two areas; give --bore M and "
+                       "--rod M (or --params FILE)")
+    if args.plant == "differential_cylinder" and args.bore is not None and args.rod is None:
+        raise CliError(f"--bore = {args.bore:g} m: give --rod M too (the rod-side area is pi (bore^2 - rod^2) / 4)")
+    if args.plant == "differential_cylinder" and args.bore is not None and not args.rod < args.bore:
+        raise CliError(f"--rod = {args.rod:g} m; allowed below --bore = {args.bore:g} m")
     if args.plant == "servo_cylinder" and args.bore is not None:
         if args.rod is None:
             raise CliError(f"--bore = {args.bore:g} m: servo_cylinder is a double-rod cylinder, the pressure acts on "
                            "the annulus; give --rod M too (or --area M2 of the annulus)")
         if not args.rod < args.bore:
             raise CliError(f"--rod = {args.rod:g} m; allowed below --bore = {args.bore:g} m")
+
+
+#: plants whose friction command takes --rod
+_ROD_PLANTS = ("servo_cylinder", "differential_cylinder")
+
+
+def _param_metadata(data: Any, key: str, where: str) -> float | None:
+    """A ``param.NAME`` metadata value (``"VALUE [UNIT]"``, as hydro simulate writes it) in SI, or None."""
+    raw = data.metadata.get(key)
+    if raw is None:
+        return None
+    try:
+        return float(str(raw).split("[")[0])
+    except ValueError:
+        raise CliError(f"{where}: metadata {key} = {raw!r}; allowed a number in SI units") from None
+
+
+def _differential_areas(args: argparse.Namespace, data: Any) -> tuple[float, float, float, str]:
+    """Cap- and rod-side areas [m^2], the ambient pressure [Pa] and a note on their source:
+    ``--bore``/``--rod``, ``--params FILE`` or the record's ``param.bore``/``param.rod`` metadata."""
+    from hydro_envs import registry
+    from hydro_envs.data.units import AMBIENT_PRESSURE
+
+    amb = _param_metadata(data, "param.ambient_pressure", str(args.data))
+    note = ""
+    if args.bore is not None:
+        bore, rod = args.bore, args.rod
+    elif getattr(args, "params", None) is not None:
+        rig = registry.get(args.plant).module("datasheet").load_rig(args.params)
+        bore, rod, amb, note = rig.bore, rig.rod, rig.ambient_pressure, f"bore and rod from {args.params}"
+    else:
+        bore = _param_metadata(data, "param.bore", str(args.data))
+        rod = _param_metadata(data, "param.rod", str(args.data))
+        if bore is None or rod is None:
+            raise CliError(f"{args.data}: the cylinder's geometry is unknown -- the record carries no param.bore / "
+                           "param.rod metadata; give --bore M and --rod M, or --params FILE")
+        note = f"bore {bore:g} m and rod {rod:g} m from the file's metadata"
+    _geometry_value("bore", bore, "m", *_BORE_RANGE)
+    _geometry_value("rod", rod, "m", *_BORE_RANGE)
+    if not rod < bore:
+        raise CliError(f"rod = {rod:g} m; allowed below bore = {bore:g} m")
+    if amb is None:
+        amb = AMBIENT_PRESSURE
+        note += ("; " if note else "") + f"ambient pressure {amb:g} Pa (standard atmosphere) on the rod's end"
+    return math.pi * bore**2 / 4.0, math.pi * (bore**2 - rod**2) / 4.0, float(amb), note
 
 
 def _servo_area(args: argparse.Namespace, data: Any) -> tuple[float, str]:
@@ -430,6 +488,11 @@ def _friction_run(args: argparse.Namespace) -> dict[str, Any]:
         area, note = _servo_area(args, data)
         args.record_notes = units_note(data) + ([note] if note else [])
         pts = friction_points_from_square_wave(data, area)
+    elif args.plant == "differential_cylinder":
+        data = load_measured(args.data, plant=args.plant, required=("u", "x", "p1", "p2"), **_record_kwargs(args))
+        area, area_2, amb, note = _differential_areas(args, data)
+        args.record_notes = units_note(data) + ([note] if note else [])
+        pts = friction_points_from_square_wave(data, area, area_2=area_2, ambient_pressure=amb)
     else:
         data = load_seal_friction(args.data, drop_rows=args.drop_rows, bore=args.bore,
                                   stroke=getattr(args, "record_stroke", None))
@@ -443,6 +506,8 @@ def _friction_run(args: argparse.Namespace) -> dict[str, Any]:
         area = pts.meta["piston_area"]
     res: dict[str, Any] = {"method": "friction", "plant": args.plant, "model": args.model,
                            "data": str(args.data), "n_points": len(pts), "area": area}
+    if pts.meta.get("area_2") is not None:
+        res["area_2"] = pts.meta["area_2"]
     if args.model.startswith("neural"):
         from identification import neural
 

@@ -52,8 +52,15 @@ def friction_points_from_square_wave(
     command_tol: float = 1e-9,
     min_samples: int = 10,
     correct_inertia: float | None = None,
+    area_2: float | None = None,
+    ambient_pressure: float = 0.0,
 ) -> FrictionPoints:
     """Constant-velocity points of a square-wave test (002 sec. 4 algorithm).
+
+    ``area_2`` [m^2]: a differential cylinder's rod-side (annulus) area; the force is then
+    ``area (p1 - p_amb) - area_2 (p2 - p_amb)`` with ``ambient_pressure`` p_amb [Pa] (absolute
+    pressures: the ambient pressure acts on the rod's end face ``area - area_2``), instead of
+    ``area (p1 - p2)`` of an equal-area cylinder.
 
     Segments are the runs of constant nonzero command ``u``. In each, the window is the last
     ``window_fraction`` of the segment, starting at least ``settle_time`` after the switch
@@ -75,7 +82,12 @@ def friction_points_from_square_wave(
     if not (0.0 < window_fraction <= 1.0):
         raise ValueError(f"window_fraction must be in (0, 1], got {window_fraction}")
     t, u, x = data.t, data["u"], data["x"]
-    dp = data["p1"] - data["p2"]
+    if area_2 is not None and not (0.0 < area_2 < area):
+        raise ValueError(f"area_2 = {area_2} m^2; allowed 0 < area_2 < area = {area} m^2")
+    if area_2 is None:
+        dp = data["p1"] - data["p2"]
+    else:  # force per cap-side area: (A1 (p1 - p_amb) - A2 (p2 - p_amb)) / A1
+        dp = (data["p1"] - ambient_pressure) - area_2 / area * (data["p2"] - ambient_pressure)
     pm = 0.5 * (data["p1"] + data["p2"])
     rows: dict[str, list[float]] = {k: [] for k in
                                     ("v", "f", "p", "fs", "n", "t0", "t1", "c")}
@@ -111,7 +123,7 @@ def friction_points_from_square_wave(
     return FrictionPoints(
         v=rows["v"], force=rows["f"], pressure=rows["p"], force_std=rows["fs"],
         n_samples=rows["n"], t_start=rows["t0"], t_end=rows["t1"], command=rows["c"],
-        group=np.arange(len(rows["v"])), meta={"area": area, "source": "002 sec. 4 square wave"},
+        group=np.arange(len(rows["v"])), meta={"area": area, "area_2": area_2, "source": "002 sec. 4 square wave"},
     )
 
 

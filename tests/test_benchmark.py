@@ -227,7 +227,7 @@ def test_shipped_configs_are_valid():
     from agents.controllers import controller_names
 
     files = sorted((Path(__file__).resolve().parents[1] / "agents" / "configs" / "benchmarks").glob("*.yaml"))
-    assert len(files) == 11  # + force_actuator_small_force, shaking_table_low_frequency
+    assert len(files) == 14  # + force_actuator_small_force, shaking_table_low_frequency, differential_cylinder x 3
     envs = set()
     for f in files:
         c = bcli.load_config(f)
@@ -259,7 +259,7 @@ def test_configs_resolve_by_name_from_any_directory(tmp_path, monkeypatch):
     for name in ("servo_cylinder", "rodless_cylinder_slow_sine.yaml"):
         assert bcli.load_config(name)["env"].startswith("hydro_envs/")
     assert bcli._policy_path("agents/pretrained/servo_cylinder/ppo_s0").startswith(str(bcli.Path(bcli.__file__).resolve().parents[1]))
-    with pytest.raises(FileNotFoundError, match="shipped: force_actuator"):
+    with pytest.raises(FileNotFoundError, match="shipped: differential_cylinder, .*force_actuator"):
         bcli.load_config("no_such_config")
 
 

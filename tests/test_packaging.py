@@ -57,4 +57,4 @@ def test_installed_wheel_alone_makes_resets_and_steps_every_env(wheel, tmp_path)
     run = subprocess.run([sys.executable, "-c", _CHILD.format(target=target)], cwd=tmp_path, env=env,
                          capture_output=True, text=True)
     assert run.returncode == 0, run.stderr[-2000:]
-    assert len(run.stdout.split()) == len(list(registry.env_entries())) == 11
+    assert len(run.stdout.split()) == len(list(registry.env_entries())) == 14

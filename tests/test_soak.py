@@ -41,7 +41,7 @@ def test_long_soak_has_no_breach(env_id):
 
 def test_soak_covers_every_registered_env():
     plants = {spec.name for spec, _ in registry.env_entries()}
-    assert {registry.spec_for_env(e).name for e in soak.SOAK_ENVS} == plants and len(soak.SOAK_ENVS) == 5
+    assert {registry.spec_for_env(e).name for e in soak.SOAK_ENVS} == plants and len(soak.SOAK_ENVS) == 6
 
 
 # ------------------------------------------------------------------ the checks can fail
