@@ -63,6 +63,12 @@ pipe (:mod:`hydro_envs.laws.pipe`)
     rlc_flow_derivative(q, p_up, p_down, L, R)        000 eq (5)
     (pipe.line_transfer_function: exact distributed line, numpy, not re-exported)
 
+relief (:mod:`hydro_envs.laws.relief`): pressure-relief valves (Hopsan / OpenHydraulics steady characteristic)
+    relief_valve_opening(dp, p_crack, p_override)     opening linear from cracking to full
+    pressure_relief_flow(dp, p_crack, p_override, q_rated)   opening x turbulent root, q_rated at full opening
+    pressure_relief_conductance_bound(p_crack, p_override, q_rated)   its largest slope (sub-step control)
+    linear_relief_flow(dp, p_crack, gradient)         linear characteristic above cracking
+
 pneumatic_chamber (:mod:`hydro_envs.laws.pneumatic_chamber`)
     chamber_pressure_rate(p, vol, dvol, enthalpy_flow, kappa, r_gas, heat_flow)  004 eqs (10)-(13)
     chamber_temperature(p, vol, mass, r_gas)          ideal gas (004 before eq (10))
@@ -151,6 +157,12 @@ from hydro_envs.laws.pipe import (
     pipe_laminar_resistance,
     rlc_flow_derivative,
 )
+from hydro_envs.laws.relief import (
+    linear_relief_flow,
+    pressure_relief_conductance_bound,
+    pressure_relief_flow,
+    relief_valve_opening,
+)
 from hydro_envs.laws.pneumatic_chamber import (
     chamber_pressure_rate,
     chamber_temperature,
@@ -230,6 +242,11 @@ __all__ = [
     "pipe_laminar_resistance",
     "hydraulic_capacitance",
     "rlc_flow_derivative",
+    # relief valves
+    "relief_valve_opening",
+    "pressure_relief_flow",
+    "pressure_relief_conductance_bound",
+    "linear_relief_flow",
     # pneumatic chamber
     "chamber_pressure_rate",
     "chamber_temperature",
