@@ -1,4 +1,5 @@
-"""Relief valves: the law against its hand-computed characteristic, and the port reliefs of the table and the servo cylinder capping a
+"""Relief valves: the law against its hand-computed characteristic, the load-sensing main relief
+against its own description, and the port reliefs of the table and the servo cylinder capping a
 braking chamber where, without them, it rises far above the supply."""
 
 from __future__ import annotations
@@ -11,6 +12,7 @@ import pytest
 
 from hydro_envs import registry, sim
 from hydro_envs.laws import linear_relief_flow, pressure_relief_conductance_bound, pressure_relief_flow, relief_valve_opening
+from hydro_envs.plants.load_sensing import model as ls
 from hydro_envs.plants.servo_cylinder import model as sc
 from hydro_envs.plants.shaking_table import model as st
 
@@ -44,6 +46,22 @@ def test_relief_conductance_bound_is_the_largest_slope():
     bound = pressure_relief_conductance_bound(pc, po, q)
     assert slope.max() <= bound
     assert slope.max() >= bound * (1.0 - 1e-4)  # attained at full opening
+
+
+def test_load_sensing_main_relief_passes_42_l_min_at_7_bar_override():
+    """The field's description: 42 L/min (the pump's full flow) at 7 bar above cracking. Through
+    the kernel: the delivery node's pressure rate with and without the relief differ by
+    beta / V_s times the relief flow."""
+    p = ls.LoadSensingParams()
+    assert p.pump_displacement * p.pump_speed == pytest.approx(42 * LPM, rel=1e-12)  # 28 cm^3/rev, 1500 rpm
+    y = ls.standby_state(p, 0.1)
+    y[ls.PS] = p.relief_pressure + 7 * BAR
+    u = np.zeros(2)
+    d_with, d_without = np.zeros(ls.N_STATES), np.zeros(ls.N_STATES)
+    ls.load_sensing_rhs(y, u, p.to_array(), d_with)
+    ls.load_sensing_rhs(y, u, dataclasses.replace(p, relief_gradient=0.0).to_array(), d_without)
+    q_relief = (d_without[ls.PS] - d_with[ls.PS]) * p.delivery_volume / p.bulk_modulus
+    assert q_relief == pytest.approx(42 * LPM, rel=1e-9)
 
 
 def _braking(plant, p, y0, command, steps, dt=1e-3):
