@@ -72,6 +72,8 @@ relief (:mod:`hydro_envs.laws.relief`): pressure-relief valves (Hopsan / OpenHyd
 pneumatic_chamber (:mod:`hydro_envs.laws.pneumatic_chamber`)
     chamber_pressure_rate(p, vol, dvol, enthalpy_flow, kappa, r_gas, heat_flow)  004 eqs (10)-(13)
     chamber_temperature(p, vol, mass, r_gas)          ideal gas (004 before eq (10))
+    wall_heat_flow(h, wall_area, t_wall, t_gas)       Q = h A_wall (T_wall - T) (Newton cooling)
+    cylinder_chamber_wall_area(vol, piston_area, bore)  2 A + 4 V / D
     gas_internal_energy(p, vol, kappa)                U = p V / (kappa - 1)
 
 stribeck_lugre (:mod:`hydro_envs.laws.stribeck_lugre`)
@@ -166,7 +168,9 @@ from hydro_envs.laws.relief import (
 from hydro_envs.laws.pneumatic_chamber import (
     chamber_pressure_rate,
     chamber_temperature,
+    cylinder_chamber_wall_area,
     gas_internal_energy,
+    wall_heat_flow,
 )
 from hydro_envs.laws.nozzle_fast import nozzle_flow_constants, nozzle_mass_flow_fast
 from hydro_envs.laws.stribeck_lugre import lugre_exponential_rate, stribeck_exponential_curve
@@ -251,6 +255,8 @@ __all__ = [
     "chamber_pressure_rate",
     "chamber_temperature",
     "gas_internal_energy",
+    "wall_heat_flow",
+    "cylinder_chamber_wall_area",
     # exponential Stribeck / LuGre
     "stribeck_exponential_curve",
     "lugre_exponential_rate",
