@@ -146,7 +146,11 @@ class LoadSensingParams(PhysicalParams):
     control_stop_stiffness: float = physical(
         1.0e7, "N/m", (1e4, 1e11), "assumed: swash-plate stop, 0.1 mm at 1 kN (reflected compliance)"
     )
-    delivery_volume: float = physical(3.0e-4, "m^3", (1e-6, 1.0), "assumed: pump outlet + 1 m hose, 0.3 L")
+    delivery_volume: float = physical(
+        3.0e-4, "m^3", (2e-6, 1.0),
+        "assumed: pump outlet + 1 m hose, 0.3 L (allowed from 2 cm^3: the CV, FC port and relief into a "
+        "smaller node need more than the sub-step cap)",
+    )
     relief_pressure: float = physical(250.0e5 + _ATM, "Pa", (1e6, 1e8), "assumed: 250 bar relief")
     relief_gradient: float = physical(
         1.0e-9, "m^3/(s Pa)", (0.0, 2e-7),
@@ -160,7 +164,11 @@ class LoadSensingParams(PhysicalParams):
     )
     piston_area: float = physical(0.25 * math.pi * 0.063**2, "m^2", (1e-4, 1.0), "assumed: 63 mm single-acting cylinder")
     stroke: float = physical(0.6, "m", (0.01, 10.0), "assumed: 600 mm stroke")
-    line_volume: float = physical(5.0e-4, "m^3", (1e-6, 1.0), "assumed: 0.5 L hose CV -> cylinder + dead volume")
+    line_volume: float = physical(
+        5.0e-4, "m^3", (2e-6, 1.0),
+        "assumed: 0.5 L hose CV -> cylinder + dead volume (allowed from 2 cm^3: the CV and the port "
+        "relief into a smaller line need more than the sub-step cap)",
+    )
     load_mass: float = physical(1000.0, "kg", (1.0, 1e5), "assumed: 1 t inertial load (randomised)")
     load_force: float = physical(2.0e4, "N", (0.0, 1e6), "assumed: 20 kN load, 64 bar (randomised)")
     actuator_viscous: float = physical(3000.0, "N s/m", (0.0, 1e6), "assumed: seal + guide viscous friction")

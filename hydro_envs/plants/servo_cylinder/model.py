@@ -294,7 +294,8 @@ def stiffness_modes(params: ServoCylinderParams) -> dict[str, float]:
       oscillation on its bristles at rest (about ``4.5 sqrt(sigma0 / m)`` with critical
       micro-damping) and the bristle relaxation at speed, capped at ``bristle_relaxation_cap``.
     * ``end_stop``: contact spring ``sqrt(k/m)`` plus its damping ``alpha * F_max / m`` at the
-      penetration where the stop holds the full thrust ``F_max = A (p_s - p_floor)``.
+      penetration where the stop holds the full thrust and the load ``F_max = A (p_s - p_floor)
+      + |F_L|`` (a load beyond what the port reliefs hold rests on the stop).
     * ``relief``: an open port relief into the smallest chamber at its steepest
       (:func:`~hydro_envs.laws.relief.pressure_relief_conductance_bound`), with the fully open
       supply edge at the drop ``p_s - p_relief`` it then sees (its zero-drop slope if the relief
@@ -315,7 +316,9 @@ def stiffness_modes(params: ServoCylinderParams) -> dict[str, float]:
         / math.sqrt(params.orifice_transition_pressure)
     )
     g_leak = 2.0 * params.internal_leakage + params.external_leakage
-    f_max = a * (params.supply_pressure - params.pressure_floor)
+    # full thrust: the valve's (up to the supply) plus the load, which the stop holds once the
+    # port reliefs no longer do
+    f_max = a * (params.supply_pressure - params.pressure_floor) + abs(params.load_force)
     drop = max(params.relief_pressure - params.supply_pressure, 0.0)
     g_relief = float(pressure_relief_conductance_bound.py_func(
         params.relief_pressure - params.tank_pressure, params.relief_override, params.relief_flow))

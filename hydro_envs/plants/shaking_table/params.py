@@ -176,14 +176,14 @@ class ShakingTableParams(PhysicalParams):
         "CGH2 cylinder's 250 bar rating); 003 prints no relief",
     )
     relief_override: float = physical(
-        23 * _BAR, "Pa", (1e4, 5e7),
-        "assumed: pressure rise from cracking to the rated flow, 10 % of the setting (direct-acting "
+        28 * _BAR, "Pa", (1e4, 5e7),
+        "assumed: pressure rise from cracking to the rated flow, 12 % of the setting (direct-acting "
         "relief valves' p-Q curves rise 10-20 % over their flow range)", open_low=True,
     )
     relief_flow: float = physical(
-        6.7e-4, "m^3/s", (0.0, 1e-1),
-        "assumed: rated flow 40 L/min at full opening, 2 x the 4WS.2E's 20 L/min (003 sec. 2): the "
-        "displacement flow A v of the table braking from 1.6 x its 0.43 m/s no-load speed; 0 = no relief",
+        8.3e-4, "m^3/s", (0.0, 1e-1),
+        "assumed: rated flow 50 L/min at full opening, 2.5 x the 4WS.2E's 20 L/min (003 sec. 2): the "
+        "displacement flow A v of the table braking from 2 x its 0.43 m/s no-load speed; 0 = no relief",
     )
 
     # ------------------------------------------------------------------ checks
