@@ -235,9 +235,11 @@ def servo_cylinder_guard(y, p):
 # ---------------------------------------------------------------------------- analysis
 def relief_bounds(P: np.ndarray) -> tuple[tuple[int, int], np.ndarray]:
     """``((P1, P2), (n, 2) [Pa])``: each chamber's port-relief full-flow pressure
-    ``relief_pressure + relief_override`` per row of the kernel parameter array ``P`` (inf
-    without relief): the bound the soak test (:mod:`hydro_envs.soak`) holds the chambers to."""
-    full = np.where(P[:, I_QRV] > 0.0, P[:, I_PRV] + P[:, I_POV], np.inf)
+    ``relief_pressure + relief_override`` per row of the kernel parameter array ``P``, or the
+    supply if higher (a relief set below it passes the valve's flow from the supply, more than
+    its rating; inf without relief): the bound the soak test (:mod:`hydro_envs.soak`) holds the
+    chambers to."""
+    full = np.where(P[:, I_QRV] > 0.0, np.maximum(P[:, I_PRV] + P[:, I_POV], P[:, I_PS]), np.inf)
     return (P1, P2), np.stack([full, full], axis=1)
 
 

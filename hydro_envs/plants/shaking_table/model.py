@@ -467,8 +467,8 @@ def local_mode_refinement(p, h):
 # ---------------------------------------------------------------------------- analysis
 def relief_bounds(P: np.ndarray) -> tuple[tuple[int, int], np.ndarray]:
     """``((PA, PB), (n, 2) [Pa])``: each chamber's port-relief full-flow pressure (cracking +
-    override, inf without relief) per row of the kernel parameter array ``P`` (:mod:`hydro_envs.soak`)."""
-    full = np.where(P[:, I_QRV] > 0.0, P[:, I_PRV] + P[:, I_POV], np.inf)
+    override; the supply if higher; inf without relief) per row of ``P`` (:mod:`hydro_envs.soak`)."""
+    full = np.where(P[:, I_QRV] > 0.0, np.maximum(P[:, I_PRV] + P[:, I_POV], P[:, I_PS]), np.inf)
     return (PA, PB), np.stack([full, full], axis=1)
 
 
