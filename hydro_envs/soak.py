@@ -37,7 +37,8 @@ replaced by an in-range corner). Draws are passed as the benchmark passes frozen
 ``relief``
     steps (per copy) with a chamber pressure above what its relief valve holds it to: the
     plant model's ``relief_bounds(P)`` gives the chamber states and, per copy, the pressure at
-    which each chamber's relief passes its rated flow (cracking + override); a pressure above
+    which each chamber's relief passes its rated flow (cracking + override; the supply where a
+    relief is set below it, as the valve then feeds the chamber through it); a pressure above
     that bound times ``1 + RELIEF_TOL`` is a breach (a relief passing more than its rated flow,
     a chamber without relief on its path, or a relief that does not act). The largest ratio
     pressure / bound and the largest pressure are reported (``max_pressure_ratio``,
@@ -49,8 +50,9 @@ replaced by an in-range corner). Draws are passed as the benchmark passes frozen
     the gas). Reported, not a breach: the coldest temperature (``min_temperature``) and the
     steps colder than ``MIN_TEMPERATURE`` = 250 K (``cold_steps``). With the walls' convective
     coefficient of the literature (tens of W/(m^2 K)) a chamber vented from a high supply in a
-    few ms still cools to 165-175 K at the widened (beyond) supply pressures; about 1000 W/(m^2 K)
-    would hold 250 K.
+    few ms still cools to 162-175 K at the widened (beyond) supply pressures of 8-9.5 bar
+    (measured; 169 K at h = 50 W/(m^2 K) venting from 9.5 bar); about 1000 W/(m^2 K) would hold
+    250 K.
 ``guard_clamps``
     how often a guard clamped the state (pressure floor, friction bound): reported, not a
     breach -- clamping at the cavitation floor is the guard doing its job under bang-bang
@@ -243,10 +245,9 @@ def _actions(rng, mode, level, hold, adim, mean_hold):
 class _LimitTracker:
     """The physical bounds of a plant's chambers, checked after every env step: pressures below
     their relief valves' full-flow pressure (the model's ``relief_bounds(P) -> (state indices,
-    (n, k) bounds [Pa])``), pneumatic temperatures above :data:`MIN_TEMPERATURE` (the model's
-    ``soak_temperatures(Y, P) -> (n, k) [K]``) above the model's ``soak_temperature_floor(P)``
-    (counting the steps below :data:`MIN_TEMPERATURE` apart); a plant without them has no such
-    breach."""
+    (n, k) bounds [Pa])``), pneumatic temperatures (the model's ``soak_temperatures(Y, P) ->
+    (n, k) [K]``) above its ``soak_temperature_floor(P)`` (the steps below
+    :data:`MIN_TEMPERATURE` counted apart); a plant without them has no such breach."""
 
     def __init__(self, model: Any) -> None:
         self.relief = getattr(model, "relief_bounds", None)
