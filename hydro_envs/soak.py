@@ -34,6 +34,25 @@ replaced by an in-range corner). Draws are passed as the benchmark passes frozen
 ``replay``
     steps at which the instrumented re-integration did not reproduce the env's state bit for
     bit (then the energy check would not be about the env's trajectory).
+``relief``
+    steps (per copy) with a chamber pressure above what its relief valve holds it to: the
+    plant model's ``relief_bounds(P)`` gives the chamber states and, per copy, the pressure at
+    which each chamber's relief passes its rated flow (cracking + override; the supply where a
+    relief is set below it, as the valve then feeds the chamber through it); a pressure above
+    that bound times ``1 + RELIEF_TOL`` is a breach (a relief passing more than its rated flow,
+    a chamber without relief on its path, or a relief that does not act). The largest ratio
+    pressure / bound and the largest pressure are reported (``max_pressure_ratio``,
+    ``max_pressure``).
+``temperature``
+    steps (per copy) with a pneumatic chamber (the model's ``soak_temperatures(Y, P)``) colder
+    than the physics allows: its ``soak_temperature_floor(P)``, an isentropic expansion from the
+    wall temperature and the highest pressure to the exhaust (heat from the walls only warms
+    the gas). Reported, not a breach: the coldest temperature (``min_temperature``) and the
+    steps colder than ``MIN_TEMPERATURE`` = 250 K (``cold_steps``). With the walls' convective
+    coefficient of the literature (tens of W/(m^2 K)) a chamber vented from a high supply in a
+    few ms still cools to 162-175 K at the widened (beyond) supply pressures of 8-9.5 bar
+    (measured; 169 K at h = 50 W/(m^2 K) venting from 9.5 bar); about 1000 W/(m^2 K) would hold
+    250 K.
 ``guard_clamps``
     how often a guard clamped the state (pressure floor, friction bound): reported, not a
     breach -- clamping at the cavitation floor is the guard doing its job under bang-bang
@@ -106,6 +125,8 @@ __all__ = [
     "BREACH_KINDS",
     "ENERGY_RTOL",
     "ENERGY_ETOL",
+    "RELIEF_TOL",
+    "MIN_TEMPERATURE",
     "SoakResult",
     "energy_excess",
     "extreme_draw",
@@ -116,7 +137,12 @@ __all__ = [
 #: one environment per plant that has envs (its first registry entry; the plant's other
 #: tasks step the same kernel with other references)
 SOAK_ENVS = tuple(spec.envs[0].id for spec in registry.specs() if spec.envs)
-BREACH_KINDS = ("nonfinite", "pressure", "stroke", "energy", "passivity", "replay")
+BREACH_KINDS = ("nonfinite", "pressure", "stroke", "energy", "passivity", "replay", "relief", "temperature")
+#: a chamber may exceed its relief's full-flow pressure (cracking + override) by this fraction
+#: of it (the override of a relief passing a little more than its rated flow; RK4 on its kinks)
+RELIEF_TOL = 0.02
+#: the coldest pneumatic chamber temperature [K] the soak accepts
+MIN_TEMPERATURE = 250.0
 #: energy tolerance relative to the window's power turnover int(|P_in| + D) dt
 ENERGY_RTOL = 1e-3
 #: energy tolerance relative to the largest stored mechanical energy in the window
@@ -181,6 +207,10 @@ class SoakResult:
     guard_clamps: int
     max_energy_excess: float  # largest (E1 - E0 - W + Q) / tol seen (< 1 passes)
     examples: dict[str, dict[str, Any]]  # first occurrence of every breach kind (energy: the worst)
+    max_pressure_ratio: float = float("nan")  # largest chamber pressure / its relief bound (nan: no relief)
+    max_pressure: float = float("nan")  # largest chamber pressure [Pa] among the relief-bounded states
+    min_temperature: float = float("nan")  # coldest pneumatic chamber [K] (nan: no pneumatic chamber)
+    cold_steps: int = 0  # steps (per copy) with a pneumatic chamber below MIN_TEMPERATURE (reported)
 
     @property
     def steps_per_second(self) -> float:
@@ -210,6 +240,40 @@ def _actions(rng, mode, level, hold, adim, mean_hold):
     if iid.any():
         a[iid] = rng.uniform(-1.0, 1.0, (int(iid.sum()), adim))
     return a
+
+
+class _LimitTracker:
+    """The physical bounds of a plant's chambers, checked after every env step: pressures below
+    their relief valves' full-flow pressure (the model's ``relief_bounds(P) -> (state indices,
+    (n, k) bounds [Pa])``), pneumatic temperatures (the model's ``soak_temperatures(Y, P) ->
+    (n, k) [K]``) above its ``soak_temperature_floor(P)`` (the steps below
+    :data:`MIN_TEMPERATURE` counted apart); a plant without them has no such breach."""
+
+    def __init__(self, model: Any) -> None:
+        self.relief = getattr(model, "relief_bounds", None)
+        self.temperatures = getattr(model, "soak_temperatures", None)
+        self.floor = getattr(model, "soak_temperature_floor", None)
+        self.max_ratio = self.max_pressure = self.min_temperature = float("nan")
+        self.cold_steps = 0
+
+    def breaches(self, Y: np.ndarray, P: np.ndarray) -> dict[str, np.ndarray]:
+        n = Y.shape[0]
+        out = {"relief": np.zeros(n, dtype=bool), "temperature": np.zeros(n, dtype=bool)}
+        if self.relief is not None:
+            idx, bound = self.relief(P)
+            pr = Y[:, list(idx)]
+            ratio = pr / bound
+            out["relief"] = np.any(ratio > 1.0 + RELIEF_TOL, axis=1)
+            if np.isfinite(ratio).any():
+                self.max_ratio = float(np.fmax(self.max_ratio, np.nanmax(ratio)))
+                self.max_pressure = float(np.fmax(self.max_pressure, np.nanmax(pr)))
+        if self.temperatures is not None:
+            t = self.temperatures(Y, P)
+            out["temperature"] = np.any(~(t >= self.floor(P)[:, None]), axis=1)
+            self.cold_steps += int(np.any(t < MIN_TEMPERATURE, axis=1).sum())
+            if np.isfinite(t).any():
+                self.min_temperature = float(np.fmin(self.min_temperature, np.nanmin(t)))
+        return out
 
 
 def soak_env(
@@ -254,6 +318,7 @@ def soak_env(
     hold = np.zeros(n, dtype=np.int64)
     mean_hold = np.ones(n)
     max_excess = 0.0
+    limits = _LimitTracker(b.plant)
     # energy-balance windows (see ENERGY_WINDOW): start energy and state, sums over the window
     win_e0 = np.zeros(n)
     win_y0 = np.zeros_like(b.Y)
@@ -340,6 +405,7 @@ def soak_env(
             "energy": bad_energy,
             "passivity": out[:, 5] > 0,
             "replay": bad_replay,
+            **limits.breaches(b.Y, b.P),
         }
         for kind, mask in per_kind.items():
             if mask.any():
@@ -359,15 +425,19 @@ def soak_env(
     seconds = time.perf_counter() - t0
     clamps_total += int(b.clamps.sum())
     venv.close()
-    return SoakResult(env_id, batch_steps * n, seconds, draws, counts, clamps_total, max_excess, examples)
+    return SoakResult(env_id, batch_steps * n, seconds, draws, counts, clamps_total, max_excess, examples,
+                      limits.max_ratio, limits.max_pressure, limits.min_temperature, limits.cold_steps)
 
 
 def format_table(results: list[SoakResult]) -> str:
     """Markdown table: env, steps, steps/s, each breach count, guard clamps, draws."""
-    head = ["env", "steps", "steps/s", *BREACH_KINDS, "guard_clamps", "max E excess/tol", "draws corner/beyond"]
+    head = ["env", "steps", "steps/s", *BREACH_KINDS, "guard_clamps", "max E excess/tol", "max p/relief",
+            "max p [bar]", "min T [K]", "steps < 250 K", "draws corner/beyond"]
     rows = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for r in results:
         cells = [r.env_id, f"{r.steps:,}", f"{r.steps_per_second:,.0f}", *(str(r.counts[k]) for k in BREACH_KINDS),
-                 str(r.guard_clamps), f"{r.max_energy_excess:.3g}", f"{r.draws['corner']}/{r.draws['beyond']}"]
+                 str(r.guard_clamps), f"{r.max_energy_excess:.3g}", f"{r.max_pressure_ratio:.3f}",
+                 f"{r.max_pressure / 1e5:.1f}", f"{r.min_temperature:.1f}", str(r.cold_steps),
+                 f"{r.draws['corner']}/{r.draws['beyond']}"]
         rows.append("| " + " | ".join(cells) + " |")
     return "\n".join(rows)

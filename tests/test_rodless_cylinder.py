@@ -57,6 +57,8 @@ def simulate(p, y0, commands, n_sub=None, dt=DT):
 
 
 def frictionless(p=NOMINAL, **kw):
+    """No friction, and adiabatic walls (the seed's eq (11)) unless ``wall_heat_transfer_coefficient`` is given."""
+    kw.setdefault("wall_heat_transfer_coefficient", 0.0)
     return dataclasses.replace(
         p, static_friction=0.0, coulomb_friction=0.0, viscous_friction=0.0, bristle_stiffness=0.0,
         bristle_damping=0.0, **kw,
@@ -266,7 +268,7 @@ def test_energy_error_converges_at_rk4_rate():
 
 def test_filling_obeys_the_first_law_with_supply_enthalpy():
     """Chamber a filled from the supply (A->R shut at full stroke): dU = c_p T_s dm - p dV."""
-    p = dataclasses.replace(NOMINAL, mass=1e4)  # a very heavy slider barely moves
+    p = dataclasses.replace(NOMINAL, mass=1e4, wall_heat_transfer_coefficient=0.0)  # a heavy slider barely moves; adiabatic
     y0 = rc.rest_state(p, HALF, pa=1.5e5, pb=1.5e5)
     dt = 1e-4
     ys = simulate(p, y0, np.full(400, p.command_max), dt=dt)
@@ -286,12 +288,48 @@ def test_filling_obeys_the_first_law_with_supply_enthalpy():
 
 
 def test_wall_heat_exchange_returns_a_sealed_chamber_to_wall_temperature():
-    p = sealed(wall_heat_conductance=0.5)  # time constant m c_v / h ~ 0.4 s
+    p = sealed(wall_heat_transfer_coefficient=80.0)  # time constant m c_v / (h A_wall) ~ 0.3 s
     y0 = rc.rest_state(p, HALF, ta=350.0, tb=250.0)
     ys = simulate(p, y0, np.full(3000, p.command_centre))
     ta, tb = rc.chamber_temperatures(ys[-1], p)
     assert abs(ta[0] - p.supply_temperature) < 1.0 and abs(tb[0] - p.supply_temperature) < 1.0
     assert ys[-1, rc.MA] == y0[rc.MA]
+
+
+@pytest.mark.parametrize("h", [0.0, 50.0])
+def test_fast_compression_ends_between_isothermal_and_adiabatic_then_relaxes_to_the_wall(h):
+    """Sealed chambers, no friction: chamber a at supply pressure drives the slider 15 mm into
+    chamber b (at the exhaust's) and onto the bumper at y = L within a few ms. Entering the
+    bumper, b is at the adiabatic temperature ``T_s (V_0/V)^(kappa-1)`` with adiabatic walls
+    (h = 0, 004 eq (11)), and between the isothermal ``T_s`` and it with the walls' heat
+    exchange. Held on the bumper (fixed volume), b then cools back to the wall as
+    ``T - T_s ~ exp(-t/tau)``, ``tau = m c_v / (h A_wall)``, ``A_wall = 2 A + 4 V / D``; with
+    adiabatic walls it stays hot."""
+    p = sealed(wall_heat_transfer_coefficient=h)
+    ys = simulate(p, rc.rest_state(p, L - 0.015, pa=p.supply_pressure, pb=p.exhaust_pressure),
+                  np.full(2500, p.command_centre))
+    k = int(np.argmax(ys[:, rc.Y] >= L))  # first sample on the bumper
+    assert 0 < k < 20
+    _, vb = rc.chamber_volumes(ys[[0, k]], p)
+    _, tb = rc.chamber_temperatures(ys, p)
+    t_s = p.supply_temperature
+    t_ad = t_s * (vb[0] / vb[1]) ** (p.heat_capacity_ratio - 1.0)
+    assert t_ad > t_s + 80.0  # a strong compression
+    assert np.all(ys[200:, rc.Y] >= L - 1e-6)  # held on the bumper from 0.2 s on
+    if h == 0.0:
+        assert tb[k] == pytest.approx(t_ad, rel=1e-3)
+        assert tb[-1] > t_s + 80.0  # adiabatic walls: still hot
+        return
+    assert t_s + 0.5 * (t_ad - t_s) < tb[k] < t_ad - 0.5
+    excess = tb - t_s
+    assert abs(excess[-1]) < 0.02 * excess[k]  # back at the wall's temperature
+    _, v_hold = rc.chamber_volumes(ys[-1], p)
+    c_v = p.gas_constant / (p.heat_capacity_ratio - 1.0)
+    tau = ys[-1, rc.MB] * c_v / (h * (2.0 * A + 4.0 * v_hold[0] / p.bore))
+    t = np.arange(len(ys)) * DT
+    window = (t > 0.1) & (t < 0.5)  # later, the slow creep onto the bumper (a still cooling) heats b by 1e-4 K/s
+    rate = -np.polyfit(t[window], np.log(excess[window]), 1)[0]
+    assert 1.0 / rate == pytest.approx(tau, rel=0.03)
 
 
 def test_stall_against_the_stop_reaches_supply_and_exhaust_pressure():
@@ -368,7 +406,8 @@ def test_lugre_presliding_sticks_below_breakaway_and_slides_above():
     """
     from scipy.optimize import brentq
 
-    base = dataclasses.replace(NOMINAL, valve_underlap=0.0, spool_stroke=NOMINAL.port_radius)
+    base = dataclasses.replace(NOMINAL, valve_underlap=0.0, spool_stroke=NOMINAL.port_radius,
+                               wall_heat_transfer_coefficient=0.0)  # adiabatic: the gas spring below
     y = rc.rest_state(base, HALF)
     vol = A * HALF + base.dead_volume_a
     k_gas = base.heat_capacity_ratio * y[rc.PA] * A * A * 2.0 / vol
@@ -416,8 +455,13 @@ def test_linearization_matches_the_small_signal_response():
     assert np.max(np.abs(fit["v"] - fit["v_fit"])) < 1e-3 * np.max(np.abs(fit["v"]))
     # zeta: eq (23) keeps the outflow at T_s; the energy balance adds the isentropic
     # temperature swing of the venting gas, c2 -> c2 + (kappa-1)/(2 kappa) mdot_leak/p0
+    # and the walls' heat exchange its thermal damping, (1 - 1/kappa) w tau / (2 (1 + (w tau)^2))
     assert fit["zeta"] == pytest.approx(lin.zeta_energy, rel=0.02)
-    assert fit["zeta"] == pytest.approx(lin.zeta, rel=0.10)
+    adiabatic = dataclasses.replace(NOMINAL, wall_heat_transfer_coefficient=0.0)  # the seed's eq (11)
+    fit_ad = rx.small_signal_response(adiabatic)
+    assert fit_ad["zeta"] == pytest.approx(rc.linearize_mid_stroke(adiabatic).zeta_energy, rel=0.02)
+    assert fit_ad["zeta"] == pytest.approx(lin.zeta, rel=0.10)  # eq (23)
+    assert fit["zeta"] > 1.4 * fit_ad["zeta"]  # the walls' share is real (0.0053 vs 0.0035)
 
 
 def test_linearization_eigenvalues_of_the_nonlinear_jacobian():

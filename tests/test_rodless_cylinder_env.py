@@ -102,7 +102,7 @@ def test_randomize_false_gives_nominal_and_true_draws_inside_yaml_ranges(spec):
     assert env.unwrapped.n_substeps == 2
     ranges = {row["name"]: row["value_range"] for row in spec.table()}
     assert set(ranges) == {"static_friction", "coulomb_friction", "stribeck_velocity", "viscous_friction",
-                           "mass", "supply_pressure"}
+                           "mass", "supply_pressure", "wall_heat_transfer_coefficient"}
     assert ranges["static_friction"] == pytest.approx((0.7 * 35.48, 1.3 * 35.48))
     assert ranges["supply_pressure"] == pytest.approx((0.4e6 + 101325, 0.7e6 + 101325))
     env = gym.make(ENV_ID)

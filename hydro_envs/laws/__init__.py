@@ -63,9 +63,17 @@ pipe (:mod:`hydro_envs.laws.pipe`)
     rlc_flow_derivative(q, p_up, p_down, L, R)        000 eq (5)
     (pipe.line_transfer_function: exact distributed line, numpy, not re-exported)
 
+relief (:mod:`hydro_envs.laws.relief`): pressure-relief valves (Hopsan / OpenHydraulics steady characteristic)
+    relief_valve_opening(dp, p_crack, p_override)     opening linear from cracking to full
+    pressure_relief_flow(dp, p_crack, p_override, q_rated)   opening x turbulent root, q_rated at full opening
+    pressure_relief_conductance_bound(p_crack, p_override, q_rated)   its largest slope (sub-step control)
+    linear_relief_flow(dp, p_crack, gradient)         linear characteristic above cracking
+
 pneumatic_chamber (:mod:`hydro_envs.laws.pneumatic_chamber`)
     chamber_pressure_rate(p, vol, dvol, enthalpy_flow, kappa, r_gas, heat_flow)  004 eqs (10)-(13)
     chamber_temperature(p, vol, mass, r_gas)          ideal gas (004 before eq (10))
+    wall_heat_flow(h, wall_area, t_wall, t_gas)       Q = h A_wall (T_wall - T) (Newton cooling)
+    cylinder_chamber_wall_area(vol, piston_area, bore)  2 A + 4 V / D
     gas_internal_energy(p, vol, kappa)                U = p V / (kappa - 1)
 
 stribeck_lugre (:mod:`hydro_envs.laws.stribeck_lugre`)
@@ -151,10 +159,18 @@ from hydro_envs.laws.pipe import (
     pipe_laminar_resistance,
     rlc_flow_derivative,
 )
+from hydro_envs.laws.relief import (
+    linear_relief_flow,
+    pressure_relief_conductance_bound,
+    pressure_relief_flow,
+    relief_valve_opening,
+)
 from hydro_envs.laws.pneumatic_chamber import (
     chamber_pressure_rate,
     chamber_temperature,
+    cylinder_chamber_wall_area,
     gas_internal_energy,
+    wall_heat_flow,
 )
 from hydro_envs.laws.nozzle_fast import nozzle_flow_constants, nozzle_mass_flow_fast
 from hydro_envs.laws.stribeck_lugre import lugre_exponential_rate, stribeck_exponential_curve
@@ -230,10 +246,17 @@ __all__ = [
     "pipe_laminar_resistance",
     "hydraulic_capacitance",
     "rlc_flow_derivative",
+    # relief valves
+    "relief_valve_opening",
+    "pressure_relief_flow",
+    "pressure_relief_conductance_bound",
+    "linear_relief_flow",
     # pneumatic chamber
     "chamber_pressure_rate",
     "chamber_temperature",
     "gas_internal_energy",
+    "wall_heat_flow",
+    "cylinder_chamber_wall_area",
     # exponential Stribeck / LuGre
     "stribeck_exponential_curve",
     "lugre_exponential_rate",

@@ -28,6 +28,8 @@ import numba
 
 __all__ = [
     "chamber_pressure_rate",
+    "wall_heat_flow",
+    "cylinder_chamber_wall_area",
     "chamber_temperature",
     "gas_internal_energy",
 ]
@@ -46,6 +48,30 @@ def chamber_pressure_rate(p, vol, dvol, enthalpy_flow, kappa, r_gas, heat_flow):
     temperature), generalised by the first law for an open adiabatic control volume.
     """
     return (kappa * r_gas * enthalpy_flow - kappa * p * dvol + (kappa - 1.0) * heat_flow) / vol
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def wall_heat_flow(h, wall_area, t_wall, t_gas):
+    """Convective heat flow ``Q = h A_wall (T_wall - T)`` [W] from the wall into the gas.
+
+    In :func:`chamber_pressure_rate` it enters as ``(kappa - 1) Q / V``; for a sealed chamber it
+    is ``dT/dt = h A_wall (T_wall - T) / (m c_v)`` (Newton's law of cooling, the lumped wall
+    model of pneumatic-cylinder thermodynamics), which moves the chamber's state change between
+    the adiabatic (h = 0, 004 eq (11)) and the isothermal (h -> infinity) path.
+    Units: h [W/(m^2 K)], wall_area [m^2], t_wall, t_gas [K] -> [W].
+    """
+    return h * wall_area * (t_wall - t_gas)
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def cylinder_chamber_wall_area(vol, piston_area, bore):
+    """Wetted wall area [m^2] of a cylinder chamber of volume ``vol``: a cylinder of the bore's
+    diameter D holding the volume (its dead volume counted as more length), with its two end
+    faces (piston and cover): ``A_wall = 2 A + 4 V / D`` (the lateral wall ``pi D l`` with
+    ``l = V / A``, ``A = pi D^2 / 4``).
+    Units: vol [m^3], piston_area [m^2], bore [m] -> [m^2].
+    """
+    return 2.0 * piston_area + 4.0 * vol / bore
 
 
 @numba.njit(cache=True, error_model="numpy")

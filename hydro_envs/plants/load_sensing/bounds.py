@@ -74,7 +74,8 @@ def local_mode_rates(p: Any, d: Mapping[str, float]) -> dict[str, float]:
       ``alpha F_max / m`` with ``F_max = A p_relief + k x_max``;
     * ``control_chamber``: zero-drop slope of the fully open FC port and the leak into ``V_x0``;
     * ``delivery``: zero-drop slopes of the open CV and FC port, pump leak and relief into ``V_s``;
-    * ``load_line``: zero-drop slope of the open CV into ``V_l0``.
+    * ``load_line``: zero-drop slope of the open CV and the open port relief at its steepest
+      (``d["load_relief_conductance"]``, :mod:`hydro_envs.laws.relief`) into ``V_l0``.
     """
     A, m = d["spool_area"], p.spool_mass
     beta = p.bulk_modulus
@@ -86,7 +87,7 @@ def local_mode_rates(p: Any, d: Mapping[str, float]) -> dict[str, float]:
         "spool_stop": math.sqrt(p.spool_stop_stiffness / m) + p.spool_stop_damping * f_max / m,
         "control_chamber": beta / p.control_volume * (g_port + p.control_leakage),
         "delivery": beta / p.delivery_volume * (g_cv + g_port + p.pump_leakage + p.relief_gradient),
-        "load_line": beta / p.line_volume * g_cv,
+        "load_line": beta / p.line_volume * (g_cv + d["load_relief_conductance"]),
     }
 
 

@@ -40,15 +40,18 @@ Equations::
     V_x(y)/beta p_x' = q_PX - q_XT - A1 y' - G_x (p_x - p_T)
     m_y y'' = A1 p_x - A2 p_s - F_b0 - k_b y - b_y y' + F_stop(y)        (control pistons)
     V_s/beta p_s' = eps(y) D w_p - G_p (p_s - p_T) + A2 y' - q_PX - A x' - q_CV - q_RV
+    q_RV = G_RV max(p_s - p_RV, 0)                                         (main relief, linear)
     q_CV = C_d a_CV sqrt(2/rho) max(rsqrt(p_s - p_l), 0)                  (meter-in CV + load check)
-    V_l(xa)/beta p_l' = q_CV - A_c va - q_ls
+    V_l(xa)/beta p_l' = q_CV - A_c va - q_ls - q_PR(p_l - p_T)            (q_PR: port relief)
     M va' = A_c (p_l - p_T) - F_L - b_a va - F_s + F_stop(xa)
     F_s = sigma0 z + sigma1(va) z',  z' = va - sigma0 |va| z / F_c      (LuGre seals, level F_c)
     L q_ls' + (R(T) + R_d) q_ls = p_l - p_ls                                000 eq (5) + damping restrictor
     (V_line + V_sc - A x)/beta p_ls' = q_ls + A x'                          000 eq (6)
     tau f_sol' = u0 - f_sol
 
-with ``eps(y) = clip(1 - y/y_max, 0, 1)``; the steady margin is
+with ``eps(y) = clip(1 - y/y_max, 0, 1)`` and ``q_PR`` the load line's port (shock) relief
+to tank (:func:`hydro_envs.laws.relief.pressure_relief_flow`, 000 Fig. 1 draws none: a load
+falling back onto the closed line would otherwise compress it far above the main relief); the steady margin is
 ``p_s - p_ls = (F0 + k x_lap + f_sol)/A`` (20 bar at f_sol = 0). Every number not in 000 is
 an assumption stated in the field's ``source`` (pump and valve sizes of a 28 cm^3/rev
 LS pump, a 63 mm cylinder, hoses).
@@ -65,6 +68,7 @@ from hydro_envs.jit import njit_noalloc
 from hydro_envs.laws.contact import end_stop_force
 from hydro_envs.laws.seal_friction import seal_friction
 from hydro_envs.laws.orifice import regularized_signed_sqrt, regularized_signed_sqrt_slope_bound
+from hydro_envs.laws.relief import linear_relief_flow, pressure_relief_flow
 from hydro_envs.plants.load_sensing import bounds as _bounds
 from hydro_envs.plants.load_sensing.params import (  # noqa: F401  (re-exported)
     D_A, D_BETA_VS, D_C, D_DROPRATE, D_INV_LLS, D_INV_M, D_INV_MS, D_INV_MY, D_INV_TSOL, D_INV_YMAX, D_KFF, D_KM,
@@ -72,7 +76,7 @@ from hydro_envs.plants.load_sensing.params import (  # noqa: F401  (re-exported)
     I_ACVMAX, I_ASS, I_BA, I_BETA, I_BY, I_C40, I_CD, I_DLS, I_DP, I_DPTR, I_DS, I_F0, I_FB0, I_FCA, I_FL, I_FSMAX,
     I_GP, I_GRV, I_GX, I_K, I_KAS, I_KB, I_KSS, I_KYS, I_LLS, I_LPORT, I_M, I_MS, I_MY,
     I_PFLOOR, I_PRV, I_PT, I_RD, I_RHO, I_SIG0, I_SIG1, I_STROKE, I_T, I_THETA, I_TSOL, I_VG, I_VL0, I_ZCAP, D_FADE,
-    I_VS, I_VSC, I_VX0, I_W, I_WP, I_XLAP, I_XMAX, I_YMAX, LoadSensingParams, N_FIELDS, N_PARAMS,
+    I_VS, I_VSC, I_VX0, I_W, I_WP, I_XLAP, I_XMAX, I_YMAX, I_PRVL, I_POVL, I_QRVL, D_GRVL, LoadSensingParams, N_FIELDS, N_PARAMS,
     PLANT, _ATM, _BAR, _DERIVED, derived,
 )
 from hydro_envs.sim.rk4 import STABLE_H_LAMBDA, local_substeps, rk4_advance, worst_case_substeps
@@ -166,7 +170,7 @@ def load_sensing_rhs(y, u, p, dy):
     q_cv = km * a_cv * regularized_signed_sqrt(ps - pl, dptr)
     if q_cv < 0.0:
         q_cv = 0.0  # load-holding check valve
-    q_rv = p[I_GRV] * max(ps - p[I_PRV], 0.0)
+    q_rv = linear_relief_flow(ps - pt, p[I_PRV] - pt, p[I_GRV])  # main relief to tank
     dps = p[D_BETA_VS] * (q_pump - p[I_GP] * (ps - pt) + p[I_A2] * vy - q_px - area * v - q_cv - q_rv)
     if ps <= floor and dps < 0.0:
         dps = 0.0
@@ -174,7 +178,8 @@ def load_sensing_rhs(y, u, p, dy):
 
     # ---- actuator and load
     vl = p[I_VL0] + p[I_AC] * xa
-    dpl = beta / vl * (q_cv - p[I_AC] * va - qls)
+    q_pr = pressure_relief_flow(pl - pt, p[I_PRVL] - pt, p[I_POVL], p[I_QRVL])  # port relief to tank
+    dpl = beta / vl * (q_cv - p[I_AC] * va - qls - q_pr)
     if pl <= floor and dpl < 0.0:
         dpl = 0.0
     dy[PL] = dpl
@@ -252,6 +257,8 @@ def local_mode_rate(y, p):
     g_cv = p[D_KM] * p[I_ACVMAX] * regularized_signed_sqrt_slope_bound(ps - pl, dptr) if ps > pl else 0.0
     control = beta / max(p[I_VX0] + p[I_A1] * y[Y], p[I_VX0]) * (g_px + g_xt + p[I_GX])
     delivery = p[D_BETA_VS] * (g_cv + g_px + p[I_GP] + p[I_GRV])
+    if pl > p[I_PRVL]:  # the port relief open: its steepest slope
+        g_cv += p[D_GRVL]
     load = beta / max(p[I_VL0] + p[I_AC] * y[XA], 0.5 * p[I_VL0]) * g_cv
     return max(control, max(delivery, load))
 
@@ -265,6 +272,11 @@ def local_mode_substeps(y0, x, p, h, m):
     the larger :func:`local_mode_rate` of the two (:func:`hydro_envs.sim.rk4.local_substeps`)."""
     if _on_spool_stop(y0, p) or _on_spool_stop(x, p) or _drop_crossed(y0, x, p):
         return m
+    prvl = p[I_PRVL]
+    if (y0[PL] - prvl) * (x[PL] - prvl) < 0.0 or (y0[PL] - prvl - p[I_POVL]) * (x[PL] - prvl - p[I_POVL]) < 0.0:
+        return m  # the port relief's kinks (cracking, full opening)
+    if max(y0[PL], x[PL]) > prvl:  # the port relief open: its rate, not the short cut's bound
+        return local_substeps(h * max(local_mode_rate(y0, p), local_mode_rate(x, p)), STABLE_H_LAMBDA, m)
     # short cut, same answer: with every drop at least dp_min the rate is at most C / sqrt(dp_min)
     # + G (.bounds.orifice_rate_coefficients), stable if dp_min (stable / h - G)^2 >= C^2
     room = STABLE_H_LAMBDA / h - p[D_LEAKRATE]
@@ -282,6 +294,19 @@ def local_mode_refinement(p, h):
 
 
 # ---------------------------------------------------------------------------- analysis
+def relief_bounds(P: np.ndarray) -> tuple[tuple[int, ...], np.ndarray]:
+    """``((PS, PX, PL, PLS), (n, 4) [Pa])``: the pressures the reliefs hold the chambers below,
+    per row of the kernel parameter array ``P`` (the soak test, :mod:`hydro_envs.soak`): the
+    delivery and the control chamber (fed from it) the main relief's at the pump's full flow,
+    ``relief_pressure + D w_p / relief_gradient``; the load line and the LS line (fed from it) the
+    port relief's full-flow pressure ``load_relief_pressure + load_relief_override``, or the main
+    relief's if higher (the CV feeds the load line from the delivery). Inf without a relief."""
+    with np.errstate(divide="ignore"):
+        main = np.where(P[:, I_GRV] > 0.0, P[:, I_PRV] + P[:, I_DP] * P[:, I_WP] / P[:, I_GRV], np.inf)
+    port = np.maximum(np.where(P[:, I_QRVL] > 0.0, P[:, I_PRVL] + P[:, I_POVL], np.inf), main)
+    return (PS, PX, PL, PLS), np.stack([main, main, port, port], axis=1)
+
+
 def margin(params: LoadSensingParams, f_sol: float = 0.0) -> float:
     """Steady LS margin ``p_s - p_ls = (F0 + k x_lap + f_sol)/A`` [Pa] (000 sec. 2: ~20 bar),
     neglecting the flow force of the tiny steady opening."""

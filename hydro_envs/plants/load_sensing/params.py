@@ -16,6 +16,7 @@ from typing import ClassVar
 
 
 from hydro_envs.laws.pipe import pipe_inductance, pipe_laminar_resistance
+from hydro_envs.laws.relief import pressure_relief_conductance_bound
 from hydro_envs.laws.viscosity import iso_vg_kinematic_viscosity
 from hydro_envs.params import ParameterError, PhysicalParams, physical
 from hydro_envs.plants.load_sensing.bounds import local_mode_rates, orifice_rate_coefficients
@@ -145,9 +146,17 @@ class LoadSensingParams(PhysicalParams):
     control_stop_stiffness: float = physical(
         1.0e7, "N/m", (1e4, 1e11), "assumed: swash-plate stop, 0.1 mm at 1 kN (reflected compliance)"
     )
-    delivery_volume: float = physical(3.0e-4, "m^3", (1e-6, 1.0), "assumed: pump outlet + 1 m hose, 0.3 L")
+    delivery_volume: float = physical(
+        3.0e-4, "m^3", (2e-6, 1.0),
+        "assumed: pump outlet + 1 m hose, 0.3 L (allowed from 2 cm^3: the CV, FC port and relief into a "
+        "smaller node need more than the sub-step cap)",
+    )
     relief_pressure: float = physical(250.0e5 + _ATM, "Pa", (1e6, 1e8), "assumed: 250 bar relief")
-    relief_gradient: float = physical(1.0e-10, "m^3/(s Pa)", (0.0, 2e-7), "assumed: 42 L/min at 7 bar override")
+    relief_gradient: float = physical(
+        1.0e-9, "m^3/(s Pa)", (0.0, 2e-7),
+        "assumed: 42 L/min (the pump's full flow, 28 cm^3/rev at 1500 rpm) at 7 bar override: "
+        "7.0e-4 m^3/s / 7e5 Pa = 1.0e-9 (hydro_envs.laws.relief.linear_relief_flow)",
+    )
     # ---- main control valve and actuator
     cv_area_max: float = physical(
         1.5e-5, "m^2", (1e-8, 2e-3),
@@ -155,7 +164,11 @@ class LoadSensingParams(PhysicalParams):
     )
     piston_area: float = physical(0.25 * math.pi * 0.063**2, "m^2", (1e-4, 1.0), "assumed: 63 mm single-acting cylinder")
     stroke: float = physical(0.6, "m", (0.01, 10.0), "assumed: 600 mm stroke")
-    line_volume: float = physical(5.0e-4, "m^3", (1e-6, 1.0), "assumed: 0.5 L hose CV -> cylinder + dead volume")
+    line_volume: float = physical(
+        5.0e-4, "m^3", (2e-6, 1.0),
+        "assumed: 0.5 L hose CV -> cylinder + dead volume (allowed from 2 cm^3: the CV and the port "
+        "relief into a smaller line need more than the sub-step cap)",
+    )
     load_mass: float = physical(1000.0, "kg", (1.0, 1e5), "assumed: 1 t inertial load (randomised)")
     load_force: float = physical(2.0e4, "N", (0.0, 1e6), "assumed: 20 kN load, 64 bar (randomised)")
     actuator_viscous: float = physical(3000.0, "N s/m", (0.0, 1e6), "assumed: seal + guide viscous friction")
@@ -182,12 +195,33 @@ class LoadSensingParams(PhysicalParams):
         1.0e5, "Pa", (1.0, 1e6), "assumed: repo default 1 bar; every working drop here is >= 20 bar"
     )
     pressure_floor: float = physical(1e3, "Pa", (0.0, 1e5), "assumed: cavitation floor")
+    # ---- port relief on the actuator line (hydro_envs.laws.relief); 000 Fig. 1 draws none
+    load_relief_pressure: float = physical(
+        280.0e5 + _ATM, "Pa", (1e6, 1e8),
+        "assumed: cracking pressure of the actuator line's port (shock) relief to tank, 280 bar gauge, "
+        "12 % above the 250 bar main relief (usual practice: port reliefs of an LS valve section sit "
+        "above the main relief, so they open only on load-induced pressure)",
+    )
+    load_relief_override: float = physical(
+        28.0e5, "Pa", (1e4, 5e7),
+        "assumed: cracking to rated flow in 10 % of the setting (direct-acting relief valves' p-Q "
+        "curves rise 10-20 % over their flow range)", open_low=True,
+    )
+    load_relief_flow: float = physical(
+        1.0e-3, "m^3/s", (0.0, 1e-1),
+        "assumed: rated flow 60 L/min at full opening, the 63 mm cylinder falling at 0.32 m/s; 0 = no relief",
+    )
 
     def _check_relations(self) -> None:
         if not (self.pressure_floor < self.tank_pressure < self.relief_pressure):
             raise ParameterError(
                 "LoadSensingParams: need pressure_floor < tank_pressure < relief_pressure, got "
                 f"{self.pressure_floor}, {self.tank_pressure}, {self.relief_pressure} Pa"
+            )
+        if not self.load_relief_pressure > self.tank_pressure:
+            raise ParameterError(
+                f"LoadSensingParams.load_relief_pressure = {self.load_relief_pressure} Pa must be above "
+                f"tank_pressure = {self.tank_pressure} Pa (the port relief cracks at the difference)"
             )
         if self.control_area_small >= self.control_area_large:
             raise ParameterError(
@@ -206,7 +240,7 @@ class LoadSensingParams(PhysicalParams):
         "spool_area", "viscous", "ls_inductance", "ls_resistance", "ls_line_volume", "k_meter", "k_flow_force",
         "local_rate", "drop_rate", "leak_rate", "inv_spool_mass", "inv_control_mass", "inv_control_stroke",
         "delivery_stiffness", "inv_load_mass", "inv_ls_inductance", "inv_solenoid_time_constant",
-        "micro_damping_velocity")
+        "micro_damping_velocity", "load_relief_conductance")
 
     def derived_columns(self) -> list[float]:
         d = derived(self)
@@ -220,12 +254,13 @@ N_FIELDS = len(_FIELDS)
     I_LPORT, I_CD, I_THETA, I_FSMAX, I_TSOL, I_LLS, I_DLS, I_RD, I_VSC, I_DP, I_WP, I_GP, I_A1, I_A2,
     I_YMAX, I_MY, I_BY, I_FB0, I_KB, I_VX0, I_GX, I_KYS, I_VS, I_PRV, I_GRV, I_ACVMAX, I_AC,
     I_STROKE, I_VL0, I_M, I_FL, I_BA, I_FCA, I_SIG0, I_SIG1, I_ZCAP, I_KAS, I_PT, I_DPTR, I_PFLOOR,
-) = range(54)
-assert N_FIELDS == 54 and _FIELDS[I_PFLOOR] == "pressure_floor" and _FIELDS[I_FL] == "load_force"
+    I_PRVL, I_POVL, I_QRVL,
+) = range(57)
+assert N_FIELDS == 57 and _FIELDS[I_QRVL] == "load_relief_flow" and _FIELDS[I_PFLOOR] == "pressure_floor" and _FIELDS[I_FL] == "load_force"
 assert _FIELDS[I_ZCAP] == "actuator_bristle_relaxation_cap"
 _DERIVED = LoadSensingParams.derived_names
 (D_A, D_C, D_LLS, D_RLS, D_VLINE, D_KM, D_KFF, D_LOCAL, D_DROPRATE, D_LEAKRATE, D_INV_MS, D_INV_MY, D_INV_YMAX,
- D_BETA_VS, D_INV_M, D_INV_LLS, D_INV_TSOL, D_FADE) = range(N_FIELDS, N_FIELDS + len(_DERIVED))
+ D_BETA_VS, D_INV_M, D_INV_LLS, D_INV_TSOL, D_FADE, D_GRVL) = range(N_FIELDS, N_FIELDS + len(_DERIVED))
 N_PARAMS = N_FIELDS + len(_DERIVED)
 
 
@@ -248,6 +283,9 @@ def derived(params: LoadSensingParams) -> dict[str, float]:
         "k_meter": p.discharge_coefficient * math.sqrt(2.0 / p.oil_density),
         "k_flow_force": 2.0 * p.discharge_coefficient * math.cos(p.jet_angle) * p.metering_width,
     }
+    #: the load line's port relief at its steepest (hydro_envs.laws.relief, the law's Python body)
+    d["load_relief_conductance"] = pressure_relief_conductance_bound.py_func(
+        p.load_relief_pressure - p.tank_pressure, p.load_relief_override, p.load_relief_flow)
     d["local_rate"] = max(local_mode_rates(p, d).values())
     d["drop_rate"], d["leak_rate"] = orifice_rate_coefficients(p, d)
     # the right-hand side's parameter-only divisions as factors (a multiplication is off the

@@ -46,7 +46,7 @@ def initial_state(params, m):
 #: (tests/test_rodless_observer.py perturbs each one)
 TRACK_IGNORES = ("mass", "static_friction", "coulomb_friction", "stribeck_velocity", "viscous_friction",
                  "bristle_stiffness", "bristle_damping", "friction_sign_velocity", "load_force", "stop_stiffness",
-                 "stop_damping", "wall_heat_conductance", "pressure_floor")
+                 "stop_damping", "wall_heat_transfer_coefficient", "pressure_floor")
 _TRACKS: collections.OrderedDict = collections.OrderedDict()
 _TRACKS_KEPT = 32
 

@@ -40,7 +40,12 @@ Equations (numbers of 004)::
 
 ``H = sum mdot_i T_i`` is the enthalpy flow (mass flow into the chamber times the upstream
 temperature: T_s from the supply, the chamber's own T for outflow, T_s for air drawn back
-from the exhaust). Heat flow ``Q = h (T_s - T)`` (h = 0: adiabatic, the seed's eq (11)).
+from the exhaust). Heat flow from the wall ``Q = h A_wall (T_s - T)``,
+``A_wall = 2 A + 4 V / D`` (:func:`hydro_envs.laws.pneumatic_chamber.wall_heat_flow`,
+:func:`~hydro_envs.laws.pneumatic_chamber.cylinder_chamber_wall_area`; h =
+``wall_heat_transfer_coefficient``, 0: adiabatic, the seed's eq (11); the default, a
+convective coefficient of the literature, puts the chambers between isothermal and adiabatic:
+a random-action soak without it cooled chambers to 175 K).
 
 Decisions on the extracted text (see ``shared/seeds/README.md`` and the law docstrings):
 
@@ -93,7 +98,9 @@ from hydro_envs.laws.contact import end_stop_force
 from hydro_envs.laws.friction import stribeck_exponential, stribeck_exponential_slope_bound
 from hydro_envs.laws.nozzle_fast import nozzle_mass_flow_fast, nozzle_mass_flow_slope_fast
 from hydro_envs.laws.orifice import circular_orifice_area, iso6358_mass_flow_laminar
-from hydro_envs.laws.pneumatic_chamber import chamber_pressure_rate, gas_internal_energy
+from hydro_envs.laws.pneumatic_chamber import (
+    chamber_pressure_rate, cylinder_chamber_wall_area, gas_internal_energy, wall_heat_flow,
+)
 from hydro_envs.laws.seal_friction import bristle_block_rate_bound, seal_friction, stribeck_curve_exponential
 from hydro_envs.laws.valve import second_order_valve_acceleration
 from hydro_envs.sim.rk4 import STABLE_H_LAMBDA, local_substeps, worst_case_substeps
@@ -103,7 +110,7 @@ from hydro_envs.plants.rodless_cylinder.bounds import (
     local_mode_rates as _local_mode_rates, piston_area, smallest_chamber_volume, speed_bound,
 )
 from hydro_envs.plants.rodless_cylinder.params import (  # noqa: F401  (re-exported)
-    D_AREA, D_COEF, D_CRIT, D_FADE, D_INVK, D_KV, D_LOCAL, D_ORIFICE, D_PSIC, D_PSIL, D_SFULL, D_SQRTRTS,
+    D_AREA, D_COEF, D_CRIT, D_FADE, D_WALL, D_INVK, D_KV, D_LOCAL, D_ORIFICE, D_PSIC, D_PSIL, D_SFULL, D_SQRTRTS,
     ATM, I_ASTOP, I_BISO, I_CD, I_CISO, I_D, I_FC, I_FL, I_FLOW, I_FS, I_HW, I_K, I_KSTOP, I_L,
     I_M, I_MFLOOR, I_PE, I_PFLOOR, I_PS, I_R, I_RLAM, I_RP, I_SIG0, I_SIG1, I_SIG2, I_TS, I_UC,
     I_RSUP, I_ULAP, I_UMAX, I_VDA, I_VDB, I_VEPS, I_VMIN, I_VS, I_WV, I_XVM, I_ZV, N_FIELDS, N_PARAMS,
@@ -364,9 +371,11 @@ def _rhs(supply, y, u, p, dy):
     mdot_b, h_b = _vented_chamber_flows(p, m_pb, s_plus, pb, tb)
 
     # energy balance of each chamber (10)-(13); dV_a/dt = A v, dV_b/dt = -A v
-    hw = p[I_HW]
-    dpa = chamber_pressure_rate(pa, vol_a, area * v, h_a, kappa, r_gas, hw * (ts - ta))
-    dpb = chamber_pressure_rate(pb, vol_b, -area * v, h_b, kappa, r_gas, hw * (ts - tb))
+    hw = p[I_HW]  # convective coefficient h; A_wall = 2 A + 4 V / D (D_WALL = 4 / D)
+    q_a = wall_heat_flow(hw, 2.0 * area + p[D_WALL] * vol_a, ts, ta)
+    q_b = wall_heat_flow(hw, 2.0 * area + p[D_WALL] * vol_b, ts, tb)
+    dpa = chamber_pressure_rate(pa, vol_a, area * v, h_a, kappa, r_gas, q_a)
+    dpb = chamber_pressure_rate(pb, vol_b, -area * v, h_b, kappa, r_gas, q_b)
     dma = mdot_a  # (8)-(9)
     dmb = mdot_b
     # guards: a chamber at the floor cannot lose more pressure or mass
@@ -638,6 +647,28 @@ def chamber_temperatures(states: np.ndarray, params: RodlessCylinderParams) -> t
     return s[:, PA] * va / (s[:, MA] * r), s[:, PB] * vb / (s[:, MB] * r)
 
 
+def soak_temperatures(S: np.ndarray, P: np.ndarray) -> np.ndarray:
+    """``(n, 2)`` chamber temperatures ``T = p V / (m R)`` [K] of a batch's states ``S`` under
+    the kernel parameter rows ``P`` (the volumes and mass floor of the kernels): what the soak
+    test (:mod:`hydro_envs.soak`) bounds below."""
+    area = P[:, D_AREA]
+    vol_a = np.maximum(area * S[:, Y] + P[:, I_VDA], P[:, I_VMIN])
+    vol_b = np.maximum(area * (P[:, I_L] - S[:, Y]) + P[:, I_VDB], P[:, I_VMIN])
+    ma = np.maximum(S[:, MA], P[:, I_MFLOOR])
+    mb = np.maximum(S[:, MB], P[:, I_MFLOOR])
+    return np.stack([S[:, PA] * vol_a / (ma * P[:, I_R]), S[:, PB] * vol_b / (mb * P[:, I_R])], axis=1)
+
+
+def soak_temperature_floor(P: np.ndarray) -> np.ndarray:
+    """``(n,)`` coldest chamber temperature [K] the physics allows per kernel parameter row:
+    gas at the wall temperature T_s expanded isentropically from the highest pressure the
+    stiffness bounds assume, 1.5 p_s (:func:`stiffness_modes`), to the exhaust,
+    ``T_s (p_e / (1.5 p_s))^((kappa - 1)/kappa)`` (the walls only warm a gas colder than them; the
+    soak test, :mod:`hydro_envs.soak`)."""
+    k = P[:, I_K]
+    return P[:, I_TS] * (P[:, I_PE] / (1.5 * P[:, I_PS])) ** ((k - 1.0) / k)
+
+
 def total_energy(states: np.ndarray, params: RodlessCylinderParams) -> np.ndarray:
     """Kinetic energy + chambers' internal energy + load potential ``F_L y`` [J] of state rows.
 
@@ -695,7 +726,8 @@ def stiffness_modes(params: RodlessCylinderParams) -> dict[str, float]:
     * ``friction_stick`` (LuGre): the stuck bristles ``sqrt(sigma0/M)`` plus the dampings that
       act on the slider with them, ``(2 sigma1 + sigma)/M``; ``friction`` (static curve): the
       viscous ``sigma/M``.
-    * ``heat``: wall exchange ``(kappa - 1) h T_max / (p_e/2 V_min)``.
+    * ``heat``: wall exchange ``(kappa - 1) h A_wall/V T_max / (p_e/2)`` with the largest wall
+      area per volume ``A_wall/V = 2 A / V_min + 4 / D``.
 
     Stiff only in part of the state space, and left out here (:mod:`.bounds`,
     :func:`local_mode_rates`): the flow law's laminar tail, LuGre's bristle relaxation at speed
@@ -720,8 +752,10 @@ def stiffness_modes(params: RodlessCylinderParams) -> dict[str, float]:
                                    + (2.0 * params.bristle_damping + params.viscous_friction) / m)
     else:
         modes["friction"] = params.viscous_friction / m
-    if params.wall_heat_conductance > 0.0:
-        modes["heat"] = (kappa - 1.0) * params.wall_heat_conductance * t_max / (0.5 * params.exhaust_pressure * v_min)
+    if params.wall_heat_transfer_coefficient > 0.0:
+        per_volume = 2.0 * a / v_min + 4.0 / params.bore  # laws.pneumatic_chamber.cylinder_chamber_wall_area / V
+        modes["heat"] = ((kappa - 1.0) * params.wall_heat_transfer_coefficient * per_volume * t_max
+                         / (0.5 * params.exhaust_pressure))
     return modes
 
 
@@ -802,7 +836,9 @@ def linearize_mid_stroke(params: RodlessCylinderParams) -> MidStrokeLinearizatio
     relaxes it only over seconds). Linearising ``T_a mdot_out(p_a, T_a)`` with
     ``mdot_out ~ 1/sqrt(T_a)`` adds ``(kappa - 1)/(2 kappa) mdot_out/p_0`` to c2; with the
     corrected c2 eq (23) gives ``zeta_energy`` (about 6 % above eq (23) at the nominal plant,
-    where the outflow term is 40 % of c2).
+    where the outflow term is 40 % of c2), plus the wall heat exchange's thermal damping
+    ``(1 - 1/kappa) w tau / (2 (1 + (w tau)^2))`` at ``w = omega_n`` with the chambers' thermal
+    time constant ``tau = m c_v / (h A_wall)`` (0.5 s at the nominal plant: +0.0018).
     """
     p0 = centre_pressure(params)
     ts = params.supply_temperature
@@ -831,6 +867,13 @@ def linearize_mid_stroke(params: RodlessCylinderParams) -> MidStrokeLinearizatio
     m_out = _edge_flow_py(params, float(circular_orifice_area(u, r)), p0, pe, ts)
     c2_energy = c2 + (kappa - 1.0) / (2.0 * kappa) * m_out / p0
     zeta_energy = c2_energy * rt / (2.0 * a) * math.sqrt(kappa * m / (2.0 * v0 * p0))
+    # wall heat exchange: each chamber's gas spring relaxes from adiabatic towards isothermal with
+    # tau = m c_v / (h A_wall) = p0 V0 / ((kappa - 1) T_s h A_wall); its loss factor at omega_n,
+    # (1 - 1/kappa) w tau / (1 + (w tau)^2) (a standard linear solid), adds half of it to zeta
+    h_wall = params.wall_heat_transfer_coefficient * cylinder_chamber_wall_area.py_func(v0, a, params.bore)
+    if h_wall > 0.0:
+        wt = omega_n * p0 * v0 / ((kappa - 1.0) * params.supply_temperature * h_wall)
+        zeta_energy += 0.5 * (1.0 - 1.0 / kappa) * wt / (1.0 + wt * wt)
     return MidStrokeLinearization(p0, c1, c2, v0, a, m, rt, kappa, k_t, zeta, omega_n, k_v, zeta_energy)
 
 

@@ -58,7 +58,11 @@ class RodlessCylinderParams(PhysicalParams):
         0.5, "kg", (0.005, 1e4),
         "assumed: piston, yoke and slide table of an SMC MY1C25 (data sheet order 0.5 kg); 004 gives no M_L",
     )
-    bore: float = physical(0.025, "m", (0.0, 0.04), "004 Table 1: SMC MYC25G, bore 25 mm", open_low=True)
+    bore: float = physical(
+        0.025, "m", (0.005, 0.04),
+        "004 Table 1: SMC MYC25G, bore 25 mm (allowed from 5 mm: the walls' heat exchange, A_wall/V "
+        "up to 4/D, would need more sub-steps below)",
+    )
     stroke: float = physical(0.110, "m", (0.0, 10.0), "004 Table 1: stroke 110 mm", open_low=True)
     dead_volume_a: float = physical(
         5e-6, "m^3", (0.0, 1e-2),
@@ -136,8 +140,14 @@ class RodlessCylinderParams(PhysicalParams):
     stop_damping: float = physical(
         2.0, "s/m", (0.0, 100.0), "assumed: Hunt-Crossley alpha, restitution ~0.3 at 0.5 m/s"
     )
-    wall_heat_conductance: float = physical(
-        0.0, "W/K", (0.0, 100.0), "004 eq (11): adiabatic chambers (> 0: heat exchange with the wall at T_s)"
+    wall_heat_transfer_coefficient: float = physical(
+        50.0, "W/(m^2 K)", (0.0, 1e4),
+        "assumed (004 eq (11) takes the chambers adiabatic, 0): convective coefficient h of the chamber "
+        "gas to the wall at T_s, Q = h A_wall (T_s - T), A_wall = 2 A + 4 V / D; forced convection of "
+        "gases is 25-250 W/(m^2 K) (Incropera and DeWitt, Fundamentals of Heat and Mass Transfer, "
+        "Table 1.1), and values of this order are identified for industrial pneumatic cylinders "
+        "(Carneiro and de Almeida 2006, Proc. IMechE I 221); the chambers then lie between isothermal "
+        "and adiabatic (time constant m c_v / (h A_wall) of 0.1-0.5 s here)",
     )
     pressure_floor: float = physical(
         1.0, "Pa", (0.0, 1e4), "assumed: guard only, Hopsan's 1 Pa pneumatic volume floor (NOTES.md)",
@@ -196,7 +206,7 @@ class RodlessCylinderParams(PhysicalParams):
     # them would add about 0.8 s to an env's cold first step.
     derived_names: ClassVar[tuple[str, ...]] = (
         "piston_area", "crit", "psi_c", "psi_lam", "inv_k", "coef", "sqrt_rts", "k_v", "s_full", "orifice_rate",
-        "local_rate", "micro_damping_velocity")
+        "local_rate", "micro_damping_velocity", "wall_area_per_volume")
 
     def derived_columns(self) -> list[float]:
         constants = nozzle_flow_constants.py_func(self.heat_capacity_ratio, self.laminar_pressure_ratio)
@@ -211,6 +221,7 @@ class RodlessCylinderParams(PhysicalParams):
             orifice,
             max(local_mode_rates(self, orifice).values()),
             dissipative_fade_velocity(self.bristle_damping, self.stribeck_velocity, self.coulomb_friction),
+            4.0 / self.bore,  # lateral wall per chamber volume, 4/D (laws.pneumatic_chamber.cylinder_chamber_wall_area)
         ]
         return extra
 
@@ -238,8 +249,8 @@ class RodlessCylinderParams(PhysicalParams):
 ) = range(37)
 N_FIELDS = 37
 # derived columns appended by RodlessCylinderParams.to_array()
-(D_AREA, D_CRIT, D_PSIC, D_PSIL, D_INVK, D_COEF, D_SQRTRTS, D_KV, D_SFULL, D_ORIFICE, D_LOCAL, D_FADE) = range(
-    N_FIELDS, N_FIELDS + 12)
+(D_AREA, D_CRIT, D_PSIC, D_PSIL, D_INVK, D_COEF, D_SQRTRTS, D_KV, D_SFULL, D_ORIFICE, D_LOCAL, D_FADE,
+ D_WALL) = range(N_FIELDS, N_FIELDS + 13)
 N_PARAMS = N_FIELDS + len(RodlessCylinderParams.derived_names)
 assert RodlessCylinderParams.names()[I_VMIN] == "min_chamber_volume"
 assert RodlessCylinderParams.names()[I_SIG1] == "bristle_damping"

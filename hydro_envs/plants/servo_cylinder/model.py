@@ -52,6 +52,13 @@ diagnosis workflow, :mod:`identification.diagnosis`, when measured data call for
         the drawn flow, hydro_envs.laws.orifice.supply_pressure_at_flow; with an underlapped
         spool near null, where both P edges are open, from the wider edge's flow)
 
+Port reliefs (not in 002, always on): each chamber drains to tank through a relief valve,
+``Q_i -= q_relief(p_i - p_R)`` (:func:`hydro_envs.laws.relief.pressure_relief_flow`, cracking
+at ``relief_pressure``, rated ``relief_flow`` at ``relief_pressure + relief_override``; the
+settings are assumed). Closed below cracking (16 MPa gauge), so the seed's model is unchanged
+wherever the chambers stay below it; a piston braked by its closing valve would otherwise
+compress the outlet chamber far above the supply.
+
 Decisions on the extracted text (see ``shared/seeds/README.md``):
 
 * eq (5) prints the chamber volume as ``A x_p - V1``; physically it is ``A x_p + V1`` (the
@@ -86,12 +93,13 @@ from hydro_envs.laws.seal_friction import (
 )
 from hydro_envs.sim.stiffness import second_order_pole_magnitude
 from hydro_envs.laws.orifice import orifice_flow, spool_edge_opening, supply_pressure_at_flow
+from hydro_envs.laws.relief import pressure_relief_conductance_bound, pressure_relief_flow
 from hydro_envs.laws.valve import second_order_valve_acceleration
 from hydro_envs.libm import exp
 from hydro_envs.plants.servo_cylinder.params import (  # noqa: F401  (indices re-exported)
     I_A, I_ASTOP, I_CD, I_CEL, I_CIL, I_D, I_DPTR, I_FASYM, I_FC, I_FL, I_FPC, I_FS, I_KSTOP, I_KV, I_L,
     I_LAP, I_M, I_PFLOOR, I_PS, I_PT, I_RHO, I_RS, I_SIG0, I_SIG1, I_UMAX, I_V1, I_V2, I_VMIN, I_VS, I_W,
-    I_WV, I_XVM, I_ZCAP, I_ZV, I_BETA, I_DFADE, N_FIELDS, N_PARAMS, PLANT, ServoCylinderParams,
+    I_WV, I_XVM, I_ZCAP, I_ZV, I_BETA, I_DFADE, I_PRV, I_POV, I_QRV, N_FIELDS, N_PARAMS, PLANT, ServoCylinderParams,
 )
 
 __all__ = [
@@ -169,6 +177,10 @@ def servo_cylinder_rhs(y, u, p, dy):
     q_il = p[I_CIL] * (p1 - p2)
     q1 -= q_il + p[I_CEL] * (p1 - pt)
     q2 += q_il - p[I_CEL] * (p2 - pt)
+    # Port reliefs to tank (not in 002; closed below relief_pressure).
+    crack = p[I_PRV] - pt
+    q1 -= pressure_relief_flow(p1 - pt, crack, p[I_POV], p[I_QRV])
+    q2 -= pressure_relief_flow(p2 - pt, crack, p[I_POV], p[I_QRV])
 
     vol1 = max(area * x + p[I_V1], p[I_VMIN])  # (5), "+ V1" (extraction defect fixed)
     vol2 = max(area * (p[I_L] - x) + p[I_V2], p[I_VMIN])  # (6)
@@ -221,6 +233,16 @@ def servo_cylinder_guard(y, p):
 
 
 # ---------------------------------------------------------------------------- analysis
+def relief_bounds(P: np.ndarray) -> tuple[tuple[int, int], np.ndarray]:
+    """``((P1, P2), (n, 2) [Pa])``: each chamber's port-relief full-flow pressure
+    ``relief_pressure + relief_override`` per row of the kernel parameter array ``P``, or the
+    supply if higher (a relief set below it passes the valve's flow from the supply, more than
+    its rating; inf without relief): the bound the soak test (:mod:`hydro_envs.soak`) holds the
+    chambers to."""
+    full = np.where(P[:, I_QRV] > 0.0, np.maximum(P[:, I_PRV] + P[:, I_POV], P[:, I_PS]), np.inf)
+    return (P1, P2), np.stack([full, full], axis=1)
+
+
 def hydraulic_natural_frequency(params: ServoCylinderParams, x: float) -> float:
     """Undamped hydraulic natural frequency [rad/s] at position ``x`` with the valve closed.
 
@@ -274,7 +296,12 @@ def stiffness_modes(params: ServoCylinderParams) -> dict[str, float]:
       oscillation on its bristles at rest (about ``4.5 sqrt(sigma0 / m)`` with critical
       micro-damping) and the bristle relaxation at speed, capped at ``bristle_relaxation_cap``.
     * ``end_stop``: contact spring ``sqrt(k/m)`` plus its damping ``alpha * F_max / m`` at the
-      penetration where the stop holds the full thrust ``F_max = A (p_s - p_floor)``.
+      penetration where the stop holds the full thrust and the load ``F_max = A (p_s - p_floor)
+      + |F_L|`` (a load beyond what the port reliefs hold rests on the stop).
+    * ``relief``: an open port relief into the smallest chamber at its steepest
+      (:func:`~hydro_envs.laws.relief.pressure_relief_conductance_bound`), with the fully open
+      supply edge at the drop ``p_s - p_relief`` it then sees (its zero-drop slope if the relief
+      cracks below the supply) and the leaks.
     """
     a = params.piston_area
     vol_min = min(params.line_volume_1, params.line_volume_2)
@@ -291,8 +318,16 @@ def stiffness_modes(params: ServoCylinderParams) -> dict[str, float]:
         / math.sqrt(params.orifice_transition_pressure)
     )
     g_leak = 2.0 * params.internal_leakage + params.external_leakage
-    f_max = a * (params.supply_pressure - params.pressure_floor)
+    # full thrust: the valve's (up to the supply) plus the load, which the stop holds once the
+    # port reliefs no longer do
+    f_max = a * (params.supply_pressure - params.pressure_floor) + abs(params.load_force)
+    drop = max(params.relief_pressure - params.supply_pressure, 0.0)
+    g_relief = float(pressure_relief_conductance_bound.py_func(
+        params.relief_pressure - params.tank_pressure, params.relief_override, params.relief_flow))
+    g_edge = g_lam * math.sqrt(params.orifice_transition_pressure) / math.sqrt(
+        math.sqrt(drop * drop + params.orifice_transition_pressure**2))
     return {
+        "relief": params.bulk_modulus / vol_min * (g_relief + g_edge + g_leak),
         "valve": second_order_pole_magnitude(params.valve_natural_frequency, params.valve_damping),
         "hydraulic": omega_h,
         "orifice": params.bulk_modulus / vol_min * (g_lam + g_leak),

@@ -148,6 +148,24 @@ class ServoCylinderParams(PhysicalParams):
         "R Q with the drawn flow Q (supply hose, pump compensator droop; "
         "hydro_envs.laws.orifice.supply_pressure_at_flow)",
     )
+    # --- port relief valves, one per chamber to tank (hydro_envs.laws.relief); 002 prints none
+    relief_pressure: float = physical(
+        16.0e6 + _ATM, "Pa", (2e5, 1e8),
+        "assumed: cracking pressure of the chambers' port reliefs to tank, 16 MPa gauge = 16 % above the "
+        "13.8 MPa supply (002 sec. 3), usual practice (10-20 % above the system pressure), below the "
+        "17 MPa of 002 Table 1; 002 prints no relief",
+    )
+    relief_override: float = physical(
+        2.0e6, "Pa", (1e4, 5e7),
+        "assumed: pressure rise from cracking to the rated flow, 12.5 % of the setting (direct-acting "
+        "relief valves' p-Q curves rise 10-20 % over their flow range)", open_low=True,
+    )
+    relief_flow: float = physical(
+        6.7e-4, "m^3/s", (0.0, 1e-1),
+        "assumed: rated flow 40 L/min at full opening, 1.5 x the valve's 27 L/min no-load flow "
+        "(002 Table 1 at 13.8 MPa): the displacement flow A v of the piston braking from 1.5 x its "
+        "0.67 m/s no-load speed; 0 = no relief",
+    )
 
     def _check_relations(self) -> None:
         if self.static_friction < self.coulomb_friction:
@@ -165,6 +183,11 @@ class ServoCylinderParams(PhysicalParams):
             raise ParameterError(
                 "ServoCylinderParams: need pressure_floor < tank_pressure < supply_pressure, got "
                 f"{self.pressure_floor}, {self.tank_pressure}, {self.supply_pressure} Pa"
+            )
+        if not self.relief_pressure > self.tank_pressure:
+            raise ParameterError(
+                f"ServoCylinderParams.relief_pressure = {self.relief_pressure} Pa must be above tank_pressure "
+                f"= {self.tank_pressure} Pa (the port reliefs crack at relief_pressure - tank_pressure > 0)"
             )
         if self.min_chamber_volume >= min(self.line_volume_1, self.line_volume_2):
             raise ParameterError(
@@ -189,13 +212,14 @@ class ServoCylinderParams(PhysicalParams):
 (
     I_PS, I_PT, I_M, I_A, I_L, I_V1, I_V2, I_RHO, I_BETA, I_CD, I_W, I_XVM, I_KV, I_WV,
     I_ZV, I_UMAX, I_D, I_FC, I_FS, I_VS, I_SIG0, I_SIG1, I_ZCAP, I_FL, I_KSTOP, I_ASTOP, I_DPTR, I_PFLOOR,
-    I_VMIN, I_LAP, I_CIL, I_CEL, I_FASYM, I_FPC, I_RS,
-) = range(35)
+    I_VMIN, I_LAP, I_CIL, I_CEL, I_FASYM, I_FPC, I_RS, I_PRV, I_POV, I_QRV,
+) = range(38)
 assert ServoCylinderParams.names()[I_SIG1] == "bristle_damping"
 assert ServoCylinderParams.names()[I_VMIN] == "min_chamber_volume"
 assert ServoCylinderParams.names()[I_FPC] == "friction_pressure_coefficient"
 assert ServoCylinderParams.names()[I_RS] == "supply_line_resistance"
-N_FIELDS = 35
+assert ServoCylinderParams.names()[I_QRV] == "relief_flow"
+N_FIELDS = 38
 #: derived column (ServoCylinderParams.derived_names)
 I_DFADE = N_FIELDS
 N_PARAMS = N_FIELDS + len(ServoCylinderParams.derived_names)

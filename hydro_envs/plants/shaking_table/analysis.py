@@ -34,11 +34,12 @@ __all__ = ["modulus_minimum", "small_signal_frequency"]
 def _rhs_moduli(params: ShakingTableParams, pa: np.ndarray, pb: np.ndarray) -> np.ndarray:
     """(E_a, E_b) [Pa] recovered from the compiled right-hand side, not from the law itself.
 
-    With the valve sealed (R = 0) and no leakage, eqs (6)-(7) at x = 0 with a small velocity
+    With the valve sealed (R = 0), no leakage and no port reliefs, eqs (6)-(7) at x = 0 with a small velocity
     give ``P_a' = -E_a A v / V_a`` and ``P_b' = E_b A v / V_b``. Each chamber is read while it
     is compressed (v < 0 for a, v > 0 for b), so the cavitation guard never masks it.
     """
-    sealed = dataclasses.replace(params, flow_coefficient=0.0, internal_leakage=0.0, external_leakage=0.0)
+    sealed = dataclasses.replace(params, flow_coefficient=0.0, internal_leakage=0.0, external_leakage=0.0,
+                                 relief_flow=0.0)
     p = sealed.to_array()
     v = 1e-3
     va, vb = chamber_volumes(sealed, 0.0)

@@ -12,6 +12,9 @@ small part of the state space, and the kernels take a sub-step there as finer on
   (eqs (8)-(9)) into the smallest chamber: stiff only while a chamber is within a few ``dp_tr``
   of the supply or the tank pressure. Working drops are tens of bar, where the slope is a
   fifth of its zero-drop value or less.
+* ``relief``: an open port relief (:mod:`hydro_envs.laws.relief`, above ``relief_pressure``),
+  whose slope is up to ``q_rated / p_override`` -- as steep as the open valve's laminar core:
+  stiff only while a chamber is above its cracking pressure (braking, a stop).
 
 Three features are not modes a rate bounds, and the kernels refine a sub-step across them too
 (:func:`.model.local_mode_substeps`): the kinks of the metering openings (eq (3) at
@@ -33,12 +36,13 @@ import math
 from typing import Any
 
 from hydro_envs.laws.bulk_modulus import ifas_bulk_modulus
+from hydro_envs.laws.relief import pressure_relief_conductance_bound
 from hydro_envs.laws.seal_friction import bristle_stiffness_bound, dissipative_fade_velocity, stribeck_slope_ratio_bound
 from hydro_envs.sim.rk4 import STABLE_H_LAMBDA
 from hydro_envs.sim.roots import brent_root
 
 __all__ = ["ACCURATE_H_LAMBDA", "SPOOL_H_OMEGA", "AIR_COMPLIANCE_SHARE", "stiffness_modes", "local_mode_rates",
-           "modulus_upper_bound", "air_release_pressure", "friction_bounds", "friction_rate"]
+           "modulus_upper_bound", "air_release_pressure", "friction_bounds", "friction_rate", "relief_conductance"]
 
 #: the env's velocity limit in no-load velocities (hydro_envs.envs.base.VELOCITY_FACTOR)
 _VELOCITY_FACTOR = 2.0
@@ -52,11 +56,18 @@ SPOOL_H_OMEGA = ACCURATE_H_LAMBDA
 AIR_COMPLIANCE_SHARE = 0.01
 
 
+def relief_conductance(p: Any) -> float:
+    """Largest slope [m^3/(s Pa)] of a chamber's port relief over all pressures
+    (:func:`~hydro_envs.laws.relief.pressure_relief_conductance_bound`; the law's Python body)."""
+    return float(pressure_relief_conductance_bound.py_func(p.relief_pressure - p.tank_pressure, p.relief_override,
+                                                           p.relief_flow))
+
+
 def modulus_upper_bound(p: Any, p_hi: float | None = None) -> float:
-    """Largest chamber modulus [Pa] for pressures up to ``p_hi`` (default 1.5 P_s; IFAS grows
-    with P, h is at most max(lambda_1, h(0)))."""
+    """Largest chamber modulus [Pa] for pressures up to ``p_hi`` (default the larger of 1.5 P_s
+    and the reliefs' full-flow pressure; IFAS grows with P, h is at most max(lambda_1, h(0)))."""
     if p_hi is None:
-        p_hi = 1.5 * p.supply_pressure
+        p_hi = max(1.5 * p.supply_pressure, p.relief_pressure + p.relief_override)
     if p.bulk_modulus_model == 0.0:
         return p.e0
     # the law's Python body: the same arithmetic without compiling it when a parameter set is made
@@ -143,9 +154,18 @@ def local_mode_rates(p: Any) -> dict[str, float]:
       slope into the smallest chamber with the chamber at supply pressure (E evaluated at
       ``P_s + 10 dp_tr``); above P_s the reverse drop flattens it like ``|dp|^(-1/2)``, and at
       tank pressure E is small.
+    * ``relief``: ``E_max / V_0 (G_relief + R (1 + 2U) / (d^2 + dp_tr^2)^(1/4) + 2 C_il + C_el)``
+      with :func:`relief_conductance`: an open port relief on the smallest chamber; it is open
+      only above ``relief_pressure``, where the metering edges see at least the drop
+      ``d = relief_pressure - P_s`` (0 if the relief cracks below the supply).
     """
     e = modulus_upper_bound(p, p.supply_pressure + 10.0 * p.orifice_transition_pressure)
-    return {"orifice": e / max(p.dead_volume, p.min_chamber_volume) * _orifice_conductance(p)}
+    v0 = max(p.dead_volume, p.min_chamber_volume)
+    d = max(p.relief_pressure - p.supply_pressure, 0.0)
+    edges = p.flow_coefficient * (1.0 + 2.0 * p.underlap) / math.sqrt(math.sqrt(d * d + p.orifice_transition_pressure**2))
+    leak = 2.0 * p.internal_leakage + p.external_leakage
+    return {"orifice": e / v0 * _orifice_conductance(p),
+            "relief": modulus_upper_bound(p) / v0 * (relief_conductance(p) + edges + leak)}
 
 
 def air_release_pressure(p: Any) -> float:

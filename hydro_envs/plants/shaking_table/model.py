@@ -28,9 +28,10 @@ Equations (numbers of 003)::
     Q_b = R [ sgt(-xv,U) sqrt~(P_s - P_b) - sgt(xv,U) sqrt~(P_b - P_T) ]            (2)
     sgt(xv, U) = max(xv + U, 0)                                                    (3)
     xv'' = w0^2 (k_u u - xv) - 2 zeta w0 xv'                                         (5)
-    P_a' = E_a / V_a (Q_a - Q_ia - Q_ea - A v),  V_a = V_0 + A (L/2 + x)             (6)
-    P_b' = E_b / V_b (Q_b - Q_ib - Q_eb + A v),  V_b = V_0 + A (L/2 - x)             (7)
+    P_a' = E_a / V_a (Q_a - Q_ia - Q_ea - Q_ra - A v),  V_a = V_0 + A (L/2 + x)      (6)
+    P_b' = E_b / V_b (Q_b - Q_ib - Q_eb - Q_rb + A v),  V_b = V_0 + A (L/2 - x)      (7)
     Q_ia = C_il (P_a - P_b) = -Q_ib,  Q_ea = C_el (P_a - P_T),  Q_eb = C_el (P_b - P_T) (8)-(9)
+    Q_ra = q_relief(P_a - P_T), Q_rb = q_relief(P_b - P_T)   port reliefs to tank (not in 003)
     M v' = A (P_a - P_b) - F_fric + F_stop(x, v),  M = M_b + M_s                     (10)
     F_fric = sigma0 z + sigma1(v) z' + F_v v,  z' = v - sigma0 |v| z / g(v)           (LuGre)
     g(v) = F_C + (F_s - F_C) exp(-(v/v_s)^2)                                         (11)
@@ -72,6 +73,12 @@ Decisions on the extracted text (``shared/seeds/README.md`` and this module):
 * **Dead volume.** The paper's ``V_t / 2`` (eqs (6)-(7)) is ``V_0 + A L / 2`` here; the
   hose/port volume V_0 is not given. Assumed 40 cm^3 per side (about 0.5 m of 10 mm bore hose
   plus the valve and cylinder ports); randomised 25-60 cm^3.
+* **Port reliefs.** 003 prints no relief valve, yet a 850 kg table braked by its closing valve
+  compresses the outlet chamber far above the supply (562 bar = 2.8 P_s under random commands
+  without one). Each chamber gets a port relief to tank, :func:`hydro_envs.laws.relief.pressure_relief_flow`
+  (cracking at ``relief_pressure``, rated ``relief_flow`` at ``relief_pressure + relief_override``;
+  settings assumed, :class:`ShakingTableParams`). Closed below cracking, it leaves every
+  trajectory that stays below 230 bar as it was.
 * **Reference pressure of IFAS.** Eq (13) uses the absolute pressure; the supply 206 bar of
   Table 1 is gauge, so ``P_s = 20.6 MPa + 0.1 MPa``.
 
@@ -99,6 +106,7 @@ from hydro_envs.laws.orifice import (
     regularized_signed_sqrt_slope_bound,
     underlap_orifice_opening,
 )
+from hydro_envs.laws.relief import pressure_relief_flow
 from hydro_envs.laws.valve import second_order_valve_acceleration
 from hydro_envs.plants.shaking_table.bounds import (  # noqa: F401  (re-exported)
     ACCURATE_H_LAMBDA, friction_bounds, friction_rate, local_mode_rates, stiffness_modes,
@@ -108,7 +116,7 @@ from hydro_envs.plants.shaking_table.params import (  # noqa: F401  (re-exported
     D_IFAS_OIL_E0, D_INV_M, D_LOCAL, D_NOTCH_AMP, D_NOTCH_C2, D_NOTCH_FAR, D_NOTCH_ONE_C2, D_PAIR, D_DFADE, I_A,
     I_ALPHA, I_ASTOP, I_BETA, I_CEL, I_CIL, I_DPTR, I_E0, I_FC, I_FS, I_FV, I_KAPPA, I_KSTOP, I_KU, I_L, I_L1, I_L2,
     I_M, I_MB, I_MODEL, I_MS, I_MU, I_P0, I_PFLOOR, I_PLT, I_PS, I_PT, I_R, I_U, I_UMAX, I_V0, I_VMIN, I_VS, I_W0,
-    I_ZETA, I_SIG0, I_SIG1, I_ZCAP,
+    I_ZETA, I_SIG0, I_SIG1, I_ZCAP, I_PRV, I_POV, I_QRV, D_GRV,
     N_PARAMS, PLANT, PRESETS, SPECIMENS, ShakingTableParams,
 )
 from hydro_envs.sim.rk4 import STABLE_H_LAMBDA, local_substeps, worst_case_substeps
@@ -213,6 +221,14 @@ def valve_flows(xv, pa, pb, p):
     return r * qa, r * qb
 
 
+@nb.njit(cache=True, error_model="numpy", inline="always")
+def relief_flow(pr, p):
+    """Flow [m^3/s] out of a chamber at pressure ``pr`` through its port relief to tank
+    (:func:`~hydro_envs.laws.relief.pressure_relief_flow`; 0 below ``relief_pressure``)."""
+    pt = p[I_PT]
+    return pressure_relief_flow(pr - pt, p[I_PRV] - pt, p[I_POV], p[I_QRV])
+
+
 @njit_noalloc
 def friction_level(v, p):
     """Steady-state friction level ``g(v) = F_C + (F_s - F_C) exp(-(v/v_s)^2)`` [N] of 003 eq (11)
@@ -258,8 +274,8 @@ def shaking_table_rhs(y, u, p, dy):
     ea, eb = chamber_moduli(pa, pb, p)  # (13), (15)-(19)
     q_int = p[I_CIL] * (pa - pb)  # (8)-(9): internal leakage a -> b
     vol_a, vol_b = _volumes(x, p)  # V_t/2 +- A x
-    dpa = ea / vol_a * (qa - q_int - p[I_CEL] * (pa - p[I_PT]) - area * v)  # (6)
-    dpb = eb / vol_b * (qb + q_int - p[I_CEL] * (pb - p[I_PT]) + area * v)  # (7)
+    dpa = ea / vol_a * (qa - q_int - p[I_CEL] * (pa - p[I_PT]) - relief_flow(pa, p) - area * v)  # (6)
+    dpb = eb / vol_b * (qb + q_int - p[I_CEL] * (pb - p[I_PT]) - relief_flow(pb, p) + area * v)  # (7)
     if pa <= p[I_PFLOOR] and dpa < 0.0:  # cavitation guard
         dpa = 0.0
     if pb <= p[I_PFLOOR] and dpb < 0.0:
@@ -302,7 +318,8 @@ def local_mode_rate(y, p):
     with the openings, drops and volumes of ``y`` and the largest modulus ``D_EMAX``): per
     chamber ``E_max / V (R (sgt_in root'(P_s - P) + sgt_out root'(P - P_T)) + 2 C_il + C_el)``
     (eqs (1)-(3), (6)-(9)), with the root's slope bounded by
-    :func:`~hydro_envs.laws.orifice.regularized_signed_sqrt_slope_bound`; the larger of the two
+    :func:`~hydro_envs.laws.orifice.regularized_signed_sqrt_slope_bound`, plus the port relief's
+    largest slope ``D_GRV`` on a chamber above ``relief_pressure``; the larger of the two
     chambers'."""
     xo = min(max(y[XV], -1.0), 1.0)
     sa = underlap_orifice_opening(xo, p[I_U])  # sgt(xv, U), eq (3)
@@ -315,6 +332,10 @@ def local_mode_rate(y, p):
                    + sb * regularized_signed_sqrt_slope_bound(y[PA] - pt, dptr)) + leak
     gb = p[I_R] * (sb * regularized_signed_sqrt_slope_bound(ps - y[PB], dptr)
                    + sa * regularized_signed_sqrt_slope_bound(y[PB] - pt, dptr)) + leak
+    if y[PA] > p[I_PRV]:
+        ga += p[D_GRV]
+    if y[PB] > p[I_PRV]:
+        gb += p[D_GRV]
     vol_a, vol_b = _volumes(y[X], p)
     return p[D_EMAX] * max(ga / vol_a, gb / vol_b)
 
@@ -369,11 +390,15 @@ def _orifice_modes_surely_stable(y0, x, p, h):
     metering drop (``P_s - P``, ``P - P_T`` of either chamber at either state; the root's slope is
     below ``|dp|^(-1/2)``), ``V_min`` the smaller chamber volume of the two states and
     ``sgt(x_v, U) + sgt(-x_v, U) <= 1 + U`` (eq (3) on the clipped stroke). Stable if
-    ``dp_min room^2 >= (R (1 + U))^2`` with ``room = STABLE_H_LAMBDA V_min / (h E_max) - leak``."""
+    ``dp_min room^2 >= (R (1 + U))^2`` with ``room = STABLE_H_LAMBDA V_min / (h E_max) - leak``
+    (the leak counting the relief's ``D_GRV`` where a chamber is above ``relief_pressure``)."""
     va0, vb0 = _volumes(y0[X], p)
     va1, vb1 = _volumes(x[X], p)
     vol = min(min(va0, vb0), min(va1, vb1))
-    room = STABLE_H_LAMBDA * vol / (h * p[D_EMAX]) - (2.0 * p[I_CIL] + p[I_CEL])
+    leak = 2.0 * p[I_CIL] + p[I_CEL]
+    if max(max(y0[PA], y0[PB]), max(x[PA], x[PB])) > p[I_PRV]:
+        leak += p[D_GRV]
+    room = STABLE_H_LAMBDA * vol / (h * p[D_EMAX]) - leak
     c = p[I_R] * (1.0 + p[I_U])
     dp_min = min(_smallest_metering_drop(y0, p), _smallest_metering_drop(x, p))
     return room > 0.0 and dp_min * room * room >= (1.0 + SHORT_CUT_SLACK) * c * c
@@ -391,7 +416,7 @@ def local_mode_substeps(y0, x, p, h, m):
     ``m`` (the worst case, :func:`local_mode_refinement`) or more where a chamber lies below the
     air-release pressure (``D_PAIR``, eq (13)) at either state (as many as
     :func:`air_band_substeps` gives for its emptying or refilling), ``m`` where a chamber
-    pressure crosses the supply or the tank pressure (an orifice's zero drop), the spool crosses
+    pressure crosses the supply or the tank pressure (an orifice's zero drop) or a relief's kink, the spool crosses
     a kink of the metering openings (eq (3) at ``x_v = +-U``, the stroke limit at ``+-1``: the
     flow's slope jumps there, and RK4 across such a point loses its order), or the load pressure
     meets an edge of the modified-IFAS notch (eq (19), ``+-P_Lt`` within
@@ -406,6 +431,10 @@ def local_mode_substeps(y0, x, p, h, m):
         return max(m, air_band_substeps(y0, x, p))
     if _crossed(a0, a1, ps) or _crossed(b0, b1, ps) or _crossed(a0, a1, pt) or _crossed(b0, b1, pt):
         return m
+    prv = p[I_PRV]
+    pfull = prv + p[I_POV]
+    if _crossed(a0, a1, prv) or _crossed(b0, b1, prv) or _crossed(a0, a1, pfull) or _crossed(b0, b1, pfull):
+        return m  # the relief's kinks: cracking and full opening
     s0 = y0[XV]
     s1 = x[XV]
     u_lap = p[I_U]
@@ -436,6 +465,13 @@ def local_mode_refinement(p, h):
 
 
 # ---------------------------------------------------------------------------- analysis
+def relief_bounds(P: np.ndarray) -> tuple[tuple[int, int], np.ndarray]:
+    """``((PA, PB), (n, 2) [Pa])``: each chamber's port-relief full-flow pressure (cracking +
+    override; the supply if higher; inf without relief) per row of ``P`` (:mod:`hydro_envs.soak`)."""
+    full = np.where(P[:, I_QRV] > 0.0, np.maximum(P[:, I_PRV] + P[:, I_POV], P[:, I_PS]), np.inf)
+    return (PA, PB), np.stack([full, full], axis=1)
+
+
 def effective_bulk_modulus(params: ShakingTableParams, pa, pb) -> np.ndarray:
     """Chamber moduli ``(..., 2)`` [Pa] (E_a, E_b) at pressures ``pa``, ``pb`` (broadcast)."""
     pa, pb = np.broadcast_arrays(np.asarray(pa, dtype=float), np.asarray(pb, dtype=float))

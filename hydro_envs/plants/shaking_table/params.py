@@ -14,7 +14,9 @@ from typing import Any, ClassVar
 from hydro_envs.laws.bulk_modulus import modified_ifas_shape_is_valid
 from hydro_envs.laws.bulk_modulus_fast import ifas_constants, modified_ifas_shape_constants
 from hydro_envs.params import ParameterError, PhysicalParams, physical
-from hydro_envs.plants.shaking_table.bounds import air_release_pressure, local_mode_rates, modulus_upper_bound
+from hydro_envs.plants.shaking_table.bounds import (
+    air_release_pressure, local_mode_rates, modulus_upper_bound, relief_conductance,
+)
 
 __all__ = ["PLANT", "ShakingTableParams", "PRESETS", "SPECIMENS", "BULK_MODULUS_MODELS", "N_PARAMS"]
 
@@ -166,6 +168,23 @@ class ShakingTableParams(PhysicalParams):
     min_chamber_volume: float = physical(
         1e-7, "m^3", (0.0, 1.0), "assumed: guard only; V_0 keeps chambers >= 25 cm^3", open_low=True
     )
+    # ---- port relief valves, one per chamber to tank (hydro_envs.laws.relief); 003 prints none
+    relief_pressure: float = physical(
+        230 * _BAR + _ATM, "Pa", (2e5, 1e8),
+        "assumed: cracking pressure of the chambers' port reliefs to tank, 230 bar gauge = 12 % above "
+        "the 206 bar supply (003 Table 1), usual practice (10-15 % above the system pressure, below the "
+        "CGH2 cylinder's 250 bar rating); 003 prints no relief",
+    )
+    relief_override: float = physical(
+        28 * _BAR, "Pa", (1e4, 5e7),
+        "assumed: pressure rise from cracking to the rated flow, 12 % of the setting (direct-acting "
+        "relief valves' p-Q curves rise 10-20 % over their flow range)", open_low=True,
+    )
+    relief_flow: float = physical(
+        8.3e-4, "m^3/s", (0.0, 1e-1),
+        "assumed: rated flow 50 L/min at full opening, 2.5 x the 4WS.2E's 20 L/min (003 sec. 2): the "
+        "displacement flow A v of the table braking from 2 x its 0.43 m/s no-load speed; 0 = no relief",
+    )
 
     # ------------------------------------------------------------------ checks
     def _check_relations(self) -> None:
@@ -206,6 +225,11 @@ class ShakingTableParams(PhysicalParams):
                 f"(m = oil_exponent = {self.oil_exponent}, p_floor = pressure_floor = {self.pressure_floor}, "
                 f"P_0 = p0 = {self.p0}, E_0 = e0 = {self.e0})"
             )
+        if not self.relief_pressure > self.tank_pressure:
+            raise ParameterError(
+                f"{name}.relief_pressure = {self.relief_pressure} Pa must be above tank_pressure = "
+                f"{self.tank_pressure} Pa (the port reliefs crack at relief_pressure - tank_pressure > 0)"
+            )
         if self.min_chamber_volume >= self.dead_volume:
             raise ParameterError(
                 f"{name}.min_chamber_volume = {self.min_chamber_volume} must be below dead_volume = "
@@ -216,6 +240,7 @@ class ShakingTableParams(PhysicalParams):
         "modulus_max", "local_rate", "air_release_pressure", "inv_mass",
         "ifas_m_over_e0", "ifas_inv_m", "ifas_inv_kappa", "ifas_ln_p0", "ifas_oil_over_e0", "ifas_alpha_over_kappa",
         "notch_amplitude", "notch_c2", "notch_one_plus_c2", "notch_far", "micro_damping_velocity",
+        "relief_conductance",
     )
 
     def derived_columns(self) -> list[float]:
@@ -226,15 +251,18 @@ class ShakingTableParams(PhysicalParams):
         (19), :func:`~hydro_envs.laws.bulk_modulus_fast.modified_ifas_shape_constants`), and the
         speed [m/s] over which the seals' micro-damping fades (the Stribeck velocity or less where
         that keeps the friction dissipative,
-        :func:`~hydro_envs.laws.seal_friction.dissipative_fade_velocity` at the Coulomb level); the
-        laws' Python bodies, so that making a parameter set compiles nothing."""
+        :func:`~hydro_envs.laws.seal_friction.dissipative_fade_velocity` at the Coulomb level) and
+        the port reliefs' largest slope [m^3/(s Pa)]
+        (:func:`~hydro_envs.laws.relief.pressure_relief_conductance_bound`); the laws' Python
+        bodies, so that making a parameter set compiles nothing."""
         from hydro_envs.laws.seal_friction import dissipative_fade_velocity
 
         ifas = ifas_constants.py_func(self.e0, self.p0, self.oil_exponent, self.air_content, self.polytropic_exponent)
         notch = modified_ifas_shape_constants.py_func(self.lambda_1, self.lambda_2, self.mu, self.threshold_pressure)
         return [modulus_upper_bound(self), max(local_mode_rates(self).values()), air_release_pressure(self),
                 1.0 / self.mass, *ifas, *notch,
-                dissipative_fade_velocity(self.bristle_damping, self.stribeck_velocity, self.coulomb_friction)]
+                dissipative_fade_velocity(self.bristle_damping, self.stribeck_velocity, self.coulomb_friction),
+                relief_conductance(self)]
 
     # ------------------------------------------------------------------ presets
     @property
@@ -288,16 +316,17 @@ SPECIMENS: dict[str, float] = {"none": 0.0, "200kg": 200.0, "500kg": 500.0}
 (
     I_PS, I_PT, I_MB, I_MS, I_A, I_L, I_V0, I_R, I_U, I_KU, I_UMAX, I_W0, I_ZETA, I_CIL, I_CEL,
     I_FC, I_FS, I_FV, I_VS, I_BETA, I_SIG0, I_SIG1, I_ZCAP, I_MODEL, I_E0, I_P0, I_M, I_ALPHA, I_KAPPA, I_L1, I_L2, I_MU,
-    I_PLT, I_KSTOP, I_ASTOP, I_DPTR, I_PFLOOR, I_VMIN,
-) = range(38)
-N_FIELDS = 38
+    I_PLT, I_KSTOP, I_ASTOP, I_DPTR, I_PFLOOR, I_VMIN, I_PRV, I_POV, I_QRV,
+) = range(41)
+N_FIELDS = 41
 assert ShakingTableParams.names()[I_VMIN] == "min_chamber_volume"
+assert ShakingTableParams.names()[I_QRV] == "relief_flow"
 assert ShakingTableParams.names()[I_MODEL] == "bulk_modulus_model"
 assert ShakingTableParams.names()[I_SIG1] == "bristle_damping"
 assert len(ShakingTableParams.names()) == N_FIELDS
 #: derived columns (:meth:`ShakingTableParams.derived_columns`)
 (
     D_EMAX, D_LOCAL, D_PAIR, D_INV_M, D_IFAS_M_E0, D_IFAS_INV_M, D_IFAS_INV_KAPPA, D_IFAS_LN_P0, D_IFAS_OIL_E0,
-    D_IFAS_ALPHA_KAPPA, D_NOTCH_AMP, D_NOTCH_C2, D_NOTCH_ONE_C2, D_NOTCH_FAR, D_DFADE,
+    D_IFAS_ALPHA_KAPPA, D_NOTCH_AMP, D_NOTCH_C2, D_NOTCH_ONE_C2, D_NOTCH_FAR, D_DFADE, D_GRV,
 ) = range(N_FIELDS, N_FIELDS + len(ShakingTableParams.derived_names))
 N_PARAMS = N_FIELDS + len(ShakingTableParams.derived_names)
