@@ -42,12 +42,12 @@ Equations (numbers of 004)::
 temperature: T_s from the supply, the chamber's own T for outflow, T_s for air drawn back
 from the exhaust). Heat flow ``Q = h (T_s - T)`` (h = 0: adiabatic, the seed's eq (11)).
 
-Decisions on the extracted text (see ``shared/seeds/README.md`` and the law docstrings):
+Decisions on the extracted text (see ``docs/references.md`` and the law docstrings):
 
 * Eqs (3)-(4) are garbled (root closed early, ``p_b/(R T_b)``); we use the standard
   dimensionally consistent nozzle law, :func:`hydro_envs.laws.orifice.pneumatic_mass_flow`,
   with a linear (laminar) tail above the pressure ratio ``laminar_pressure_ratio`` (0.999,
-  Simscape's default) -- the smooth choked/subsonic/zero-flow transition of NOTES.md. ISO 6358
+  Simscape's default) -- the smooth choked/subsonic/zero-flow transition of docs/references.md. ISO 6358
   (C, b) is the alternative (``flow_model = 1``): sonic conductance proportional to the
   uncovered port area.
 * Eq (2) is written for one port and one shoulder; ``x`` is the edge travel past the near rim
@@ -74,7 +74,7 @@ Decisions on the extracted text (see ``shared/seeds/README.md`` and the law docs
 * Supply 0.6 MPa is read as gauge (Table 1's compressor "working pressure 0.4~0.7 MPa");
   pressures here are absolute (+101.325 kPa).
 
-Guards (``shared/NOTES.md``, Hopsan): pressures and gas masses never integrate below a floor
+Guards (``docs/references.md``, numerics notes, Hopsan): pressures and gas masses never integrate below a floor
 (1 Pa, 1e-12 kg: derivative clipped at the floor, state clamped after each sub-step), so
 ``T = p V / (m R)`` stays positive; chamber volumes never below ``min_chamber_volume``; end
 stops at 0 and L act through a continuous Hunt-Crossley force (elastomer bumpers).
