@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import re
 from pathlib import Path
 
 from hydro_envs.cli import build_parser
@@ -30,6 +31,6 @@ def test_every_command_has_a_section_and_every_option_is_named():
             if action.help == argparse.SUPPRESS:
                 continue
             for flag in action.option_strings:
-                if flag.startswith("--") and flag != "--help" and f"`{flag}" not in text:
+                if flag.startswith("--") and flag != "--help" and not re.search(f"`{flag}[` ]", text):
                     missing.append(f"{name} {flag}")
     assert not missing, missing
