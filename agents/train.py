@@ -708,8 +708,6 @@ def train(
     import gymnasium as gym
     import torch
 
-    import hydro_envs  # noqa: F401  (registers the envs)
-
     if algo not in ALGOS:
         raise ConfigError(f"algo = {algo!r}; allowed {list(ALGOS)}")
     if env_id not in gym.registry:

@@ -62,7 +62,6 @@ def _venv(kind: str, n_envs: int, seed: int = 0):
     import gymnasium as gym
     from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
 
-    import hydro_envs  # noqa: F401
     from hydro_envs.envs.sb3 import make_sb3_vec_env
 
     if kind == "batched":
@@ -165,8 +164,6 @@ def tracking_rmse(policy, n: int, seed: int, reference: str = "mixed") -> float:
     """RMSE [m] of ``policy(obs, first_step) -> actions`` on ``n`` nominal episodes seeded
     ``seed + i`` (true position vs reference, after the first ``SKIP_STEPS`` steps)."""
     import gymnasium as gym
-
-    import hydro_envs  # noqa: F401
 
     venv = gym.make_vec(ENV_ID, num_envs=n, vectorization_mode="vector_entry_point", randomize=False,
                         reference=reference)

@@ -258,6 +258,7 @@ def simulate_slider(
         Y = np.array(np.broadcast_to(y0, (batch, N_STATES)))
     if not np.all(np.isfinite(Y)):
         raise ValueError("y0 contains NaN or inf")
+    nsub: int | list[int]
     if n_sub is None:
         nsub = [substeps_from_stiffness(stiffness_modes(q), dt, safety)[0] for q in plist]
     else:
