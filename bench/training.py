@@ -39,9 +39,9 @@ from __future__ import annotations
 
 import os
 
-# before torch and numba load libgomp: the package's OpenMP wait default (hydro_envs/_openmp.py);
-# set OMP_WAIT_POLICY or GOMP_SPINCOUNT in the environment to measure another
-import hydro_envs  # noqa: E402,F401
+# main() applies the package's OpenMP spin setting before torch and numba load libgomp
+# (hydro_envs/_openmp.py); set OMP_WAIT_POLICY or GOMP_SPINCOUNT in the environment to measure another
+import hydro_envs  # noqa: E402
 
 import argparse  # noqa: E402
 import sys  # noqa: E402
@@ -274,6 +274,7 @@ def main(argv=None) -> int:
     p.add_argument("--quick", action="store_true")
     p.add_argument("--torch-threads", type=int, default=1)
     a = p.parse_args(argv)
+    hydro_envs.apply_openmp_spin()
     import torch
 
     torch.set_num_threads(a.torch_threads)
