@@ -82,8 +82,10 @@ def set_spin_time() -> int | None:
     if getattr(numba_parallel, "_is_initialized", True):  # started (or a numba that does not say)
         return None
     try:
+        from hydro_envs._numba_cache import ensure_fresh_cache
         from hydro_envs._spin import pause_ns
 
+        ensure_fresh_cache()  # the pause loop is a cached kernel too
         ns = pause_ns()
     except Exception as exc:  # a numba or LLVM without the intrinsic
         warnings.warn(f"hydro_envs: could not time the CPU's pause instruction ({exc!r}); "
