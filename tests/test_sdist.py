@@ -21,7 +21,8 @@ _BACKEND = "import sys, setuptools.build_meta as b; print(b.build_sdist(sys.argv
 # Build artefacts of earlier builds are left out of the copy: setuptools reads an existing
 # *.egg-info/SOURCES.txt back into the manifest, which would hide a file MANIFEST.in misses.
 _NOT_SOURCE = shutil.ignore_patterns(".git", ".venv", "*.egg-info", "build", "dist", "runs", "out",
-                                     "__pycache__", "*.pyc", ".pytest_cache", ".hypothesis")
+                                     "__pycache__", "*.pyc", ".pytest_cache", ".hypothesis", ".mypy_cache",
+                                     ".ruff_cache")
 
 
 def _build_sdist(out: Path) -> Path:
