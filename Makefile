@@ -3,6 +3,7 @@
 #   make test      - default test suite (excludes tests marked slow)
 #   make test-all  - everything, including slow tests
 #   make bench     - performance and accuracy benchmarks (print numbers)
+#   make lint      - ruff check and mypy (make test runs them too, tests/test_lint.py)
 #   make demo-diagnose - the diagnosis workflow finding hidden effects
 PYTHON ?= python3
 VENV ?= .venv
@@ -11,7 +12,7 @@ PY := $(VENV)/bin/python
 TORCH_SPEC ?= torch==2.13.0
 STAMP := $(VENV)/.installed
 
-.PHONY: install demo demo-diagnose test test-all bench clean
+.PHONY: install demo demo-diagnose test test-all bench lint clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -39,6 +40,10 @@ test-all: $(STAMP)
 bench: $(STAMP)
 	$(PY) bench/step_rate.py
 
+lint: $(STAMP)
+	$(PY) -m ruff check .
+	$(PY) -m mypy
+
 clean:
-	rm -rf $(VENV) build *.egg-info .pytest_cache
+	rm -rf $(VENV) build *.egg-info .pytest_cache .mypy_cache .ruff_cache
 	find . -name __pycache__ -type d -prune -exec rm -rf {} +

@@ -39,7 +39,7 @@ Usage::
 
 from __future__ import annotations
 
-import hydro_envs  # noqa: F401  (before torch: the OpenMP wait default, hydro_envs/_openmp.py)
+import hydro_envs  # noqa: F401  (registers the envs)
 
 import argparse  # noqa: E402
 import time  # noqa: E402

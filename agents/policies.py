@@ -348,6 +348,9 @@ def write_compact(policy: Any, obs_normalizer: Any | None, dest: str | Path, whi
     import shutil
     import tempfile
 
+    import hydro_envs
+
+    hydro_envs.apply_openmp_spin()  # before torch loads libgomp (hydro_envs/_openmp.py)
     import torch
 
     from hydro_envs.outputs import write_failed
@@ -416,9 +419,12 @@ class _CompactModel:
 
 def _load_compact(run: Path, device: str = "cpu", which: str = "final") -> TrainedPolicy:
     import gymnasium as gym
+
+    import hydro_envs  # registers the env ids
+
+    hydro_envs.apply_openmp_spin()  # before torch loads libgomp (hydro_envs/_openmp.py)
     import torch
 
-    import hydro_envs  # noqa: F401  (registers the env ids)
     from agents.policy_kwargs import parse_policy_kwargs, policy_kwargs_object
 
     for f in (ARGS_FILE, CONFIG_FILE):

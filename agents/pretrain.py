@@ -32,7 +32,7 @@ the same weights (``agents.train`` is bit-reproducible with one torch thread).
 
 from __future__ import annotations
 
-import hydro_envs  # noqa: F401  (before torch: the OpenMP wait default, hydro_envs/_openmp.py)
+import hydro_envs  # noqa: F401  (registers the envs)
 
 import argparse  # noqa: E402
 import shutil  # noqa: E402

@@ -70,8 +70,7 @@ evaluation). Same seed, same config, same machine and
 
 from __future__ import annotations
 
-# before torch: importing the package sets its OpenMP wait default, which libgomp reads when
-# it is first loaded (hydro_envs/_openmp.py)
+# registers the envs; train() applies the package's OpenMP spin setting before it loads torch
 import hydro_envs  # noqa: F401
 
 import argparse  # noqa: E402
@@ -706,9 +705,9 @@ def train(
     SB3 callbacks; ``record`` adds entries to ``args.json``.
     """
     import gymnasium as gym
-    import torch
 
-    import hydro_envs  # noqa: F401  (registers the envs)
+    hydro_envs.apply_openmp_spin()  # before torch loads libgomp (hydro_envs/_openmp.py)
+    import torch
 
     if algo not in ALGOS:
         raise ConfigError(f"algo = {algo!r}; allowed {list(ALGOS)}")

@@ -39,9 +39,9 @@ from __future__ import annotations
 
 import os
 
-# before torch and numba load libgomp: the package's OpenMP wait default (hydro_envs/_openmp.py);
-# set OMP_WAIT_POLICY or GOMP_SPINCOUNT in the environment to measure another
-import hydro_envs  # noqa: E402,F401
+# main() applies the package's OpenMP spin setting before torch and numba load libgomp
+# (hydro_envs/_openmp.py); set OMP_WAIT_POLICY or GOMP_SPINCOUNT in the environment to measure another
+import hydro_envs  # noqa: E402
 
 import argparse  # noqa: E402
 import sys  # noqa: E402
@@ -62,7 +62,6 @@ def _venv(kind: str, n_envs: int, seed: int = 0):
     import gymnasium as gym
     from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
 
-    import hydro_envs  # noqa: F401
     from hydro_envs.envs.sb3 import make_sb3_vec_env
 
     if kind == "batched":
@@ -165,8 +164,6 @@ def tracking_rmse(policy, n: int, seed: int, reference: str = "mixed") -> float:
     """RMSE [m] of ``policy(obs, first_step) -> actions`` on ``n`` nominal episodes seeded
     ``seed + i`` (true position vs reference, after the first ``SKIP_STEPS`` steps)."""
     import gymnasium as gym
-
-    import hydro_envs  # noqa: F401
 
     venv = gym.make_vec(ENV_ID, num_envs=n, vectorization_mode="vector_entry_point", randomize=False,
                         reference=reference)
@@ -277,6 +274,7 @@ def main(argv=None) -> int:
     p.add_argument("--quick", action="store_true")
     p.add_argument("--torch-threads", type=int, default=1)
     a = p.parse_args(argv)
+    hydro_envs.apply_openmp_spin()
     import torch
 
     torch.set_num_threads(a.torch_threads)

@@ -3,10 +3,14 @@
 numba's ``cache=True`` invalidates a cached function only when *its own* source file
 changes. Our kernels inline functions from other modules (the dispatching integrator inlines
 every plant's right-hand side and its laws; observation kernels read plant constants), so an
-edited plant file would otherwise be silently ignored by a stale cached kernel. On import we
-fingerprint every source file of ``hydro_envs`` and ``identification`` (path, size, mtime) and,
-when the fingerprint differs from the one stored beside the cache, delete the package's numba
-cache files so everything recompiles from the current sources. Cost: one ``stat`` per file.
+edited plant file would otherwise be silently ignored by a stale cached kernel. Before the
+first kernel runs -- when the first env (single or vector) is made, at the first
+``hydro_envs.sim.simulate`` call and when a ``hydro`` command starts, not on import --
+:func:`ensure_fresh_cache` fingerprints every source file of ``hydro_envs`` and
+``identification`` (path, size, mtime) and, when the fingerprint differs from the one stored
+beside the cache, deletes the package's numba cache files so everything recompiles from the
+current sources. Once per process; cost: one ``stat`` per file. Code that calls a law's compiled
+function directly, before any of those, may load a kernel cached from older sources.
 """
 
 from __future__ import annotations
@@ -17,6 +21,7 @@ from pathlib import Path
 
 _ROOTS = ("hydro_envs", "identification")
 _STAMP = "numba-sources.sha256"
+_checked = False
 
 
 def _package_dirs() -> list[Path]:
@@ -59,3 +64,12 @@ def purge_stale_numba_cache() -> bool:
     except OSError:  # read-only install: numba falls back to its own cache locator
         pass
     return True
+
+
+def ensure_fresh_cache() -> bool:
+    """:func:`purge_stale_numba_cache`, once per process (later calls return False at once)."""
+    global _checked
+    if _checked:
+        return False
+    _checked = True
+    return purge_stale_numba_cache()

@@ -1,4 +1,4 @@
-"""The package's OpenMP wait default: workers spin about 75 us after a parallel region, then sleep.
+"""The package's OpenMP wait setting: workers spin about 75 us after a parallel region, then sleep.
 
 The vector envs step every copy in a numba parallel kernel (OpenMP layer, libgomp), and torch
 runs its operators on its own libgomp. How long an idle libgomp worker spins before it sleeps
@@ -27,39 +27,35 @@ Measured on the first development VM (AMD EPYC, a spin about 25 ns), with interl
 A spin is one ``pause`` instruction, whose latency differs between CPUs (about 9-10 ns on the
 Intel Xeon of a later VM, where 3 000 spins lasted 30 us and a worker slept
 through the Python part of every env step). So the count is set for a time,
-:data:`SPIN_TIME_US`: importing the package sets :data:`SPIN_COUNT` (:func:`set_wait_default`,
-before numba or torch can load libgomp), and the first vector env made replaces it with the
-count that spins that long on this CPU (:func:`set_spin_time`, which times ``pause``), if
-numba's OpenMP pool has not started yet (libgomp reads the variable once, when it is loaded).
-A user's own ``OMP_WAIT_POLICY`` or ``GOMP_SPINCOUNT`` is left as it is.
+:data:`SPIN_TIME_US`: the first vector env made sets ``GOMP_SPINCOUNT`` to the count that spins
+that long on this CPU (:func:`set_spin_time`, which times ``pause``; :data:`SPIN_COUNT` where
+``pause`` cannot be timed), if numba's OpenMP pool has not started yet (libgomp reads the
+variable once, when it is loaded). Importing the package sets nothing. A program that loads
+torch (which loads libgomp) before its first vector env calls
+:func:`hydro_envs.apply_openmp_spin` first, as ``agents.train`` does. A user's own
+``OMP_WAIT_POLICY`` or ``GOMP_SPINCOUNT`` is left as it is.
 """
 
 from __future__ import annotations
 
 import os
 import warnings
-from collections.abc import MutableMapping
+from collections.abc import Mapping
 
-__all__ = ["SPIN_COUNT", "SPIN_TIME_US", "set_wait_default", "set_spin_time", "spin_count_for"]
+__all__ = ["SPIN_COUNT", "SPIN_TIME_US", "user_chose", "set_spin_time", "spin_count_for"]
 
-#: spins of an idle libgomp worker before it sleeps, until :func:`set_spin_time` has timed a spin
-#: (75 us at 25 ns per spin)
+#: spins of an idle libgomp worker before it sleeps where a spin cannot be timed (a CPU other
+#: than x86-64, or no ``pause`` intrinsic): 75 us at 25 ns per spin
 SPIN_COUNT = "3000"
 #: how long an idle libgomp worker spins before it sleeps [us]
 SPIN_TIME_US = 75.0
 
-_set_here = False
+_done = False
 
 
-def set_wait_default(environ: MutableMapping[str, str] = os.environ) -> None:
-    """Set ``GOMP_SPINCOUNT`` to :data:`SPIN_COUNT` unless ``OMP_WAIT_POLICY`` or
-    ``GOMP_SPINCOUNT`` is already set."""
-    global _set_here
-    if "OMP_WAIT_POLICY" in environ or "GOMP_SPINCOUNT" in environ:
-        return
-    environ["GOMP_SPINCOUNT"] = SPIN_COUNT
-    if environ is os.environ:
-        _set_here = True
+def user_chose(environ: Mapping[str, str] = os.environ) -> bool:
+    """Whether the OpenMP wait behaviour is set already (``OMP_WAIT_POLICY`` or ``GOMP_SPINCOUNT``)."""
+    return "OMP_WAIT_POLICY" in environ or "GOMP_SPINCOUNT" in environ
 
 
 def spin_count_for(pause_ns: float, spin_time_us: float = SPIN_TIME_US) -> int:
@@ -70,28 +66,31 @@ def spin_count_for(pause_ns: float, spin_time_us: float = SPIN_TIME_US) -> int:
 
 
 def set_spin_time() -> int | None:
-    """Replace the package's ``GOMP_SPINCOUNT`` default by the count that spins
-    :data:`SPIN_TIME_US` on this CPU, while numba's OpenMP pool has not started; returns the count
-    set, or None (a user's setting, a pool already running, a CPU other than x86-64, or a
-    ``pause`` that could not be timed: a ``RuntimeWarning`` says why)."""
-    global _set_here
-    if not _set_here or os.environ.get("GOMP_SPINCOUNT") != SPIN_COUNT:
+    """Set ``GOMP_SPINCOUNT`` to the count that spins :data:`SPIN_TIME_US` on this CPU, once per
+    process, while numba's OpenMP pool has not started and unless the user chose
+    (:func:`user_chose`). Returns the count set, or None (a user's setting, a pool already
+    running, or a later call). Where ``pause`` cannot be timed the count is :data:`SPIN_COUNT`
+    (a ``RuntimeWarning`` says why if timing failed)."""
+    global _done
+    if _done:
         return None
-    _set_here = False  # once per process
+    _done = True  # once per process
+    if user_chose():
+        return None
     import numba.np.ufunc.parallel as numba_parallel
 
     if getattr(numba_parallel, "_is_initialized", True):  # started (or a numba that does not say)
         return None
     try:
+        from hydro_envs._numba_cache import ensure_fresh_cache
         from hydro_envs._spin import pause_ns
 
+        ensure_fresh_cache()  # the pause loop is a cached kernel too
         ns = pause_ns()
-    except Exception as exc:  # a numba or LLVM without the intrinsic: the count stays
+    except Exception as exc:  # a numba or LLVM without the intrinsic
         warnings.warn(f"hydro_envs: could not time the CPU's pause instruction ({exc!r}); "
-                      f"GOMP_SPINCOUNT stays {SPIN_COUNT}", RuntimeWarning, stacklevel=2)
-        return None
-    if ns is None:
-        return None
-    count = spin_count_for(ns)
+                      f"GOMP_SPINCOUNT set to {SPIN_COUNT}", RuntimeWarning, stacklevel=2)
+        ns = None
+    count = int(SPIN_COUNT) if ns is None else spin_count_for(ns)
     os.environ["GOMP_SPINCOUNT"] = str(count)
     return count

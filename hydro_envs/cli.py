@@ -447,8 +447,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     if getattr(args, "func", None) is None:
         parser.print_help()
         return EXIT_USAGE
+    from hydro_envs._numba_cache import ensure_fresh_cache
     from hydro_envs.cli_errors import guarded
 
+    ensure_fresh_cache()  # before any kernel is compiled or loaded from the cache
     return guarded(f"hydro {args.command}", args.func, args)
 
 

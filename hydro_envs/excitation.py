@@ -62,12 +62,13 @@ def prbs(
     n_bit_samples = math.ceil(n / spb)
     if n_bits is None:
         n_bits = max(2, math.ceil(math.log2(n_bit_samples + 1)))
-    state = None
+    state: list[int] | None = None
     if seed is not None:
         rng = np.random.default_rng(seed)
-        state = rng.integers(0, 2, int(n_bits))
-        if not state.any():
-            state[0] = 1
+        bits = rng.integers(0, 2, int(n_bits))
+        if not bits.any():
+            bits[0] = 1
+        state = bits.tolist()
     periods = math.ceil(n / (spb * (2 ** int(n_bits) - 1)))
     u = m_sequence(int(n_bits), amplitude=amplitude, offset=offset, samples_per_bit=spb,
                    periods=periods, state=state)[:n]

@@ -58,7 +58,7 @@ def _numba_helpers() -> tuple[int, int] | None:
     try:
         from numba import _helperlib
 
-        return _helperlib.c_helpers["exp"], _helperlib.c_helpers["log"]
+        return _helperlib.c_helpers["exp"], _helperlib.c_helpers["log"]  # type: ignore[attr-defined]
     except (ImportError, AttributeError, KeyError):
         return None
 

@@ -24,7 +24,7 @@ import os
 import tempfile
 from collections.abc import Iterable, Iterator
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 __all__ = ["OutputError", "check_output_file", "check_output_dir", "atomic_write", "atomic_path", "Staged",
            "write_failed"]
@@ -204,7 +204,7 @@ class Staged:
     def __enter__(self) -> "Staged":
         return self
 
-    def __exit__(self, typ: Any, exc: Any, tb: Any) -> bool:
+    def __exit__(self, typ: Any, exc: Any, tb: Any) -> Literal[False]:
         if exc is None:
             try:
                 self.commit()

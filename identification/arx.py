@@ -38,7 +38,7 @@ Criteria (``N`` = samples in the regression, ``d = na + nb`` parameters, ``V = R
 
 Order selection (:func:`select_arx_order`) evaluates every candidate on the *same*
 estimation samples (the first ``max lag`` samples of the record are skipped for all), so the
-criteria are comparable. NOTES.md warns that with autocorrelated data every criterion
+criteria are comparable. docs/references.md warns that with autocorrelated data every criterion
 keeps adding terms: the selection therefore also reports each candidate's free-run fit on
 held-out data when validation data are given (``criterion="validation"`` decides on it) and
 the margin of the winner over the runner-up.

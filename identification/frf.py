@@ -30,14 +30,14 @@ Three tools:
      response of a sampled loop (input held by a DAC, output sampled) is the zero-order-hold
      equivalent ``G_zoh(e^{j omega T})``, which lags ``G(j omega)`` by about half a sample
      (``omega T / 2``) near resonance; the continuous fit explains that lag with the wrong
-     damping. NOTES.md ("Identification facts"): 1186 vs 1500 N s/m true.
+     damping. docs/references.md (numerics notes): 1186 vs 1500 N s/m true.
    * ``"zoh"``: the sampled model ``G_zoh(e^{j omega T}) = C (e^{j omega T} I - A_d)^-1 B_d + D_d``
      with ``(A_d, B_d, C, D_d)`` the exact ZOH discretisation (``scipy.signal.cont2discrete``)
-     at the sample rate ``fs``. Unbiased when the data come from a ZOH-driven loop (NOTES.md:
+     at the sample rate ``fs``. Unbiased when the data come from a ZOH-driven loop (docs/references.md:
      1521).
    * ``"magnitude"``: ``log |G(j omega)|`` against ``log |H|`` only. The half-sample lag is a
      phase effect; the ZOH changes the magnitude only at second order in ``omega T``, so the
-     magnitude fit is nearly unbiased below about fs/10 (NOTES.md: 1531) -- the choice when
+     magnitude fit is nearly unbiased below about fs/10 (docs/references.md: 1531) -- the choice when
      the sampling/hold mechanism is unknown (e.g. two sampled pressures as in 000).
 
    Residuals: relative complex error ``(G - H) / |H|`` (continuous, zoh) or log-magnitude

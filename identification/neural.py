@@ -8,7 +8,7 @@ by Levenberg-Marquardt on the mean squared error; the RBF net ``newrb`` with 50 
 fitting error is eq (11), ``E = (1/N) sum |F_f(v_i) - F_NN(v_i)|`` (mean absolute error over
 the training points): 3.0787 N (feed-forward) and 2.4838 N (RBF) on the paper's rig.
 
-Here (``shared/NOTES.md``):
+Here (``docs/references.md``, numerics notes):
 
 * :func:`fit_feedforward` -- ``F = f_s (b2 + sum_j W2_j tanh(W1_j v / v_s + b1_j))`` with
   input/output scales ``v_s = max |v|``, ``f_s = max |F|``; the 31 weights are trained by

@@ -68,7 +68,7 @@ half-difference of the two Coulomb levels, not separable from them). The fitted 
 equivalents ``F_C = (F_C+ + F_C-)/2``, ``b = (b+ + b-)/2``, ``F_0 = (F_C+ - F_C-)/2``.
 
 Standard errors: the residuals of a filtered, differentiated record are autocorrelated, and
-NOTES.md ("Identification facts") measured naive standard errors 1.6-2.2x too small. We
+docs/references.md (numerics notes) measured naive standard errors 1.6-2.2x too small. We
 report the naive ones (``std_errors_naive``) and heteroscedasticity-and-autocorrelation
 consistent ones (Newey-West, Bartlett weights, ``std_errors``), the latter being the default.
 Neither covers bias: the mass is shrunk by errors in variables when acceleration noise is a

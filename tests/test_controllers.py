@@ -13,13 +13,11 @@ from agents.controllers.servo_cylinder import (
     ServoPIDController,
     pid_tuning,
 )
-from hydro_envs.envs.references import generate_reference
 from hydro_envs.envs.shaking_table.references import generate_table_reference, reference_limits
 from hydro_envs.plants.force_actuator import model as fa
 from hydro_envs.plants.shaking_table import model as st
 from hydro_envs.plants.rodless_cylinder.params import RodlessCylinderParams
 from hydro_envs.plants.servo_cylinder.params import ServoCylinderParams
-from hydro_envs.plants.servo_cylinder.model import no_load_velocity
 
 P = ServoCylinderParams()
 L = P.stroke

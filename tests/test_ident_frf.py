@@ -82,7 +82,7 @@ def test_zoh_response_helper_agrees_with_msd_zoh():
 
 # ---------------------------------------------------------------- the bias lesson
 def test_continuous_fit_to_sampled_data_is_biased_zoh_and_magnitude_are_not(sampled_5khz):
-    """NOTES.md: a continuous model fitted to 5 kHz data biased the viscous coefficient
+    """docs/references.md: a continuous model fitted to 5 kHz data biased the viscous coefficient
     (1186 vs 1500); the ZOH model (1521) and magnitude-only fit (1531) did not."""
     fs, u, y = sampled_5khz
     est = h1_estimate(u, y, fs, nperseg=4096)

@@ -429,7 +429,7 @@ def test_ignoring_the_dip_biases_coulomb_and_viscous_friction(rich_record):
 
 
 def test_hac_standard_errors_exceed_naive_ones_for_the_coulomb_viscous_split(rich_record):
-    """The residuals of a filtered record are autocorrelated (NOTES.md): the HAC errors are
+    """The residuals of a filtered record are autocorrelated (docs/references.md): the HAC errors are
     reported alongside the naive ones and are larger for the no-dip model's misfit."""
     f, x = rich_record
     est = identify_slider(f, x, DT, cutoff=50.0, min_speed=MIN_SPEED, stribeck="none")

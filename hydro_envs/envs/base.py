@@ -50,6 +50,7 @@ from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
+from hydro_envs._numba_cache import ensure_fresh_cache
 from hydro_envs._openmp import set_spin_time
 from hydro_envs.jit import njit_noalloc
 from hydro_envs.params import PhysicalParams
@@ -282,6 +283,7 @@ class PlantBatch:
         episode_steps: int | None = None,
         safety: float = DEFAULT_SAFETY,
     ) -> None:
+        ensure_fresh_cache()  # before the first kernel is compiled or loaded from the cache
         n = check_positive_int("number of copies", n)
         episode_steps = check_positive_int(
             "episode_steps", self.episode_steps_default if episode_steps is None else episode_steps

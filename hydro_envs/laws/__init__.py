@@ -1,7 +1,7 @@
 """Physics laws of hydro-envs: small pure numba kernels on float64 scalars, SI units.
 
 Every public function is ``@numba.njit(cache=True)``, takes every argument explicitly and
-cites its seed paper (``/work/shared/seeds/<file>`` + equation number) in its docstring.
+cites its seed paper (seed number + equation number, ``docs/references.md``) in its docstring.
 
 friction (:mod:`hydro_envs.laws.friction`)
     tanh_sign(v, v_eps)                               003 eq (12)
@@ -15,7 +15,7 @@ friction (:mod:`hydro_envs.laws.friction`)
     lugre_g(v, f_c, f_s, v_s)                         LuGre (003 ref [30], 002 ref [6])
     lugre_bristle_rate(v, z, f_c, f_s, v_s, sigma0)   LuGre
     lugre_friction(v, z, zdot, sigma0, sigma1, sigma2)  LuGre
-    lugre_bristle_step_exact(z, v, f_c, f_s, v_s, sigma0, dt)  LuGre, NOTES.md numerics
+    lugre_bristle_step_exact(z, v, f_c, f_s, v_s, sigma0, dt)  LuGre, docs/references.md numerics
     karnopp_friction(v, f_applied, f_c, f_s, b, dv)   002 eq (1) stick branch, Karnopp
 
 seal_friction (:mod:`hydro_envs.laws.seal_friction`): the dynamic friction of every sliding seal
@@ -30,11 +30,11 @@ seal_friction (:mod:`hydro_envs.laws.seal_friction`): the dynamic friction of ev
     bristle_stiffness_bound(...)                      its maximum over the state space (Python)
 
 orifice (:mod:`hydro_envs.laws.orifice`)
-    regularized_signed_sqrt(dp, dp_tr)                Modelica regRoot / Hopsan (NOTES.md)
+    regularized_signed_sqrt(dp, dp_tr)                Modelica regRoot / Hopsan (docs/references.md)
     regularized_signed_sqrt_slope_bound(dp, dp_tr)    its slope's bound (sub-step control)
     orifice_flow(cd, area, dp, rho, dp_tr)            002 eqs (3)-(4), 003 eqs (1)-(2)
     supply_pressure_at_flow(p_s, p_down, cd, area, rho, r_line)  supply droop (assumed linear)
-    spool_edge_opening(x_v, x_lap)                    Hopsan valve laps (NOTES.md)
+    spool_edge_opening(x_v, x_lap)                    Hopsan valve laps (docs/references.md)
     underlap_orifice_opening(x_v, u_lap)              003 eq (3)
     circular_orifice_area(x, r)                       004 eq (2)
     pneumatic_critical_ratio(kappa)                   004 c_0 (after eq (4))

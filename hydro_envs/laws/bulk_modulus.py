@@ -1,6 +1,6 @@
 """Effective bulk modulus and liquid density laws (pure numba scalar kernels, SI units).
 
-Sources (``/work/shared/seeds``):
+Sources (the seed papers, ``docs/references.md``):
 
 * ``003_54985feb8193da53.txt`` eq (13): IFAS effective bulk modulus (oil + entrained air);
   eqs (15)-(19): modified IFAS (IFAS times a load-pressure shape h(P_a - P_b));
@@ -79,7 +79,7 @@ def ifas_bulk_modulus(p, e0, p0, m, alpha, kappa, p_floor):
     Limits: a = 0 gives E = E0 + m (P - P0); P = P0 gives 1 / ((1-a)/E0 + a/(k P0)).
 
     Regularisation: the air term is singular as P -> 0 (E -> 0 and 0/0 at P = 0), so P
-    is clamped to ``p_floor`` (> 0, e.g. 1e3 Pa; NOTES.md: "air-based bulk modulus models
+    is clamped to ``p_floor`` (> 0, e.g. 1e3 Pa; docs/references.md: "air-based bulk modulus models
     are singular as p -> 0, so clamp pressure before evaluating them") before evaluation.
     The oil base (1 + m (P-P0)/E0) is also floored at 1e-12 so that a P0 > E0/m
     parameterisation cannot produce NaN.

@@ -4,21 +4,21 @@ Every function here is a small pure ``@numba.njit(cache=True, error_model="numpy
 scalars, in SI units (m, m/s, N, N s/m, N/m, s).  Sign convention: the returned
 friction force *opposes* motion, i.e. a plant writes ``m a = F_drive - F_friction``.
 
-Sources (text extractions in ``/work/shared/seeds``):
+Sources (the seed papers, ``docs/references.md``):
 
 * ``001_3253c61f41166c3e.txt`` eq (1): modified Dahl model (numerical smoothing of Coulomb).
 * ``002_af30b681d6ccfd6c.txt`` eq (1): exponential Stribeck model with a stick branch.
 * ``003_54985feb8193da53.txt`` eqs (11)-(12): Gaussian Stribeck model with ``tanh(beta v)``.
 * LuGre (Canudas de Wit et al., 1995), cited as ref [30] of 003 and ref [6] of 002;
-  numerics from ``/work/shared/NOTES.md`` (bristle stiffness 1e7 N/m needs RK4 steps
+  numerics notes in ``docs/references.md`` (bristle stiffness 1e7 N/m needs RK4 steps
   <= 10 us, the exact frozen-velocity update is stable at any step).
 * Karnopp stick/slip: the ``v_p = 0`` branch of 002 eq (1), widened to a velocity band
-  as in Hopsan (NOTES.md, "How the established simulators handle the same effects").
+  as in Hopsan (docs/references.md, "Simulator conventions followed").
 
 Why regularise: an exact ``sign(v)`` makes the right-hand side discontinuous, so fixed-step
-RK4 drops to first order and chatters at zero velocity (NOTES.md measured chatter at
+RK4 drops to first order and chatters at zero velocity (docs/references.md measured chatter at
 about 30x the threshold velocity for too-large steps).  ``tanh(v / v_eps)`` is smooth with
-slope ``f_c / v_eps`` at zero, which sets the stiffness (NOTES.md: 1 mm/s -> |lambda| 4.4e3
+slope ``f_c / v_eps`` at zero, which sets the stiffness (docs/references.md: 1 mm/s -> |lambda| 4.4e3
 1/s, 0.1 mm/s -> 4.5e4 1/s for the 002 cylinder).
 """
 
@@ -225,7 +225,7 @@ def lugre_bristle_rate(v, z, f_c, f_s, v_s, sigma0):
     Units: v [m/s], z [m], f_c [N], f_s [N], v_s [m/s], sigma0 [N/m] -> [m/s].
     Steady state at constant v: z = g(v) sgn(v) / sigma0.
     Stiffness: the ODE is linear in z with rate sigma0 |v| / g(v); at sigma0 = 1e7 N/m
-    explicit RK4 needs steps <= ~10 us (NOTES.md) -- use
+    explicit RK4 needs steps <= ~10 us (docs/references.md) -- use
     :func:`lugre_bristle_step_exact` for fixed-step plants.
     Source: LuGre model (003 ref [30], 002 ref [6]).
     """
@@ -254,11 +254,11 @@ def lugre_bristle_step_exact(z, v, f_c, f_s, v_s, sigma0, dt):
     written as ``z exp(-a dt) + v dt * (1 - exp(-a dt)) / (a dt)`` (via expm1) so that
     it stays exact and finite as v -> 0 (then z is unchanged).  Stable and
     non-oscillating at any dt, unlike explicit RK4 which needs dt <= ~10 us at
-    sigma0 = 1e7 N/m (NOTES.md).  It is exact only while v is constant over the step
+    sigma0 = 1e7 N/m (docs/references.md).  It is exact only while v is constant over the step
     (first-order splitting error in v, no stability limit).
 
     Units: z [m], v [m/s], f_c [N], f_s [N], v_s [m/s], sigma0 [N/m], dt [s] -> z [m].
-    Source: LuGre model (003 ref [30], 002 ref [6]); NOTES.md numerics.
+    Source: LuGre model (003 ref [30], 002 ref [6]); docs/references.md numerics.
     """
     a = sigma0 * abs(v) / lugre_g(v, f_c, f_s, v_s)
     x = a * dt
@@ -286,7 +286,7 @@ def karnopp_friction(v, f_applied, f_c, f_s, b, dv):
 
     Units: v [m/s], f_applied [N], f_c [N], f_s [N], b [N s/m], dv [m/s] -> [N].
     Source: 002 eq (1) (stick branch ``min(|u|, F_S) sign(u)`` at v_p = 0, slide branch
-    with the Stribeck term omitted), Karnopp (1985); Hopsan practice in NOTES.md.
+    with the Stribeck term omitted), Karnopp (1985); Hopsan practice in docs/references.md.
     """
     if abs(v) < dv or v == 0.0:
         if f_applied > f_s:

@@ -1,18 +1,18 @@
 """Orifice, valve-edge and compressible-flow laws (pure numba scalar kernels, SI units).
 
-Sources (``/work/shared/seeds``):
+Sources (the seed papers, ``docs/references.md``):
 
 * ``003_54985feb8193da53.txt`` eqs (1)-(4): underlapped 4/3 valve, ``sgt`` opening eq (3).
 * ``004_f1423316a055addb.txt`` eq (2): circular port area; eqs (3)-(4): compressible
   (choked / subsonic) mass flow with critical ratio c_0.
 * ISO 6358 (sonic conductance C, critical ratio b) as in Simscape's Orifice (G).
-* ``/work/shared/NOTES.md``: regularised root ``q = K dp / (dp^2 + dp_cr^2)^(1/4)``
+* numerics notes in ``docs/references.md``: regularised root ``q = K dp / (dp^2 + dp_cr^2)^(1/4)``
   (Modelica ``regRoot``, Hopsan ``signedSquareL``, Simscape), Hopsan valve laps
   ``max(+-xv - x_lap, 0)``, Simscape laminar pressure ratio 0.999.
 
 Why regularise: the turbulent orifice law q ~ sign(dp) sqrt(|dp|) has infinite slope at
 dp = 0.  A chamber stalled against a stop sits exactly there, and the Jacobian (and the
-RK4 step limit) is set by the laminar transition pressure (NOTES.md, 002 cylinder:
+RK4 step limit) is set by the laminar transition pressure (docs/references.md, 002 cylinder:
 dp_tr = 100 / 10 / 1 kPa -> |lambda| = 4.1e3 / 1.3e4 / 4.2e4 1/s, RK4 step <= 0.68 ms /
 0.21 ms / 67 us).  The compressible laws have the same infinite slope as
 p_down/p_up -> 1.
@@ -25,7 +25,7 @@ import math
 import numba
 
 #: Default pressure ratio above which the pneumatic laws switch to a linear (laminar)
-#: flow, Simscape's default "laminar flow pressure ratio" 0.999 (NOTES.md).  The linear
+#: flow, Simscape's default "laminar flow pressure ratio" 0.999 (docs/references.md).  The linear
 #: tail joins the turbulent law continuously at this ratio, so the flow is C0 with a
 #: finite slope through p_down = p_up.  At 6 bar supply the laminar band is 600 Pa.
 PNEUMATIC_LAMINAR_RATIO = 0.999
@@ -46,11 +46,11 @@ def regularized_signed_sqrt(dp, dp_tr):
     Transition pressure: Hopsan's default is 1e4 Pa; our hydraulic default is 1e5 Pa,
     because for the 002 cylinder stalled on a stop 100 kPa keeps |lambda| at 4.1e3 1/s
     (RK4 step <= 0.68 ms, compatible with a 1 kHz env step with sub-stepping) while
-    10 kPa needs <= 0.21 ms (NOTES.md).  At 13.8 MPa supply the flow error at dp = 1 MPa
+    10 kPa needs <= 0.21 ms (docs/references.md).  At 13.8 MPa supply the flow error at dp = 1 MPa
     is 0.25 %.
 
     Units: dp [Pa], dp_tr [Pa] -> [sqrt(Pa)].
-    Source: Modelica ``regRoot`` / Hopsan ``signedSquareL`` (NOTES.md); the turbulent
+    Source: Modelica ``regRoot`` / Hopsan ``signedSquareL`` (docs/references.md); the turbulent
     law it regularises is 002 eqs (3)-(4) and 003 eqs (1)-(2).
     """
     if dp == 0.0:
@@ -85,7 +85,7 @@ def orifice_flow(cd, area, dp, rho, dp_tr):
     -> Q [m^3/s] (positive from the high- to the low-pressure side).
     Source: 002 eqs (3)-(4) with K_v = C_v sqrt(2/rho) (002 Table 1: C_v = 0.6,
     rho = 847 kg/m^3), 003 eqs (1)-(2) (R = C_d w / sqrt(rho)); regularisation from
-    NOTES.md (see :func:`regularized_signed_sqrt`).
+    docs/references.md (see :func:`regularized_signed_sqrt`).
     """
     return cd * area * math.sqrt(2.0 / rho) * regularized_signed_sqrt(dp, dp_tr)
 
@@ -127,7 +127,7 @@ def spool_edge_opening(x_v, x_lap):
     x_lap > 0 is an overlap (dead band of width x_lap), x_lap < 0 an underlap (the edge
     is already open by |x_lap| at x_v = 0).  For the opposite edge pass ``-x_v``.
     Units: x_v [m], x_lap [m] -> [m] (or any consistent length / normalised unit).
-    Source: Hopsan valve laps ``max(+-xv - x_lap, 0)`` (NOTES.md); equals 003 eq (3)
+    Source: Hopsan valve laps ``max(+-xv - x_lap, 0)`` (docs/references.md); equals 003 eq (3)
     with x_lap = -U (see :func:`underlap_orifice_opening`).
     """
     d = x_v - x_lap
@@ -318,7 +318,7 @@ def iso6358_mass_flow(c_sonic, b_crit, p_up, p_down, t_up, t_ref, rho_ref):
     ISO 6358 reference conditions (ANR): T_ref = 293.15 K, rho_ref = 1.185 kg/m^3.
     Units: c_sonic [m^3/(s Pa)], b_crit [-], p_up, p_down [Pa abs], t_up [K], t_ref [K],
     rho_ref [kg/m^3] -> [kg/s].
-    Source: ISO 6358-1 / Simscape (NOTES.md "Pneumatics"); an alternative
+    Source: ISO 6358-1 / Simscape (docs/references.md "Pneumatics"); an alternative
     parameterisation of the 004 valve (FESTO MPYE-5) flow.
     """
     return iso6358_mass_flow_laminar(c_sonic, b_crit, p_up, p_down, t_up, t_ref, rho_ref,

@@ -8,7 +8,7 @@ Source: ``000_d7d5fd9bd6b165a2.txt`` sec. 3.1, the RLC (resistive-inductive-capa
 * eq (5)  momentum     ``L dQ/dt + R Q = p_up - p_down``
 * eq (6)  continuity   ``C dp/dt = Q_in - Q_out``
 
-Extraction defect (``shared/seeds/README.md``): eq (2) is printed ``128 mu L / (pi d^4)``
+Extraction defect (``docs/references.md``): eq (2) is printed ``128 mu L / (pi d^4)``
 where ``L`` is the pipe *length* ``l`` of eq (1), not the inductance; we use ``l`` (the
 printed form is dimensionally wrong: it would give Pa s^2/m^4 * ... instead of Pa s/m^3).
 Table 1 of 000 confirms it: with ISO VG 46 at 40 C (nu = 46 mm^2/s) its L and R imply
@@ -18,7 +18,7 @@ Distributed line: ``N`` such RLC segments in series (each ``l/N`` long) form a l
 the capacitance lumped at the segment joints (pi sections) it converges to the
 transmission line with laminar friction at O(1/N^2) in the modal frequencies. Hopsan uses a
 method-of-characteristics line instead (wave speed ``sqrt(beta/rho)``, delay ``l/c``
-rounded to the step, NOTES.md); a segmented ladder fits the fixed-step RK4 kernels without a
+rounded to the step, docs/references.md); a segmented ladder fits the fixed-step RK4 kernels without a
 delay buffer, and Amesim's distributed RLC pipe (000 sec. 3.4: "12 internal nodes") is the
 same construction. :func:`line_transfer_function` is the exact distributed solution used to
 check the ladder.

@@ -2,7 +2,7 @@
 
 Source: ``004_f1423316a055addb.txt`` sec. 3.1 (Fig. 3 construction) and Table 2
 (F_s = 35.48 N, F_c = 15.31 N, ydot_s = 3.27 mm/s, sigma = 0.31 N s/mm; the conclusions'
-"sigma = 3.27 mm/s" is an extraction defect, ``shared/seeds/README.md``).
+"sigma = 3.27 mm/s" is an extraction defect, ``docs/references.md``).
 
 Which Stribeck form 004 uses: the text gives no formula, only the graphical construction of
 sec. 3.1 -- a straight line from F_s at zero speed (the low-speed branch f_1) and a horizontal

@@ -1,13 +1,13 @@
 """Servo/proportional valve spool dynamics (pure numba scalar kernels, SI units).
 
-Sources (``/work/shared/seeds``):
+Sources (the seed papers, ``docs/references.md``):
 
 * ``002_af30b681d6ccfd6c.txt`` eq (2) and the last two rows of eq (8): second-order spool
   lag, Table 1 (Moog D765: omega_v = 175 Hz, zeta_v = 0.65, k_v = 0.0279 mm/V, i.e.
   full stroke 0.279 mm at 10 V; the "cm^3" on zeta_v is an extraction defect).
 * ``003_54985feb8193da53.txt`` eq (5): same model with unit gain on a normalised spool
   (Table 1: w_0 = 625 rad/s, zeta = 0.73).
-* Hopsan: spool as a *saturated* second-order lag (NOTES.md) -> :func:`saturate`.
+* Hopsan: spool as a *saturated* second-order lag (docs/references.md) -> :func:`saturate`.
 """
 
 from __future__ import annotations
@@ -26,7 +26,7 @@ def second_order_valve_acceleration(x_v, v_v, u, k_v, omega_v, zeta_v):
     Units: x_v [m] (or normalised), v_v [m/s], u [V] (or normalised command),
     k_v [m/V], omega_v [rad/s] (002: 2 pi 175 = 1099.6 rad/s), zeta_v [-] -> [m/s^2].
     Stiffness: eigenvalues -zeta omega +- omega sqrt(zeta^2 - 1), |lambda| = omega_v
-    (NOTES.md: 1100 1/s for 002, RK4 limit 2.4 ms).
+    (docs/references.md: 1100 1/s for 002, RK4 limit 2.4 ms).
     """
     return -omega_v * omega_v * x_v - 2.0 * zeta_v * omega_v * v_v + k_v * omega_v * omega_v * u
 
@@ -35,7 +35,7 @@ def second_order_valve_acceleration(x_v, v_v, u, k_v, omega_v, zeta_v):
 def saturate(x, lo, hi):
     """Clip ``x`` to [lo, hi] (spool stroke limits, command limits).
 
-    Units: any, consistent.  Source: Hopsan saturated spool (NOTES.md); 002 Table 1
+    Units: any, consistent.  Source: Hopsan saturated spool (docs/references.md); 002 Table 1
     maximum spool displacement +-0.279 mm.
     """
     if x < lo:

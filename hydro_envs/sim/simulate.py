@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from hydro_envs._numba_cache import ensure_fresh_cache
 from hydro_envs.sim.stiffness import DEFAULT_SAFETY, substeps_from_stiffness
 
 __all__ = ["simulate", "substeps"]
@@ -64,6 +65,7 @@ def simulate(
     """
     if not (np.isfinite(dt) and dt > 0):
         raise ValueError(f"dt must be finite and > 0, got {dt}")
+    ensure_fresh_cache()  # before the first kernel is compiled or loaded from the cache
     P, objs, single_p = _param_rows(spec, params)
     X0 = np.atleast_2d(np.asarray(x0, dtype=np.float64))
     ns = X0.shape[1]

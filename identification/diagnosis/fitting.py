@@ -294,7 +294,7 @@ def _pooled_score(wins: Sequence[dict[str, tuple[float, float]]], drop: int = -1
 LOO_GAIN_FRACTION = 0.5
 
 
-def _check_windows(spec: DiagnosisPlant, current: Model, results: Sequence[Candidate], holdout: Sequence[Record],
+def _check_windows(spec: DiagnosisPlant, current: Model, results: Sequence[Any], holdout: Sequence[Record],
                    accept_gain: float) -> None:
     """Leave-one-window-out gain of every candidate (``Candidate.loo_gain``, the smallest);
     below ``LOO_GAIN_FRACTION * accept_gain`` it is not identifiable from these data. Needs

@@ -43,7 +43,7 @@ __all__ = ["UNEXPLAINED_FACTOR", "BANDS", "noise_floor", "heldout_rms", "where_m
 
 # Verdict ``unexplained``: after the best catalogue effect(s) the held-out residual of some
 # channel stays above UNEXPLAINED_FACTOR times its noise floor. Set between the ratios correct
-# models reach and those off-catalogue effects leave (measured, docs/diagnosis_bench.md "Noise
+# models reach and those off-catalogue effects leave (measured, docs/history/diagnosis_bench_2026-11.md "Noise
 # floor"): the project's hidden-effect records, correct model 0.01-0.9 floors; the independent
 # rigid-axis records, correct model 1.2 floors, 5.0 with 1 um of 50 Hz hum on the encoder (the
 # hum biases the start-state velocity estimate of every window, which the white-noise floor does

@@ -1,7 +1,7 @@
 r"""Friction identification: constant-velocity points, static fits, graphical construction,
 Dahl and LuGre fits from time series.
 
-Sources (text extractions in ``/work/shared/seeds``):
+Sources (the seed papers, ``docs/references.md``):
 
 * ``002_af30b681d6ccfd6c.txt`` sec. 4: at constant velocity and no load the friction equals the
   actuator force, eqs (9)-(10) ``F_f = F_a = A (P1 - P2)`` (double-rod cylinder; the viscous
@@ -46,7 +46,7 @@ all parameters. Bounds: ``F_c, F_s - F_c, F_v >= 0`` (002 eq (1): all positive),
 Covariance ``C = (J^T J)^-1 s^2`` with ``s^2 = SSR / (N - n_p)`` at the solution (``J`` the
 Jacobian of the residuals in the reported parameters), standard errors ``sqrt(diag C)``.
 These assume independent residuals of equal variance; window-averaged constant-velocity points
-are close to that, raw autocorrelated time series are not (``shared/NOTES.md``: naive standard
+are close to that, raw autocorrelated time series are not (``docs/references.md``, numerics notes: naive standard
 errors 1.6-2.2x too small there).
 
 Identifiability: a fit raises :class:`UnidentifiableError` naming the parameters the data

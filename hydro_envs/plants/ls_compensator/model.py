@@ -68,7 +68,7 @@ Method-2 metering (3-way land, critically lapped at ``x_lap``, rectangular ports
 (``rsqrt`` the regularised signed root of :mod:`hydro_envs.laws.orifice`; steady flow
 force with jet angle ``theta = 69 deg``, always closing the open edge).
 
-Decisions on the extracted text (``shared/seeds/README.md`` and below), each tested in
+Decisions on the extracted text (``docs/references.md`` and below), each tested in
 ``tests/test_ls_compensator.py``:
 
 * eq (2) ``128 mu L / (pi d^4)``: ``L`` is the pipe length.

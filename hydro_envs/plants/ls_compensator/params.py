@@ -182,7 +182,7 @@ class LSCompensatorParams(PhysicalParams):
     )
     orifice_transition_pressure: float = physical(
         1.0e4, "Pa", (1.0, 1e6),
-        "assumed: Hopsan default 1e4 Pa (NOTES.md); the 1.2 mm orifice works at ~1.7 bar, where "
+        "assumed: Hopsan default 1e4 Pa (docs/references.md); the 1.2 mm orifice works at ~1.7 bar, where "
         "1e5 Pa would bias its flow by 9 %",
     )
     pressure_floor: float = physical(

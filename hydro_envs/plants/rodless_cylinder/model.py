@@ -47,12 +47,12 @@ from the exhaust). Heat flow from the wall ``Q = h A_wall (T_s - T)``,
 convective coefficient of the literature, puts the chambers between isothermal and adiabatic:
 a random-action soak without it cooled chambers to 175 K).
 
-Decisions on the extracted text (see ``shared/seeds/README.md`` and the law docstrings):
+Decisions on the extracted text (see ``docs/references.md`` and the law docstrings):
 
 * Eqs (3)-(4) are garbled (root closed early, ``p_b/(R T_b)``); we use the standard
   dimensionally consistent nozzle law, :func:`hydro_envs.laws.orifice.pneumatic_mass_flow`,
   with a linear (laminar) tail above the pressure ratio ``laminar_pressure_ratio`` (0.999,
-  Simscape's default) -- the smooth choked/subsonic/zero-flow transition of NOTES.md. ISO 6358
+  Simscape's default) -- the smooth choked/subsonic/zero-flow transition of docs/references.md. ISO 6358
   (C, b) is the alternative (``flow_model = 1``): sonic conductance proportional to the
   uncovered port area.
 * Eq (2) is written for one port and one shoulder; ``x`` is the edge travel past the near rim
@@ -79,7 +79,7 @@ Decisions on the extracted text (see ``shared/seeds/README.md`` and the law docs
 * Supply 0.6 MPa is read as gauge (Table 1's compressor "working pressure 0.4~0.7 MPa");
   pressures here are absolute (+101.325 kPa).
 
-Guards (``shared/NOTES.md``, Hopsan): pressures and gas masses never integrate below a floor
+Guards (``docs/references.md``, numerics notes, Hopsan): pressures and gas masses never integrate below a floor
 (1 Pa, 1e-12 kg: derivative clipped at the floor, state clamped after each sub-step), so
 ``T = p V / (m R)`` stays positive; chamber volumes never below ``min_chamber_volume``; end
 stops at 0 and L act through a continuous Hunt-Crossley force (elastomer bumpers).

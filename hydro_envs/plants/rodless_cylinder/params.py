@@ -95,7 +95,7 @@ class RodlessCylinderParams(PhysicalParams):
     )
     laminar_pressure_ratio: float = physical(
         0.999, "1", (0.9, 0.99999),
-        "assumed: Simscape default; linear flow above this p_down/p_up (NOTES.md, smooth transition)",
+        "assumed: Simscape default; linear flow above this p_down/p_up (docs/references.md, smooth transition)",
     )
     flow_model: float = physical(
         0.0, "1", (0.0, 1.0), "switch: 0 = nozzle law 004 eqs (3)-(4), 1 = ISO 6358 (C, b)"
@@ -150,7 +150,7 @@ class RodlessCylinderParams(PhysicalParams):
         "and adiabatic (time constant m c_v / (h A_wall) of 0.1-0.5 s here)",
     )
     pressure_floor: float = physical(
-        1.0, "Pa", (0.0, 1e4), "assumed: guard only, Hopsan's 1 Pa pneumatic volume floor (NOTES.md)",
+        1.0, "Pa", (0.0, 1e4), "assumed: guard only, Hopsan's 1 Pa pneumatic volume floor (docs/references.md)",
         open_low=True,
     )
     min_gas_mass: float = physical(

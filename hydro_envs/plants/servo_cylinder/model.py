@@ -59,7 +59,7 @@ settings are assumed). Closed below cracking (16 MPa gauge), so the seed's model
 wherever the chambers stay below it; a piston braked by its closing valve would otherwise
 compress the outlet chamber far above the supply.
 
-Decisions on the extracted text (see ``shared/seeds/README.md``):
+Decisions on the extracted text (see ``docs/references.md``):
 
 * eq (5) prints the chamber volume as ``A x_p - V1``; physically it is ``A x_p + V1`` (the
   line volume adds to the swept volume). We use ``+``.
@@ -71,7 +71,7 @@ Decisions on the extracted text (see ``shared/seeds/README.md``):
 * Table 1 gives no Stribeck parameters (the friction figures are missing from the text); the
   defaults below are assumed, of the size of the fitting errors E = 2.5-3.1 N of sec. 5.
 
-Guards (``shared/NOTES.md``): chamber pressures never integrate below a cavitation floor
+Guards (``docs/references.md``, numerics notes): chamber pressures never integrate below a cavitation floor
 (derivative clipped at the floor here, state clamped after each sub-step by the integrator),
 chamber volumes never below ``min_chamber_volume``, and end stops at 0 and L act through a
 continuous Hunt-Crossley contact force (:mod:`hydro_envs.laws.contact`).

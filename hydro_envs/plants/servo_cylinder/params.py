@@ -105,7 +105,7 @@ class ServoCylinderParams(PhysicalParams):
     )
     orifice_transition_pressure: float = physical(
         1e5, "Pa", (1.0, 1e7),
-        "assumed: laminar transition of the regularised root (NOTES.md: 1e5 Pa -> |lambda| 4.1e3 1/s)",
+        "assumed: laminar transition of the regularised root (docs/references.md: 1e5 Pa -> |lambda| 4.1e3 1/s)",
     )
     pressure_floor: float = physical(
         1e3, "Pa", (0.0, 1e5), "assumed: cavitation floor, about the oil's vapour/gas-release pressure"

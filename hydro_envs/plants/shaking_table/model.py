@@ -51,7 +51,7 @@ the Jacobian stays finite at zero pressure drop. The bulk-modulus model is the *
 parameter ``bulk_modulus_model`` (0 constant, 1 IFAS, 2 modified IFAS) so one compiled kernel
 handles every variant and a batch may mix them.
 
-Decisions on the extracted text (``shared/seeds/README.md`` and this module):
+Decisions on the extracted text (``docs/references.md`` and this module):
 
 * **Spool scale.** Eq (5) has unit gain from u to the normalised spool xv, and the text's
   inputs are ``u = 0.3 sin(2 pi 2 t)`` while Table 3 writes ``3 sin(4 pi t)``: the text's u is
@@ -82,7 +82,7 @@ Decisions on the extracted text (``shared/seeds/README.md`` and this module):
 * **Reference pressure of IFAS.** Eq (13) uses the absolute pressure; the supply 206 bar of
   Table 1 is gauge, so ``P_s = 20.6 MPa + 0.1 MPa``.
 
-Guards (``shared/NOTES.md``): a cavitation pressure floor (derivative clipped at the floor,
+Guards (``docs/references.md``, numerics notes): a cavitation pressure floor (derivative clipped at the floor,
 state clamped after each sub-step), the IFAS law evaluated at ``max(P, floor)``, chamber
 volumes never below ``min_chamber_volume``, and continuous Hunt-Crossley end stops at +-L/2
 (the mechanical end-stroke (H) of the rig).

@@ -160,7 +160,7 @@ class ShakingTableParams(PhysicalParams):
         2.0, "s/m", (0.0, 100.0), "assumed: Hunt-Crossley alpha, restitution about 0.3 at 0.5 m/s"
     )
     orifice_transition_pressure: float = physical(
-        1e5, "Pa", (1.0, 1e7), "assumed: laminar core of the regularised root (0.5 % of P_s; NOTES.md)"
+        1e5, "Pa", (1.0, 1e7), "assumed: laminar core of the regularised root (0.5 % of P_s; docs/references.md)"
     )
     pressure_floor: float = physical(
         1e3, "Pa", (1.0, 1e5), "assumed: cavitation floor; IFAS evaluated at max(P, floor)"

@@ -44,7 +44,7 @@ F_C = 15.31 N, v_S = 3.27 mm/s for a rodless cylinder), scaled down to a small s
 Regularisation and cost (CONTRIBUTING, "Numerics and cost"): the sign velocity ``v_eps``
 sets the stiffest mode, ``(F_S / v_eps + b + (F_S - F_C) / v_S) / m`` at v = 0. The default
 ``v_eps = 0.5 mm/s = v_S / 10`` (the ratio Simscape uses between its Coulomb and Stribeck
-velocities, NOTES.md) gives 3.1e4 1/s, i.e. 14 RK4 sub-steps per 1 ms for the nominal
+velocities, docs/references.md) gives 3.1e4 1/s, i.e. 14 RK4 sub-steps per 1 ms for the nominal
 stage; a tenfold smaller ``v_eps`` costs ten times more sub-steps and changes the friction
 force only for |v| < a few v_eps, where a real stage sticks anyway. Identification models
 that use an exact ``sign(v)`` must discard samples with |v| below a few ``v_eps``
@@ -258,6 +258,7 @@ def simulate_slider(
         Y = np.array(np.broadcast_to(y0, (batch, N_STATES)))
     if not np.all(np.isfinite(Y)):
         raise ValueError("y0 contains NaN or inf")
+    nsub: int | list[int]
     if n_sub is None:
         nsub = [substeps_from_stiffness(stiffness_modes(q), dt, safety)[0] for q in plist]
     else:

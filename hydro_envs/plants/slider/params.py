@@ -39,7 +39,7 @@ class SliderParams(PhysicalParams):
     )
     friction_sign_velocity: float = physical(
         5e-4, "m/s", (1e-7, 1.0),
-        "assumed: tanh regularisation v_eps = v_S / 10 (Simscape's v_C/v_St ratio, NOTES.md); "
+        "assumed: tanh regularisation v_eps = v_S / 10 (Simscape's v_C/v_St ratio, docs/references.md); "
         "sets the stiffest mode",
     )
     stroke: float = physical(0.2, "m", (0.0, 100.0), f"{_GENERIC}: 200 mm travel", open_low=True)
