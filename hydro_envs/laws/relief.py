@@ -8,7 +8,7 @@ characteristic of Hopsan's ``HydraulicPressureReliefValve`` (opening linear in t
 above the reference pressure through the spring's steady-state characteristic, limited to
 ``0 <= x <= 1``, times a turbulent flow function) and of OpenHydraulics' (Modelica)
 ``ReliefValve`` (an opening characteristic in the drop above ``p_crack`` times the
-regularised root ``regRoot``); ``/work/shared/NOTES.md`` ("regularised orifice root, the same
+regularised root ``regRoot``); the simulator conventions of ``docs/references.md`` ("regularised orifice root, the same
 function in Modelica (regRoot), Hopsan (signedSquareL)"). Neither seed (000-004) prints a
 relief valve: the settings of the plants that use these laws are assumptions stated in their
 parameters' sources. The first-order spool dynamics and hysteresis of Hopsan's component are

@@ -120,6 +120,19 @@ def _fig_traces(path: Path, res: DiagnosisResult, spec: DiagnosisPlant, records:
     plt.close(fig)
 
 
+def _final_model_section(rows: list[dict[str, Any]]) -> list[str]:
+    """Markdown table of the final model (:mod:`identification.diagnosis.final_model`)."""
+    if not rows:
+        return []
+    lines = ["## Final model", "", "Every parameter of the last fit (standard error from its covariance); a "
+             "parameter on a bound of its fit is flagged.", "",
+             "| parameter | belongs to | value | std. error | unit | bounds | on a bound |", "|---|---|---|---|---|---|---|"]
+    for r in rows:
+        lines.append(f"| {r['name']} | {r['role']} | {r['value']:.4g} | {r['std_error']:.2g} | {r['unit']} | "
+                     f"[{r['lower']:.4g}, {r['upper']:.4g}] | {'**yes**' if r['on_bound'] else 'no'} |")
+    return lines + [""]
+
+
 def write_report(res: DiagnosisResult, spec: DiagnosisPlant, records: Sequence[Record],
                  holdout: Sequence[Record] | None, out_dir: str | Path) -> Path:
     """Write ``report.md``, ``result.json`` and the figures into ``out_dir``; return the
@@ -201,14 +214,7 @@ def _write_report(stage: Any, res: DiagnosisResult, spec: DiagnosisPlant, record
             lines.append(f"| {c.name} | {c.signature_score:.3f} | {c.heldout:.4f} | {c.gain:+.1%} | {c.plausible} | "
                          f"{c.identifiable} | {ps} | {'; '.join(c.reasons)} |")
         lines.append("")
-    if res.final_model_table:
-        lines += ["## Final model", "", "Every parameter of the last fit (standard error from its covariance); a "
-                  "parameter on a bound of its fit is flagged.", "",
-                  "| parameter | belongs to | value | std. error | unit | bounds | on a bound |", "|---|---|---|---|---|---|---|"]
-        for r in res.final_model_table:
-            lines.append(f"| {r['name']} | {r['role']} | {r['value']:.4g} | {r['std_error']:.2g} | {r['unit']} | "
-                         f"[{r['lower']:.4g}, {r['upper']:.4g}] | {'**yes**' if r['on_bound'] else 'no'} |")
-        lines.append("")
+    lines += _final_model_section(res.final_model_table)
     if res.notes:
         lines += ["## Notes", ""] + [f"- {n}" for n in res.notes] + [""]
     for title, f in figs.items():

@@ -19,7 +19,6 @@ The record carries the rig's geometry as ``param.NAME`` metadata, as ``hydro sim
 
 from __future__ import annotations
 
-import math
 
 import numpy as np
 
