@@ -56,7 +56,16 @@ def test_compact_folder_errors_name_the_missing_file(tmp_path):
         load_trained(tmp_path)
 
 
-@pytest.mark.parametrize("plant", sorted(PLANTS))
+#: plants with envs and controllers but no pre-trained PPO baseline yet (each a decision, named)
+NO_BASELINE = {"differential_cylinder": "new plant (issue 54): no PPO baseline trained yet"}
+
+
+def test_every_plant_without_a_baseline_is_named():
+    missing = {p for p in PLANTS if not sorted((PRETRAINED_ROOT / p).glob("ppo_*s*"))}
+    assert missing == set(NO_BASELINE), (missing, NO_BASELINE)
+
+
+@pytest.mark.parametrize("plant", sorted(set(PLANTS) - set(NO_BASELINE)))
 def test_shipped_baselines_load_and_act(plant):
     env_id = PLANTS[plant]
     folders = sorted((PRETRAINED_ROOT / plant).glob("ppo_*s*"))
