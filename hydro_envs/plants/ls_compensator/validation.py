@@ -36,8 +36,8 @@ def rows() -> list[ValidationRow]:
             reproduced=co[key] / scale,
             tolerance=0.01,
             unit=unit,
-            source=src_t1,
-            kind="independent",
+            source=src_t1 + "; arithmetic on the table, no simulation",
+            kind="table",
         ))
     out.append(ValidationRow(
         name="ls_compensator: spool resonance eq (19), original spring (method 2)",
