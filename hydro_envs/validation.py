@@ -199,7 +199,7 @@ def format_table(rows: list[ValidationRow], width: int = 120) -> str:
 
     Columns: name, published, reproduced, unit, error, tolerance, PASS/FAIL (sources are in
     ``--json`` and ``--markdown``; long names are clipped with ``~``)."""
-    fixed = [("published", 10), ("reproduced", 10), ("unit", 8), ("error", 9), ("tolerance", 10), ("result", 6)]
+    fixed = [("published", 10), ("reproduced", 12), ("unit", 8), ("error", 9), ("tolerance", 10), ("result", 6)]
     name_w = width - sum(w + 1 for _, w in fixed)
     lines: list[str] = []
     for kind in KINDS:
