@@ -125,7 +125,7 @@ def eq32_procedure(params: RodlessCylinderParams | None = None, *, dt: float = E
 
 def damping_with_viscous_friction(lin, sigma: float) -> float:
     """Damping ratio of the mid-stroke linear model (eqs (19)-(24)) with the viscous friction
-    ``sigma`` [N s/m] of Table 2 on the slider: the load-pressure/velocity pair
+    ``sigma`` [N s/m] of Table 2 on the carriage: the load-pressure/velocity pair
     ``s^2 + (a + sigma/M) s + (omega_n^2 + a sigma/M)`` with ``a = kappa R T_s c2 / V0`` (the
     energy-corrected c2, i.e. ``2 zeta_energy omega_n``)."""
     a = 2.0 * lin.zeta_energy * lin.omega_n
@@ -221,7 +221,7 @@ def eq32_rows(nominal: RodlessCylinderParams | None = None) -> list[ValidationRo
         ValidationRow(
             name="rodless_cylinder: sec. 4.2 loop ARX(3), pole near z = 1 vs eq (32)",
             published=seed["integrator"], reproduced=full["integrator"], tolerance=0.01, unit="1",
-            source=(f"004 eq (32): poles {_fmt(seed['poles'])}; the real pole near 1 is the slider's integrator. "
+            source=(f"004 eq (32): poles {_fmt(seed['poles'])}; the real pole near 1 is the piston's integrator. "
                     f"{procedure}, Table 2 friction: poles {_fmt(full['poles'])}. Tolerance 0.01: the row says "
                     "that both have an integrator, and little more"),
             kind="independent",
