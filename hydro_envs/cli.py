@@ -406,14 +406,14 @@ def _cmd_validate(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     from hydro_envs.jsonutil import to_jsonable
-    from hydro_envs.validation import format_markdown, format_table, report_dict, run_validation
+    from hydro_envs.validation import format_markdown, format_table, report_dict, run_validation, validation_notes
 
     rows = list(run_validation())
     all_ok = bool(rows) and all(r.passed for r in rows)
     if args.markdown:
         from hydro_envs.outputs import atomic_write
 
-        out = atomic_write(Path(args.markdown), format_markdown(rows) + "\n")
+        out = atomic_write(Path(args.markdown), format_markdown(rows, validation_notes()) + "\n")
         print(f"wrote {out} ({len(rows)} rows)", file=sys.stderr)
     if args.json:
         print(json.dumps(to_jsonable(report_dict(rows)), allow_nan=False))

@@ -32,7 +32,7 @@ import math
 from typing import Callable
 
 __all__ = ["ValidationRow", "KINDS", "run_validation", "row_providers", "ENTRY_POINT_GROUP",
-           "format_table", "format_markdown", "report_dict"]
+           "format_table", "format_markdown", "report_dict", "validation_notes"]
 
 #: the two kinds of row (see the module docstring), in report order
 KINDS: tuple[str, ...] = ("independent", "table", "consistency")
@@ -168,6 +168,20 @@ def row_providers() -> list[tuple[str, Callable[[], list[ValidationRow]]]]:
     return out
 
 
+def validation_notes() -> list[tuple[str, str]]:
+    """(plant, markdown) of every plant whose ``validation.py`` has a ``NOTES`` string: the
+    decisions behind its rows and the seed numbers that are not rows, with the reason."""
+    from hydro_envs import registry
+
+    out = []
+    for spec in registry.specs():
+        if spec.has_module("validation"):
+            text = getattr(spec.module("validation"), "NOTES", "")
+            if text:
+                out.append((spec.name, text.strip()))
+    return out
+
+
 def run_validation() -> list[ValidationRow]:
     """Compute every validation row (:func:`row_providers`)."""
     rows: list[ValidationRow] = []
@@ -229,8 +243,9 @@ def _md(text: str) -> str:
     return text.replace("|", "\\|").replace("\n", " ")
 
 
-def format_markdown(rows: list[ValidationRow]) -> str:
-    """The documentation page: every row with its kind, numbers, verdict and source."""
+def format_markdown(rows: list[ValidationRow], notes: list[tuple[str, str]] = ()) -> str:
+    """The documentation page: every row with its kind, numbers, verdict and source, then the
+    plants' ``notes`` (:func:`validation_notes`)."""
     n_pass = sum(r.passed for r in rows)
     out = [
         "# Validation against the seeds",
@@ -263,4 +278,8 @@ def format_markdown(rows: list[ValidationRow]) -> str:
             out.append(f"| {_md(r.name)} | {_md(r.published_text)} | {_md(r.reproduced_text)} | {_md(r.unit)} | "
                        f"{_md(r.error_text)} | {_md(r.tolerance_text)} | {r.status} | {_md(r.source)} |")
         out.append("")
+    if notes:
+        out += ["## Decisions and seed numbers that are not rows", ""]
+        for plant, text in notes:
+            out += [f"### {plant}", "", text, ""]
     return "\n".join(out)
