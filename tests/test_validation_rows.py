@@ -75,3 +75,19 @@ def test_three_kinds_and_the_report_groups_them():
     assert report_dict(rows[:3])["passed"] is True and report_dict([])["passed"] is False
     text = format_table(rows)
     assert text.index("independent rows (1/1") < text.index("table rows (1/2") < text.index("consistency rows (1/1")
+
+
+def test_markdown_carries_the_plants_notes_after_the_rows():
+    from hydro_envs.validation import format_markdown
+
+    text = format_markdown([row(name="i")], [("rodless_cylinder", "**Eq (32), decided.** bracket")])
+    assert text.index("| i |") < text.index("## Decisions and seed numbers that are not rows")
+    assert "### rodless_cylinder\n\n**Eq (32), decided.** bracket" in text
+
+
+def test_the_plants_document_their_decisions_and_open_seed_numbers():
+    from hydro_envs.validation import validation_notes
+
+    notes = dict(validation_notes())
+    assert {"rodless_cylinder", "shaking_table", "force_actuator"} <= set(notes)
+    assert "conclusion (2)" in notes["rodless_cylinder"] and "150 Hz" in notes["shaking_table"]
