@@ -4,7 +4,7 @@
 
 Seed 004 sec. 4.2 identifies the rodless cylinder's open-loop model in closed loop: a
 proportional position loop with an M-sequence added to the controller output, and an ARX(3)
-fit from that input to the slider position, eq (32). The rows below run the same procedure on
+fit from that input to the slider position, eq (32). The functions below run the same procedure on
 the nominal model (:func:`hydro_envs.plants.rodless_cylinder.experiments.closed_loop_m_sequence`,
 :func:`identification.arx.fit_arx`) for comparison with eq (32)'s poles:
 
@@ -13,10 +13,10 @@ the nominal model (:func:`hydro_envs.plants.rodless_cylinder.experiments.closed_
   which is ``-ln|z| / |ln z|`` for a complex pair, ``(a + b) / (2 sqrt(ab))`` for real poles
   ``exp(-a T), exp(-b T)``, and needs no sample time (004 does not print it).
 
-The gain per sample depends on the sample time, so it is not compared. The damping row's source
-gives it at three sample times, and the sample time at which the model has eq (32)'s gain
-(:func:`gain_matched_sample_time`). At that sample time, eq (32)'s pair is read as a
-continuous mode: its frequency, and the viscous damping that would give its damping ratio.
+The gain per sample depends on the sample time, so it is not compared;
+:func:`gain_matched_sample_time` finds the sample time at which the model has eq (32)'s gain, at
+which eq (32)'s pair can be read as a continuous mode (its frequency, and the viscous damping
+that would give its damping ratio).
 """
 
 from __future__ import annotations
