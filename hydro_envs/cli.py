@@ -119,12 +119,13 @@ def build_parser() -> argparse.ArgumentParser:
         "validate",
         help="reproduce published results and compare within tolerance",
         description="Compute every validation row (independent: a printed or measured number "
-        "reproduced by another route; consistency: the model against its own linearisation or "
-        "inputs) and print them grouped by kind. Exit code 0 if every row passed, 1 otherwise.",
+        "reproduced by simulating the plant through another route; table: arithmetic on the seeds' "
+        "tables; consistency: the model against its own linearisation, inputs or calibration) and "
+        "print them grouped by kind. Exit code 0 if every row passed, 1 otherwise.",
     )
     p.add_argument("--json", action="store_true",
-                   help='print one JSON object {"rows": [...], "passed": bool, "independent": n}; '
-                   "passed is the AND of every row")
+                   help='print one JSON object {"rows": [...] grouped by kind, "kinds": {...}, "passed": '
+                   'bool, "independent": n}; passed is the AND of every row')
     p.add_argument("--markdown", metavar="FILE",
                    help="write the documentation page (every row with its kind and source) to FILE")
     p.set_defaults(func=_cmd_validate)
@@ -415,19 +416,17 @@ def _cmd_validate(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     from hydro_envs.jsonutil import to_jsonable
-    from hydro_envs.validation import format_markdown, format_table, run_validation
+    from hydro_envs.validation import format_markdown, format_table, report_dict, run_validation, validation_notes
 
     rows = list(run_validation())
     all_ok = bool(rows) and all(r.passed for r in rows)
     if args.markdown:
         from hydro_envs.outputs import atomic_write
 
-        out = atomic_write(Path(args.markdown), format_markdown(rows) + "\n")
+        out = atomic_write(Path(args.markdown), format_markdown(rows, validation_notes()) + "\n")
         print(f"wrote {out} ({len(rows)} rows)", file=sys.stderr)
     if args.json:
-        payload = {"rows": [to_jsonable(r.as_dict()) for r in rows], "passed": all_ok,
-                   "independent": sum(r.kind == "independent" for r in rows)}
-        print(json.dumps(payload, allow_nan=False))
+        print(json.dumps(to_jsonable(report_dict(rows)), allow_nan=False))
     elif not args.markdown:
         print(format_table(rows) if rows else "no validation checks were returned")
     return EXIT_OK if all_ok else EXIT_FAIL

@@ -358,7 +358,7 @@ def test_published_validation_rows_pass():
 
     assert "ls_compensator" in dict(row_providers())  # a provider of `hydro validate`
     rows = validation.rows()
-    assert len(rows) == 12  # Table 1 coefficients not backed out into the geometry, eq (19), the two rigs
+    assert len(rows) == 17  # Table 1 coefficients, eq (19), the two rigs; c(T) and the method-2 conditions
     for r in rows:
         assert r.passed, (r.name, r.published, r.reproduced, r.tolerance)
 

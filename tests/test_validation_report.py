@@ -9,11 +9,9 @@ import pytest
 
 from hydro_envs.validation import KINDS, run_validation
 
-#: rows outside their tolerance today, each an open deviation named in its row's source
-FAILING_TODAY = {
-    # 004 eq (32): the seed's procedure on the model identifies an overdamped pair (seal friction)
-    "rodless_cylinder: sec. 4.2 loop ARX(3), damping of the other poles vs eq (32)",
-}
+#: rows outside their tolerance today, each an open deviation named in its row's source (none:
+#: ``hydro validate`` exits 0 on a fresh install)
+FAILING_TODAY: set[str] = set()
 
 
 @pytest.fixture(scope="module")
@@ -28,9 +26,23 @@ def test_every_row_has_a_kind_and_a_source(rows):
     assert len({r.name for r in rows}) == len(rows), "row names must be unique"
 
 
-def test_at_least_fifteen_independent_rows_over_the_plants(rows):
+#: independent rows (each simulates a plant); issue 55 asks for at least 12
+MIN_INDEPENDENT = 12
+#: seed of each plant's rows (seeds/README.md)
+SEEDS = {"ls_compensator": "000", "load_sensing": "000", "force_actuator": "001", "servo_cylinder": "002",
+         "shaking_table": "003", "rodless_cylinder": "004"}
+#: seeds with independent rows today; 003 has none: its printed valve data (20 l/min nominal flow,
+#: ~150 Hz) disagree with Table 1's identified valve (docs/validation.md), an open deviation
+SEEDS_WITH_INDEPENDENT_ROWS = {"000", "001", "002", "004"}
+
+
+def test_independent_rows_simulate_and_are_counted(rows):
     independent = [r for r in rows if r.kind == "independent"]
-    assert len(independent) >= 15, [r.name for r in independent]
+    assert len(independent) >= MIN_INDEPENDENT, [r.name for r in independent]
+    seeds = {SEEDS[r.name.split(":")[0]] for r in independent}
+    assert seeds >= SEEDS_WITH_INDEPENDENT_ROWS, seeds
+    # arithmetic on Table 1 of seed 000 is a table row, never an independent one
+    assert not any("Table 1 printed value" in r.source for r in independent)
 
 
 def test_failing_rows_are_exactly_the_open_deviations(rows):

@@ -82,6 +82,7 @@ __all__ = [
     "prbs_locked",
     "breakaway_test",
     "breakaway_force",
+    "open_loop_force_response",
 ]
 
 G = 9.81  # m/s^2
@@ -404,3 +405,22 @@ def breakaway_force(params: fa.ForceActuatorParams, direction: int, rate: float 
     tr = breakaway_test(params, direction, rate, dt, slide)
     k = int(np.argmax(tr["friction"]))
     return direction * float(tr["friction"][k]), direction * float(tr["applied"][k])
+
+
+def open_loop_force_response(params: fa.ForceActuatorParams, frequencies, amplitude: float = 0.1) -> np.ndarray:
+    """001 sec. 4.7 "with the piston locked to the mount": first-harmonic sensed force over valve
+    current [N/A] for current sines ``amplitude * rated_current`` held at 5 kHz (``SEED_T``), one
+    run per frequency of at least 20 periods, the first half discarded."""
+    p = dataclasses.replace(params, piston_locked=1.0)
+    dt = fa.SEED_T
+    out = []
+    for f in np.asarray(frequencies, dtype=float):
+        n = int(round(max(0.3, 20.0 / f) / dt))
+        t = dt * np.arange(n)
+        i = amplitude * p.rated_current * np.sin(2.0 * math.pi * f * t)
+        st = simulate(_SPEC, p, i.reshape(-1, 1), fa.rest_state(p), dt)
+        force = p.sensor_stiffness * st[1:, fa.XS]
+        keep = t >= t[-1] - math.floor(0.5 * t[-1] * f) / f
+        phasor = np.exp(-2j * math.pi * f * t[keep])
+        out.append(np.mean((force[keep] - force[keep].mean()) * phasor) / np.mean(i[keep] * phasor))
+    return np.array(out)

@@ -49,3 +49,25 @@ def table3_input(name: str, t: np.ndarray) -> np.ndarray:
     if name == "pulse (Fig. 11)":
         return np.where((t >= 0.1) & (t < 0.3), 2.0, 0.0) + np.where((t >= 0.5) & (t < 0.7), -2.0, 0.0)
     raise ValueError(f"unknown Table 3 input {name!r}; known: {list(TABLE3_INPUTS)}")
+
+
+def full_opening_flow(params, valve_drop: float = 70.0e5, seconds: float = 0.8, dt: float = 1e-4) -> float:
+    """Flow [m^3/s] the table's valve passes at full command (+10 V) with the supply set
+    ``valve_drop`` [Pa] above the tank: the platform runs from near one end over the stroke and
+    the flow is ``A`` times its mean speed over the middle half of the stroke (NaN if it does not
+    get there)."""
+    import dataclasses
+
+    from hydro_envs.plants.shaking_table import model as st
+    from hydro_envs.plants.shaking_table.spec import SPEC
+    from hydro_envs.sim.simulate import simulate
+
+    p = dataclasses.replace(params, supply_pressure=params.tank_pressure + valve_drop)
+    x0 = -0.45 * p.stroke
+    n = int(round(seconds / dt))
+    out = simulate(SPEC, p, np.full((n, 1), p.command_max), st.rest_state(p, x0), dt)
+    t = dt * np.arange(n + 1)
+    idx = np.flatnonzero(np.abs(out[:, st.X]) < 0.25 * p.stroke)
+    if idx.size < 10 or out[idx[-1], st.X] < 0.2 * p.stroke:
+        return float("nan")
+    return float(p.piston_area * (out[idx[-1], st.X] - out[idx[0], st.X]) / (t[idx[-1]] - t[idx[0]]))
