@@ -1,6 +1,6 @@
 """``hydro benchmark``: the command line and the YAML configs of :mod:`agents.benchmark`.
 
-A config (``agents/configs/benchmarks/<name>.yaml``, found by name from any working directory,
+A config (``configs/benchmarks/<name>.yaml``, found by name from any working directory,
 or any file) gives ``env``, ``controllers``, ``params``, ``n``, ``seed``, ``episode_steps``,
 ``reference``, ``step_reference``, ``policies`` (run folders, relative to the repository),
 ``figures``, ``randomization`` (a calibrated spec for the draws) and ``out``; flags override it.
@@ -21,6 +21,7 @@ from pathlib import Path
 from typing import Any
 
 from agents.backend import add_backend_args
+from hydro_envs.config_files import config_file
 from agents.benchmark import PARAM_SETS, run_benchmark
 
 __all__ = ["SHIPPED_CONFIGS", "add_cli", "cli_benchmark", "config_path", "load_config", "main"]
@@ -67,8 +68,8 @@ _CONFIG_KEYS = {"env", "controllers", "n", "params", "episode_steps", "seed", "o
                 "step_reference", "policies", "figures", "randomization", "note"}
 
 
-#: folder of the shipped benchmark configs (package data)
-SHIPPED_CONFIGS = Path(__file__).resolve().parent / "configs" / "benchmarks"
+#: folder of the shipped benchmark configs (``configs/benchmarks/``)
+SHIPPED_CONFIGS = config_file("benchmarks")
 
 
 def config_path(name: str | Path) -> Path:

@@ -22,7 +22,7 @@ that dry friction causes, is about 0.6):
    friction is checked against the training randomisation ranges: the learned agent must have
    seen the rig.
 3. **Train** a residual PPO agent with domain randomisation (:func:`agents.train.train`,
-   ``agents/configs/residual/ppo.yml``: a learned correction of at most 1 % of the valve command on
+   ``configs/agents/residual/ppo.yml``: a learned correction of at most 1 % of the valve command on
    top of ``pid_vff``, :mod:`agents.residual`; the batched-kernel SB3 adapter, rich progress bar).
    ``--pretrained`` skips training and uses the shipped agent (``agents/pretrained/``).
 4. **Benchmark** the PID, ``pid_vff``, ``pid_vff_identified`` and the agent on the same ``--n``
@@ -48,11 +48,13 @@ from typing import Any, Callable, Sequence  # noqa: E402
 
 import numpy as np  # noqa: E402
 
+from hydro_envs.config_files import config_file  # noqa: E402
+
 ENV_ID = "hydro_envs/ServoCylinderSlowSine-v0"
 DEFAULT_TIMESTEPS = {"ppo": 400_000, "sac": 60_000}
 QUICK_TIMESTEPS = {"ppo": 65_536, "sac": 12_000}
-#: the agent's training config: residual PPO on top of pid_vff (agents/configs/residual/ppo.yml)
-RESIDUAL_CONFIG = Path(__file__).resolve().parent / "configs" / "residual" / "ppo.yml"
+#: the agent's training config: residual PPO on top of pid_vff (configs/agents/residual/ppo.yml)
+RESIDUAL_CONFIG = config_file("agents", "residual", "ppo.yml")
 #: the shipped agent of the demo's task (python -m agents.demo --out DIR, then export_compact)
 PRETRAINED_AGENT = Path(__file__).resolve().parent / "pretrained" / "demo" / "ppo_residual_s0"
 BLIND_TWIN = "pid_vff"

@@ -99,7 +99,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     add_backend_args(p)
     p.add_argument("--name", help="run folders NAME_s<seed> (default <env>_<algo>_<seed>_<UTC timestamp>)")
     p.add_argument("--out", default="runs", help="parent folder of the run folders (default runs/)")
-    p.add_argument("--config", help="zoo-format YAML keyed by env id (default agents/configs/<algo>.yml)")
+    p.add_argument("--config", help="zoo-format YAML keyed by env id (default configs/agents/<algo>.yml)")
     p.add_argument("--timesteps", type=int, help="override n_timesteps")
     p.add_argument("--no-randomization", action="store_true", help="train and evaluate on the nominal plant")
     p.add_argument("--n-envs", type=int, help="override n_envs")

@@ -3,7 +3,7 @@ r"""Pre-trained baselines: train, export, and find them.
 The baselines shipped in ``agents/pretrained/<plant>/`` are PPO policies
 (``configs/agents/ppo.yml``) in the compact, pickle-free layout of
 :func:`agents.policies.export_compact` (about 50 kB each): ``ppo_s<seed>`` trained with the
-env's domain randomisation (``configs/randomization/<plant>.yaml``), ``ppo_nominal_s<seed>``
+env's domain randomisation (``configs/plants/<plant>/randomization.yaml``), ``ppo_nominal_s<seed>``
 (servo cylinder only) trained on the nominal plant. The benchmark configs
 (``configs/benchmarks/<plant>.yaml``) list them under ``policies``, so ``hydro benchmark``
 evaluates classical and learned controllers without any training; training seeds pool by name
@@ -23,7 +23,7 @@ residual PPO on the PID (:mod:`agents.residual`, the compact folder's ``config.y
 ``residual`` entry, so :func:`agents.policies.load_trained` applies it)::
 
     python -m agents.pretrain --envs servo_cylinder --seeds 0 --nominal-seeds \
-        --config agents/configs/residual/ppo.yml --tag ppo_residual
+        --config configs/agents/residual/ppo.yml --tag ppo_residual
 
 Full run folders (SB3 zip, ``VecNormalize`` pickle, TensorBoard) go to ``--runs`` (default a
 temporary folder); only the compact copies are kept in ``--out``. Same seed, same machine:
@@ -85,7 +85,7 @@ def pretrain(plants: Sequence[str], seeds: Sequence[int], nominal_seeds: Sequenc
              tag: str = "ppo") -> list[tuple[str, Path, float]]:
     """Train and export every (plant, seed[, nominal]); returns ``(plant, folder, seconds)``.
 
-    ``config``: the PPO hyperparameter file (default ``agents/configs/ppo.yml``); ``tag``: the
+    ``config``: the PPO hyperparameter file (default ``configs/agents/ppo.yml``); ``tag``: the
     folder name prefix (``<tag>_s<seed>``, ``<tag>_nominal_s<seed>``)."""
     from agents.policies import export_compact
     from agents.train import train
@@ -132,8 +132,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--out", default=str(PRETRAINED_ROOT))
     p.add_argument("--runs", default=None, help="keep the full run folders here")
     p.add_argument("--config", default=None,
-                   help="PPO hyperparameter file of agents.train's format (default agents/configs/ppo.yml), "
-                        "e.g. agents/configs/residual/ppo.yml")
+                   help="PPO hyperparameter file of agents.train's format (default configs/agents/ppo.yml), "
+                        "e.g. configs/agents/residual/ppo.yml")
     p.add_argument("--tag", default="ppo", help="folder name prefix: <tag>_s<seed> (default ppo)")
     p.add_argument("--no-progress-bar", action="store_true")
     a = p.parse_args(argv)

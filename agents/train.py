@@ -11,7 +11,7 @@ and from Python ``train(env_id, algo, ...) -> Path`` (the run folder).
 
 Hyperparameters
 ---------------
-rl-baselines3-zoo style: one file per algorithm, ``agents/configs/<algo>.yml``, whose top-level
+rl-baselines3-zoo style: one file per algorithm, ``configs/agents/<algo>.yml``, whose top-level
 keys are env ids; ``--config FILE`` replaces it by another file of the same format (for
 example a run folder's ``config.yml``). Keys of an env entry:
 
@@ -31,7 +31,7 @@ example a run folder's ``config.yml``). Keys of an env entry:
   ``action_rate_penalty``); ``--no-randomization`` sets ``randomize: false``;
 * ``noise_type`` (``normal | ornstein-uhlenbeck``) and ``noise_std`` (SAC/TD3 action noise);
 * ``residual`` (optional, absent or ``null`` by default; not an rl_zoo3 key, so only in
-  project-format files such as ``agents/configs/residual/ppo.yml``): ``{controller: NAME,
+  project-format files such as ``configs/agents/residual/ppo.yml``): ``{controller: NAME,
   scale: FLOAT}`` trains the policy as a residual on the classical controller ``NAME`` of
   :mod:`agents.controllers`, ``action = clip(base + scale * policy, -1, 1)`` with ``scale`` in
   ``(0, 1]`` (:mod:`agents.residual`); the run's ``config.yml`` keeps it, so
@@ -389,15 +389,17 @@ def _check_residual(where: str, env_id: str, value: Any) -> dict[str, Any] | Non
 
 # --------------------------------------------------------------------------- config files
 def config_path(algo: str) -> Path:
-    """The default hyperparameter file of ``algo``: ``agents/configs/<algo>.yml``."""
+    """The default hyperparameter file of ``algo``: ``configs/agents/<algo>.yml``."""
+    from hydro_envs.config_files import config_file
+
     if algo not in ALGOS:
         raise ConfigError(f"algo = {algo!r}; allowed {list(ALGOS)}")
-    return Path(__file__).resolve().parent / "configs" / f"{algo}.yml"
+    return config_file("agents", f"{algo}.yml")
 
 
 def _display_path(path: Path) -> str:
     """``path`` relative to the project root when it lies inside it (so run records name
-    ``agents/configs/ppo.yml``, not a machine's checkout), else as given."""
+    ``configs/agents/ppo.yml``, not a machine's checkout), else as given."""
     try:
         return str(path.resolve().relative_to(Path(__file__).resolve().parents[1]))
     except ValueError:
@@ -405,7 +407,7 @@ def _display_path(path: Path) -> str:
 
 
 def load_agent_config(source: str | Path | Mapping[str, Any] | None, algo: str, env_id: str) -> dict[str, Any]:
-    """The raw entry of ``env_id`` from a zoo-format file (``None``: ``agents/configs/<algo>.yml``)
+    """The raw entry of ``env_id`` from a zoo-format file (``None``: ``configs/agents/<algo>.yml``)
     or from an already loaded mapping of the same format."""
     if source is None:
         source = config_path(algo)
@@ -796,7 +798,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--env", required=True, help="env id, e.g. hydro_envs/ServoCylinderPosition-v0")
     p.add_argument("--algo", required=True, choices=ALGOS)
-    p.add_argument("--config", help="zoo-format YAML keyed by env id (default agents/configs/<algo>.yml)")
+    p.add_argument("--config", help="zoo-format YAML keyed by env id (default configs/agents/<algo>.yml)")
     p.add_argument("--timesteps", type=int, help="override n_timesteps")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--no-randomization", action="store_true", help="train and evaluate on the nominal plant")

@@ -12,7 +12,7 @@ Prints (no pass/fail):
   including the updates; for SAC with 1 and 4 copies (one gradient step of batch 256 per env
   step, 256-256 MLP) the overall rate after ``learning_starts``. The best of ``--repeats``.
 
-* ``--time-to-pid`` -- trains PPO or SAC (``agents/configs/<algo>.yml``, constant learning
+* ``--time-to-pid`` -- trains PPO or SAC (``configs/agents/<algo>.yml``, constant learning
   rate) on the *nominal* servo env (no randomisation) and every ``--eval-every`` timesteps
   measures the tracking RMSE of the deterministic policy on ``--n-eval`` fixed episodes
   (the env's ``--reference`` kind, default ``mixed``, for training and evaluation; seeds

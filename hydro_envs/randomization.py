@@ -1,7 +1,7 @@
 """Declarative domain randomisation: which parameters are drawn, from what, and why.
 
-A randomisation file (each plant ships its default as ``randomization.yaml`` in its folder,
-``hydro_envs/plants/<plant>/``) lists one entry per drawn parameter; every other parameter
+A randomisation file (each plant ships its default as ``configs/plants/<plant>/randomization.yaml``,
+:mod:`hydro_envs.config_files`) lists one entry per drawn parameter; every other parameter
 keeps its nominal value::
 
     plant: servo_cylinder
@@ -70,8 +70,8 @@ def _as_number(value: Any) -> Any:
 
 
 def randomization_path(plant: str) -> Any:
-    """The default randomisation spec of ``plant``: the ``randomization.yaml`` shipped in its
-    folder (package data), or ``$HYDRO_ENVS_CONFIG_DIR/randomization/<plant>.yaml`` when that
+    """The default randomisation spec of ``plant``: ``configs/plants/<plant>/randomization.yaml``
+    (:mod:`hydro_envs.config_files`), or ``$HYDRO_ENVS_CONFIG_DIR/randomization/<plant>.yaml`` when that
     variable is set."""
     env = os.environ.get("HYDRO_ENVS_CONFIG_DIR")
     if env:

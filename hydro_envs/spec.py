@@ -10,7 +10,7 @@ A plant lives in one folder, ``hydro_envs/plants/<name>/``, with modules of fixe
 ``energy.py``      energy/mass-balance terms and guard checks of the soak test
 ``validation.py``  rows comparing the model with numbers printed in its seed paper
 ``experiments.py`` virtual experiments of the rig (optional)
-``randomization.yaml``  default domain randomisation (package data)
+``randomization.yaml``  default domain randomisation (``configs/plants/<plant>/``)
 ``spec.py``        its ``SPEC``: the entry :mod:`hydro_envs.registry` lists
 =================  ==========================================================================
 
@@ -221,7 +221,9 @@ class PlantSpec:
         """The default randomisation spec shipped with the plant (a Traversable), or None."""
         if not self.package:
             return None
-        path = resources.files(self.package).joinpath("randomization.yaml")
+        from hydro_envs.config_files import config_file
+
+        path = config_file("plants", self.package.rsplit(".", 1)[-1], "randomization.yaml")
         return path if path.is_file() else None
 
     def validation_rows(self) -> list[Any]:

@@ -28,7 +28,7 @@ or replaces entries), refuses a unit that differs from the field's, and builds t
 coefficients; a mass-spring-damper whose input is a valve command) give a spec only through
 an explicit mapping.
 
-Plant presets (``configs/plants/<name>.yaml``)::
+Plant presets (``configs/plants/<plant>/presets/<name>.yaml``)::
 
     plant: servo_cylinder
     name: nominal

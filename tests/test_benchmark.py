@@ -226,7 +226,7 @@ def test_shipped_configs_are_valid():
 
     from agents.controllers import controller_names
 
-    files = sorted((Path(__file__).resolve().parents[1] / "agents" / "configs" / "benchmarks").glob("*.yaml"))
+    files = sorted((Path(__file__).resolve().parents[1] / "configs" / "benchmarks").glob("*.yaml"))
     assert len(files) == 14  # + force_actuator_small_force, shaking_table_low_frequency, differential_cylinder x 3
     envs = set()
     for f in files:

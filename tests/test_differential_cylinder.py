@@ -23,7 +23,7 @@ from hydro_envs.sim.simulate import simulate
 
 ENV = "hydro_envs/DifferentialCylinderPosition-v0"
 #: the shipped example parameter file (configs/ of the repository)
-RIG_FILE = str(Path(__file__).resolve().parents[1] / "configs" / "differential_cylinder_63_36_300.yaml")
+RIG_FILE = str(Path(__file__).resolve().parents[1] / "configs" / "datasheets" / "differential_cylinder_63_36_300.yaml")
 SPEC = registry.get("differential_cylinder")
 NOMINAL = DifferentialCylinderParams()
 

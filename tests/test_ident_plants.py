@@ -175,10 +175,10 @@ def test_cli_emit_ranges_from_a_virtual_friction_experiment(tmp_path):
 def test_plant_presets_load_with_sources(name):
     from hydro_envs.plants.rodless_cylinder.params import RodlessCylinderParams
     from hydro_envs.plants.servo_cylinder.params import ServoCylinderParams
-    from importlib import resources
+    from hydro_envs.config_files import config_file
 
     plant, _, preset = name.partition("_cylinder_")
-    path = resources.files(f"hydro_envs.plants.{plant}_cylinder").joinpath("presets", f"{preset}.yaml")
+    path = config_file("plants", f"{plant}_cylinder", "presets", f"{preset}.yaml")
     cls = RodlessCylinderParams if name.startswith("rodless") else ServoCylinderParams
     p = ranges.load_preset(path, cls)
     raw = yaml.safe_load(path.read_text())

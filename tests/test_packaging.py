@@ -28,10 +28,11 @@ def test_wheel_ships_every_config(wheel):
     names = set(zipfile.ZipFile(wheel).namelist())
     for spec in registry.specs(with_model=True):
         if spec.randomization_file() is not None:
-            assert f"{spec.package.replace('.', '/')}/randomization.yaml" in names, spec.name
-    shipped_repo = {p.relative_to(ROOT).as_posix() for p in ROOT.glob("hydro_envs/plants/*/presets/*.yaml")}
-    shipped_repo |= {p.relative_to(ROOT).as_posix() for p in ROOT.glob("agents/configs/**/*.y*ml")}
-    assert shipped_repo and shipped_repo <= names
+            plant = spec.package.rsplit(".", 1)[-1]
+            assert f"hydro_envs/configs/plants/{plant}/randomization.yaml" in names, spec.name
+    # every file of the top-level configs/ folder ships as hydro_envs.configs
+    shipped_repo = {"hydro_envs/" + p.relative_to(ROOT).as_posix() for p in ROOT.glob("configs/**/*.y*ml")}
+    assert len(shipped_repo) > 30 and shipped_repo <= names, sorted(shipped_repo - names)
     assert not any(n.startswith(("tests/", "configs/", "docs/")) for n in names)
 
 
@@ -46,6 +47,18 @@ for _, e in registry.env_entries():
         obs, *_ = env.step(env.action_space.sample())
     assert np.all(np.isfinite(obs)), e.id
     print(e.id)
+from hydro_envs.config_files import config_root
+assert "{target}" in str(config_root()), config_root()
+from agents.benchmark_cli import SHIPPED_CONFIGS, load_config, config_path
+names = sorted(f.stem for f in SHIPPED_CONFIGS.glob("*.yaml"))
+assert len(names) >= 14, names
+for name in names:  # every shipped benchmark config found by name and loaded from the wheel
+    assert "{target}" in str(config_path(name)), config_path(name)
+    load_config(config_path(name))
+from hydro_envs.cli import main
+for name in names:  # and each runs from it (2 draws, 20 steps, no figures)
+    assert main(["benchmark", "--config", name, "--n", "2", "--steps", "20", "--params", "nominal",
+                 "--no-figures", "--out", f"bench_{{name}}"]) == 0, name
 """
 
 

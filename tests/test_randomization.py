@@ -29,7 +29,7 @@ from hydro_envs.randomization import (
 
 ENV_ID = "hydro_envs/ServoCylinderPosition-v0"
 NOMINAL = ServoCylinderParams()
-YAML_PATH = Path(__file__).resolve().parents[1] / "hydro_envs" / "plants" / "servo_cylinder" / "randomization.yaml"
+YAML_PATH = Path(__file__).resolve().parents[1] / "configs" / "plants" / "servo_cylinder" / "randomization.yaml"
 
 
 @pytest.fixture(scope="module")

@@ -14,7 +14,7 @@ from agents.residual import ResidualPolicy, ResidualVecEnv, check_residual
 
 ENV = "hydro_envs/ServoCylinderPosition-v0"
 N, STEPS, EPISODE = 4, 200, 80  # short episodes so the rollout crosses two auto-resets
-CONFIG = Path(__file__).resolve().parents[1] / "agents" / "configs" / "residual" / "ppo.yml"
+CONFIG = Path(__file__).resolve().parents[1] / "configs" / "agents" / "residual" / "ppo.yml"
 
 
 def _venv(seed: int = 0):

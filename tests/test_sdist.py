@@ -61,8 +61,8 @@ def test_sdist_carries_the_test_data(sdist_names):
 
 
 def test_sdist_carries_tests_docs_bench_and_configs(sdist_names):
-    for pattern in ("tests/*.py", "docs/*.md", "bench/*.py", "agents/configs/*.yml",
-                    "hydro_envs/plants/*/randomization.yaml"):
+    for pattern in ("tests/*.py", "docs/*.md", "bench/*.py", "configs/agents/*.yml",
+                    "configs/plants/*/randomization.yaml", "configs/base/*.yaml", "setup.py"):
         wanted = {p.relative_to(ROOT).as_posix() for p in ROOT.glob(pattern)}
         assert wanted, pattern
         assert wanted <= sdist_names, (pattern, sorted(wanted - sdist_names))

@@ -17,7 +17,7 @@ import yaml
 
 from agents.policy_kwargs import parse_policy_kwargs, policy_kwargs_object
 
-CONFIGS = sorted((Path(__file__).resolve().parents[1] / "agents" / "configs").glob("*.yml"))
+CONFIGS = sorted((Path(__file__).resolve().parents[1] / "configs" / "agents").glob("*.yml"))
 
 
 def _entries():

@@ -18,7 +18,7 @@ or a bare number, taken in the field's SI unit (pressures absolute). Fields the 
 name keep the example rig's values. Every value is checked against the field's physical bounds:
 a wrong unit, a non-number or an impossible value raises
 :class:`~hydro_envs.params.ParameterError` naming the file, the field, the value and its unit.
-``load_rig(source)`` takes a path, a mapping, or the name of a shipped file (``presets/``).
+``load_rig(source)`` takes a path, a mapping, or the name of a shipped file (``configs/datasheets/``).
 """
 
 from __future__ import annotations
@@ -27,7 +27,6 @@ import dataclasses
 import math
 import os
 import re
-from importlib import resources
 from pathlib import Path
 from typing import Any, Mapping
 
@@ -59,7 +58,6 @@ EXTRA_UNITS: dict[str, tuple[str, float]] = {
 #: pressure levels (not differences): a unit without a gauge/absolute mark is gauge there
 _PRESSURE_LEVELS = ("supply_pressure", "tank_pressure", "pressure_floor")
 _NUMBER_UNIT = re.compile(r"^\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*(.*?)\s*$")
-_PRESETS = "hydro_envs.plants.differential_cylinder"
 
 
 def _fields() -> dict[str, dataclasses.Field]:
@@ -144,8 +142,10 @@ def rig_mapping(data: Mapping[str, Any], where: str = "parameter mapping") -> di
 
 
 def shipped_files() -> dict[str, Any]:
-    """Shipped parameter files (package data, ``presets/``): stem -> Traversable."""
-    folder = resources.files(_PRESETS).joinpath("presets")
+    """Shipped parameter files (``configs/datasheets/``): stem -> Traversable."""
+    from hydro_envs.config_files import config_file
+
+    folder = config_file("datasheets")
     return {p.name.rsplit(".", 1)[0]: p for p in folder.iterdir() if p.name.endswith(".yaml")}
 
 
