@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Sequence
 from typing import Callable
 
 __all__ = ["ValidationRow", "KINDS", "run_validation", "row_providers", "ENTRY_POINT_GROUP",
@@ -243,7 +244,7 @@ def _md(text: str) -> str:
     return text.replace("|", "\\|").replace("\n", " ")
 
 
-def format_markdown(rows: list[ValidationRow], notes: list[tuple[str, str]] = ()) -> str:
+def format_markdown(rows: list[ValidationRow], notes: Sequence[tuple[str, str]] = ()) -> str:
     """The documentation page: every row with its kind, numbers, verdict and source, then the
     plants' ``notes`` (:func:`validation_notes`)."""
     n_pass = sum(r.passed for r in rows)

@@ -152,10 +152,15 @@ def test_benchmark_configs_list_existing_baselines_of_their_env():
     from agents.benchmark_cli import load_config
 
     root = Path(__file__).resolve().parents[1]
-    for f in sorted((root / "configs" / "benchmarks").glob("*.yaml")):
+    files = sorted((root / "configs" / "benchmarks").glob("*.yaml"))
+    assert len(files) >= 14
+    main_envs = {env: plant for plant, env in PLANTS.items() if plant not in NO_BASELINE}
+    for f in files:
         cfg = load_config(f)
-        assert len(cfg["policies"]) >= 3, f
-        for rel in cfg["policies"]:
+        policies = cfg.get("policies", [])
+        if cfg["env"] in main_envs:  # a plant's main task lists its shipped seeds (the friction tasks none)
+            assert len(policies) >= 3, f
+        for rel in policies:
             pol = load_trained(root / rel)
             assert pol.env_id == cfg["env"], (f, rel)
 

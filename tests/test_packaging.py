@@ -46,7 +46,7 @@ for _, e in registry.env_entries():
     for _ in range(3):
         obs, *_ = env.step(env.action_space.sample())
     assert np.all(np.isfinite(obs)), e.id
-    print(e.id)
+    print("ENV", e.id)
 from hydro_envs.config_files import config_root
 assert "{target}" in str(config_root()), config_root()
 from agents.benchmark_cli import SHIPPED_CONFIGS, load_config, config_path
@@ -70,4 +70,5 @@ def test_installed_wheel_alone_makes_resets_and_steps_every_env(wheel, tmp_path)
     run = subprocess.run([sys.executable, "-c", _CHILD.format(target=target)], cwd=tmp_path, env=env,
                          capture_output=True, text=True)
     assert run.returncode == 0, run.stderr[-2000:]
-    assert len(run.stdout.split()) == len(list(registry.env_entries())) == 14
+    made = [ln for ln in run.stdout.splitlines() if ln.startswith("ENV ")]
+    assert len(made) == len(list(registry.env_entries())) == 14, run.stdout[-2000:]

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import importlib.metadata
 import importlib.util
 import shutil
 import subprocess
@@ -25,10 +26,18 @@ _NOT_SOURCE = shutil.ignore_patterns(".git", ".venv", "*.egg-info", "build", "di
                                      ".ruff_cache")
 
 
+def _installed(dist: str) -> bool:
+    try:
+        importlib.metadata.version(dist)
+    except importlib.metadata.PackageNotFoundError:
+        return False
+    return True
+
+
 def _build_sdist(out: Path) -> Path:
     src = out / "src"
     shutil.copytree(ROOT, src, ignore=_NOT_SOURCE)
-    if importlib.util.find_spec("build") is not None:
+    if _installed("build"):  # the distribution, not a ./build folder on sys.path (a wheel build's)
         cmd = [sys.executable, "-m", "build", "--sdist", "--no-isolation", "--outdir", str(out), str(src)]
     elif importlib.util.find_spec("setuptools") is not None:
         cmd = [sys.executable, "-c", _BACKEND, str(out)]

@@ -31,7 +31,7 @@ def rig_viscous_coefficient(params: LSCompensatorParams, temperature: float) -> 
     (:func:`~.experiments.fit_viscous_coefficient`), as the seed fitted its Amesim model."""
     p = dataclasses.replace(params, oil_temperature=temperature)
     f0 = math.floor(_lumped_peak_hz(p))
-    r = run_method1(p, np.arange(f0 - 12.0, f0 + 13.0, 2.0), amplitude=1.0 * _BAR, duration=1.2, settle=0.4)
+    r = run_method1(p, np.arange(f0 - 12.0, f0 + 13.0, 2.0).tolist(), amplitude=1.0 * _BAR, duration=1.2, settle=0.4)
     return fit_viscous_coefficient(r)
 
 
@@ -39,7 +39,7 @@ def method2_resonance_hz(params: LSCompensatorParams, mean_gauge: float, orifice
     """000 sec. 4 on the model: peak of eq (18)'s first-harmonic ratio over pump speeds that put the
     tooth frequency 264-330 Hz (6 Hz grid), at ``mean_gauge`` [Pa] and ``orifice`` diameter [m]."""
     speeds = 60.0 / TEETH * np.arange(258.0, 337.0, 6.0)
-    r = run_method2(params, speeds, mean_pressures_gauge=(mean_gauge,), orifice_diameters=(orifice,),
+    r = run_method2(params, speeds.tolist(), mean_pressures_gauge=(mean_gauge,), orifice_diameters=(orifice,),
                     duration=0.5, settle=0.2)
     return peak_frequency(r.frequency, r.magnitude)
 
