@@ -314,6 +314,7 @@ def diagnose(plant: str | DiagnosisPlant, records: Sequence[Record], holdout: Se
     rounds: list[Round] = []
     accepted: list[dict[str, Any]] = []
     ambiguous = ""
+    beyond: list[str] = []  # candidates that fit best but beyond their plausible bound (notes say how far)
     while len(accepted) < max_effects and len(rounds) <= max_effects:
         in_floor: dict[str, float] | None = None
         locate = residual_maps(spec, cur.model, records, sigma) if maps else {}
@@ -435,6 +436,10 @@ def diagnose(plant: str | DiagnosisPlant, records: Sequence[Record], holdout: Se
                         decision, sep = pair_decision, pair_sep
         rounds.append(Round(h_cur, h_nr, locate, pred, results, decision, sep))
         say(f"  -> {decision}")
+        for n in _implausible_best_notes(results, decision, accept_gain, len(rounds)):
+            say(f"  {n}")
+            notes.append(n)
+            beyond.append(n.split(": ", 2)[1].split(" explains")[0])
         if decision.startswith("ambiguous"):
             ambiguous = decision
             ambiguous_model = next(c for c in results if c.name == decision.split(": ")[1].split(" vs ")[0]).model
@@ -470,6 +475,9 @@ def diagnose(plant: str | DiagnosisPlant, records: Sequence[Record], holdout: Se
                                                         for a in accepted)
                          + "); found in the order " + ", ".join(found))
     verdict, reason = _verdict(accepted, ambiguous, worst, mismatch, residual[-1]["step"], factor)
+    if beyond:
+        reason += (f"; best fit beyond its plausible bound, not named: {', '.join(dict.fromkeys(beyond))} "
+                   "(value and bound in the notes: check the rig)")
     for a in accepted:  # every named effect's values in the final model (later rounds refit them)
         a["final_parameters"] = {k: (float(cur.model.delay) if k == "delay" else float(getattr(cur.model.params, k)))
                                  for k in a["parameters"]}
@@ -699,6 +707,24 @@ def _describe(name: str) -> str:
         return f"{SENSOR_OFFSETS}: {_OFFSET_EXPERIMENT}"
     e = effect(name)
     return f"{e.name}: {e.separating_experiment}"
+
+
+def _implausible_best_notes(results: Sequence[Candidate], decision: str, accept_gain: float,
+                            round_no: int) -> list[str]:
+    """Notes on candidates that explain the held-out data better than the round's decision but
+    were not named because a fitted value lies beyond its plausible bound: the value and the
+    bound are reported ("check the rig"), never dropped without a word."""
+    names = set(decision.split(": ", 1)[1].split(" vs ")) if decision.startswith("ambiguous") else {decision}
+    bar = min((c.heldout for c in results if c.name in names), default=math.inf)
+    out = []
+    for c in results:
+        if c.plausible or not c.identifiable or c.gain < accept_gain or c.heldout >= bar:
+            continue
+        why = "; ".join(r for r in c.reasons if "plausib" in r) or "; ".join(c.reasons)
+        out.append(f"round {round_no}: {c.name} explains the held-out data best (gain {c.gain:.1%}) but is not "
+                   f"named: {why} -- check the rig (an effect that large is not expected on a working one), "
+                   "or widen the bound if the rig is known to have it")
+    return out
 
 
 def _decide(spec: DiagnosisPlant, results: Sequence[Candidate], accept_gain: float, margin: float) -> tuple[str, str]:
