@@ -15,6 +15,7 @@ from identification.diagnosis.catalogue import Effect, effect, effects_for
 from identification.diagnosis.plants import DiagnosisPlant
 from identification.diagnosis.records import Record, velocity_estimate
 from identification.diagnosis.models import BASE_FIT_FACTOR, SENSOR_OFFSETS, DRIFT_FLAG, Model, OFFSET_ESTIMATE_FLAG, _scored, present_effects, with_effect
+from identification.diagnosis.final_model import on_bound
 from identification.diagnosis.fitting import FIT_MAX_SUBSTEP_RATIO, FitOutcome, _simulate
 
 def effect_channels(spec: DiagnosisPlant, name: str, measured: Sequence[str]) -> tuple[str, ...]:
@@ -159,7 +160,7 @@ def _base_bound_notes(model: Model, stage: str) -> list[str]:
     notes = []
     for n, (lo, hi) in (model.base_bounds or {}).items():
         v = float(getattr(model.params, n))
-        if math.log(v / lo) < 1e-3 or math.log(hi / v) < 1e-3:
+        if on_bound(v, lo, hi):
             notes.append(f"{stage}: base-fit parameter {n} = {v:.4g} on its bound [{lo:.4g}, {hi:.4g}] "
                          f"({BASE_FIT_FACTOR:g} times the base model's value either way): the base model is far off "
                          "or absorbs an effect it lacks -- if the final model still has it there, give a better base "
