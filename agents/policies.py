@@ -49,6 +49,10 @@ hold only the safe layout, about 45 kB for a 64-64 PPO policy instead of 330 kB:
 
 Both layouts give bit-identical actions (tested).
 
+An rl_zoo3 run folder (``logs/<algo>/<env>_<n>/``) is read too (:mod:`agents.zoo`); its files
+are pickles, so it needs ``trust_pickle=True``, and ``export_compact`` turns it into a compact
+folder of this package.
+
 A run trained as a residual on a classical controller (a ``residual`` entry in its
 ``config.yml``, :mod:`agents.residual`) loads as a :class:`agents.residual.ResidualPolicy`
 around the :class:`TrainedPolicy`: its ``predict`` returns the combined action the policy was
@@ -280,6 +284,10 @@ def load_trained(run_dir: str | Path, which: str = "final", device: str = "cpu",
         raise ValueError(f"which = {which!r}; allowed ('final', 'best')")
     if not isinstance(trust_pickle, bool):
         raise TypeError(f"trust_pickle must be True or False, got {trust_pickle!r}")
+    from agents.zoo import is_zoo_run
+
+    if is_zoo_run(run):
+        return _load_zoo(run, which, device, trust_pickle)
     policy_file, _ = _compact_files(which)
     model_file, vn_file = (MODEL_FILE, VECNORM_FILE) if which == "final" else (BEST_MODEL_FILE, BEST_VECNORM_FILE)
     if (run / policy_file).is_file() and not (trust_pickle and (run / model_file).is_file()):
@@ -303,6 +311,20 @@ def load_trained(run_dir: str | Path, which: str = "final", device: str = "cpu",
             normalizer = pickle.load(fh)  # trusted: SB3 VecNormalize state (venv excluded)
     return _with_residual(TrainedPolicy(model, normalizer, env_id=env_id, algo=algo,
                                         config=config_all.get(env_id, {}), run_dir=run))
+
+
+def _load_zoo(run: Path, which: str, device: str, trust_pickle: bool) -> TrainedPolicy | ResidualPolicy:
+    """An rl_zoo3 run folder (:mod:`agents.zoo`): its models and normaliser are pickles."""
+    from agents.zoo import load_zoo_run
+
+    if not trust_pickle:
+        raise UntrustedPickleError(
+            f"{run} is an rl_zoo3 run folder: its model and vecnormalize.pkl are pickles, which can execute "
+            "arbitrary code from whoever wrote them, so they are not read by default. If you trust the folder, "
+            "pass --trust-pickle (trust_pickle=True), or convert it once with "
+            "agents.policies.export_compact(run, dest, trust_pickle=True)")
+    model, normalizer, env_id, algo, config = load_zoo_run(run, which, device)
+    return _with_residual(TrainedPolicy(model, normalizer, env_id=env_id, algo=algo, config=config, run_dir=run))
 
 
 def _with_residual(policy: TrainedPolicy) -> Any:
@@ -394,6 +416,16 @@ def export_compact(run_dir: str | Path, dest: str | Path, which: str = "final", 
     pol = load_trained(run_dir, which, trust_pickle=trust_pickle)
     dest = Path(dest)
     write_compact(_policy_module(pol.model), pol.obs_normalizer, dest)
+    from agents.zoo import is_zoo_run
+
+    if is_zoo_run(run_dir):  # the zoo's YAML becomes this package's run-folder files
+        import yaml
+
+        from hydro_envs.outputs import atomic_write
+
+        atomic_write(dest / ARGS_FILE, json.dumps({"env_id": pol.env_id, "algo": pol.algo}) + "\n")
+        atomic_write(dest / CONFIG_FILE, yaml.safe_dump({pol.env_id: pol.config}, sort_keys=True))
+        return dest
     for f in (CONFIG_FILE, ARGS_FILE, EVAL_CSV):
         if (Path(run_dir) / f).is_file():
             shutil.copyfile(Path(run_dir) / f, dest / f)

@@ -127,7 +127,10 @@ DEFAULT_N_EVAL = 16
 
 # keys of an env entry that are not constructor arguments of the SB3 algorithm
 _RUN_KEYS = ("n_envs", "n_timesteps", "policy", "policy_kwargs", "normalize", "env_kwargs", "residual",
-             "frame_stack")
+             "frame_stack", "vec_env_wrapper")
+#: the only ``vec_env_wrapper`` accepted: rl_zoo3's hook that gives a zoo run the native batch env
+#: this trainer always uses (:mod:`agents.zoo`)
+NATIVE_VEC_ENV_WRAPPER = "agents.zoo.native_vec_env"
 _NOISE_KEYS = ("noise_type", "noise_std")
 # constructor arguments that the trainer sets itself or that are not YAML values
 _RESERVED = {"self", "policy", "env", "seed", "device", "verbose", "tensorboard_log", "_init_setup_model",
@@ -452,6 +455,9 @@ def resolve_config(entry: Mapping[str, Any], algo: str, env_id: str,
     unknown = sorted(set(entry) - allowed)
     if unknown:
         raise ConfigError(f"{where}: unknown key(s) {unknown} for {algo}; allowed {sorted(allowed)}")
+    if entry.get("vec_env_wrapper", NATIVE_VEC_ENV_WRAPPER) != NATIVE_VEC_ENV_WRAPPER:
+        raise ConfigError(f"{where}: vec_env_wrapper = {entry['vec_env_wrapper']!r}; allowed "
+                          f"{NATIVE_VEC_ENV_WRAPPER!r} (this trainer always steps the native batch env)")
     for key in ("n_envs", "n_timesteps", "policy"):
         if key not in entry:
             raise ConfigError(f"{where}: missing key {key!r}")

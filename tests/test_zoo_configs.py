@@ -57,3 +57,9 @@ def test_rl_zoo3_trains_with_the_shipped_config(algo, tmp_path):
     r = subprocess.run(cmd, capture_output=True, text=True, timeout=900)
     assert r.returncode == 0, r.stderr[-3000:]
     assert list(tmp_path.glob(f"{algo}/*/*.zip")), r.stdout[-2000:]
+    # the shipped vec_env_wrapper gave the zoo the native batch env (agents/zoo.py), not a DummyVecEnv
+    assert list(tmp_path.glob(f"{algo}/*/native.monitor.csv")), sorted(p.name for p in tmp_path.glob(f"{algo}/*/*"))
+    from agents.policies import load_trained
+
+    run = next(tmp_path.glob(f"{algo}/*/*.zip")).parent
+    assert load_trained(run, trust_pickle=True).env_id == "hydro_envs/ServoCylinderPosition-v0"
