@@ -174,6 +174,16 @@ def _adapter(env_id: str) -> EnvAdapter:
     return ADAPTERS[env_id]
 
 
+def _rig_params(env_id: str, env_kwargs: Mapping[str, Any]) -> Any:
+    """The nominal parameters of the rig ``env_kwargs["params"]`` names (``None``: the seed rig)."""
+    if env_kwargs.get("params") is None:
+        return None
+    venv = _vector_env(env_id, 1, None, False, **dict(env_kwargs))
+    base = venv._batch.base_params
+    venv.close()
+    return base
+
+
 def _vector_env(env_id: str, n: int, steps: int | None, randomize: bool, **kwargs: Any):
     import gymnasium as gym
     from gymnasium.envs.registration import load_env_creator
@@ -648,8 +658,8 @@ def _evaluate_piece(kind: str, run: str, lo: int, part: Sequence[Mapping[str, fl
     """
     from agents.controllers import make_controller
 
-    if kind == "classical":
-        ctrl = make_controller(env_id, run)
+    if kind == "classical":  # a rig from a parameter file: the controllers are tuned on it
+        ctrl = make_controller(env_id, run, _rig_params(env_id, env_kwargs))
     else:
         ctrl = _checked_policy(loader(run), run, env_id)
     # one controller object for both episode sets (episode_start resets its state)

@@ -256,33 +256,18 @@ def test_identify_friction_recovers_coulomb_and_viscous_with_both_areas(tmp_path
 
 
 def _linear_plant(p, x):
-    from agents.controllers.margins import dry_free_linearization
+    from agents.controllers.differential_cylinder_tuning import linear_rig
 
-    Ad, Bd, C = dry_free_linearization(SPEC, p, dc.rest_state(p, x), [0.0], 1e-3, (dc.X, dc.P1, dc.P2))
-    # the loops measure x and the load pressure p1 - alpha p2: the pressure level of the sealed
-    # chambers at rest that leaves the force unchanged is a mode no feedback moves
-    C = np.vstack([C[0], C[1] - p.area_ratio * C[2]])
-    return Ad, Bd * p.command_max, C
+    return linear_rig(p, x)
 
 
 def _loops(nominal):
-    from agents.controllers.differential_cylinder import K_DP, P_BANDWIDTH, P_K_DP, pid_tuning
-    from agents.controllers.margins import pid_state_space
+    """The rule's loops tuned on ``nominal`` (agents.controllers.differential_cylinder)."""
+    from agents.controllers.differential_cylinder import CROSSOVER_RATIO, K_DP, P_CROSSOVER_RATIO, P_K_DP, pid_tuning
+    from agents.controllers.differential_cylinder_tuning import loop_set
 
-    t = pid_tuning(nominal)
-    out = {}
-    for name, (kp, ti, td) in {"pid": (t["kp"], t["ti"], t["td"]), "p": (P_BANDWIDTH / t["k_q"], math.inf, 0.0)}.items():
-        if math.isfinite(ti):
-            Ac, Bc, Cc, Dc = pid_state_space(kp, ti, td, t["tf"], 1e-3)
-        else:  # the P loop: a static gain (pid_state_space's idle integrator would be a pole at 1)
-            Ac, Bc, Cc, Dc = np.zeros((1, 1)), np.zeros((1, 1)), np.zeros((1, 1)), np.array([[-kp]])
-        k_dp = K_DP if name == "pid" else P_K_DP
-        Bc = np.hstack([Bc, np.zeros((Bc.shape[0], 1))])
-        Dc = np.hstack([Dc, [[-k_dp / nominal.supply_pressure]]])  # -k_dp (p1 - alpha p2) / p_s
-        # the area-ratio compensation (of the PID) scales the retracting half by 1/sqrt(alpha): both gains
-        for g in ((1.0, 1.0 / math.sqrt(nominal.area_ratio)) if name == "pid" else (1.0,)):
-            out[f"{name} x{g:.2f}"] = (Ac, Bc, g * Cc, g * Dc)
-    return out
+    p_bandwidth = P_CROSSOVER_RATIO * pid_tuning(nominal)["omega_h"]
+    return loop_set(nominal, CROSSOVER_RATIO, K_DP, p_bandwidth, P_K_DP)
 
 
 def test_classical_loops_are_stable_without_dry_friction_over_the_randomisation():

@@ -18,6 +18,7 @@ env id and name.
 from __future__ import annotations
 
 import importlib
+import inspect
 from collections.abc import Callable
 from types import ModuleType
 from typing import Any
@@ -68,11 +69,18 @@ def controller_names(env_id: str) -> tuple[str, ...]:
     return tuple(CONTROLLERS[env_id]())
 
 
-def make_controller(env_id: str, name: str) -> Any:
-    """A fresh classical controller ``name`` for ``env_id`` (tuned on the nominal plant)."""
-    table = CONTROLLERS[env_id]() if env_id in CONTROLLERS else None
-    if table is None:
+def make_controller(env_id: str, name: str, params: Any = None) -> Any:
+    """A fresh classical controller ``name`` for ``env_id``, tuned on the nominal plant, or on
+    ``params`` (a rig's parameters, e.g. from a parameter file) where the plant's
+    ``controllers(params)`` takes them; ``ValueError`` where it does not."""
+    if env_id not in CONTROLLERS:
         raise ValueError(f"env_id = {env_id!r}; classical controllers exist for {sorted(CONTROLLERS)}")
+    if params is None:
+        table = CONTROLLERS[env_id]()
+    elif "params" in inspect.signature(CONTROLLERS[env_id]).parameters:
+        table = CONTROLLERS[env_id](params)
+    else:
+        raise ValueError(f"the controllers of {env_id} are tuned on the seed rig only; they take no rig parameters")
     if name not in table:
         raise ValueError(f"controller = {name!r} for {env_id}; allowed {sorted(table)}")
     return table[name]()

@@ -17,7 +17,11 @@ nominal 904 rad/s). As for the servo plant::
     k_dp = 0.12,  omega_c = 0.03 omega_h,  K_p = omega_c / K_q,  T_i = 4 / omega_c,
     T_d = 0.1 / omega_c,  T_f = 1 / (0.2 omega_h)
 
-(the P loop: ``K_p = 25 1/s / K_q``, ``k_dp = 0.06``). On the plant linearised without dry friction,
+(the P loop: ``K_p = 0.0277 omega_h / K_q``, 25 1/s on the example rig, ``k_dp = 0.06``).
+A rig from a parameter file (``controllers(params)``, ``hydro benchmark --params FILE``) is
+tuned by the same rule on its own ``K_q`` and ``omega_h``; check its margins with
+:mod:`agents.controllers.differential_cylinder_tuning` where its valve is not clearly faster
+than its oil spring (the rule assumes it is). On the plant linearised without dry friction,
 sampled at 1 ms, at the minimum-frequency position, mid-stroke and 90 % stroke over the
 randomisation's corners (``tests/test_differential_cylinder.py``): the PID's gain margin is at
 least 13.2 dB (11.5 dB with the area-ratio compensation's retracting gain), the P loop's 22 dB.
@@ -48,17 +52,18 @@ from agents.controllers.tracking import PressureLoopPID
 from hydro_envs.plants.differential_cylinder.model import minimum_natural_frequency, no_load_velocity, speed_ratio
 from hydro_envs.plants.differential_cylinder.params import DifferentialCylinderParams
 
-__all__ = ["K_DP", "CROSSOVER_RATIO", "pid_tuning", "DifferentialPID", "stribeck_law", "controllers",
+__all__ = ["K_DP", "CROSSOVER_RATIO", "P_CROSSOVER_RATIO", "P_K_DP", "pid_tuning", "DifferentialPID", "stribeck_law", "controllers",
            "benchmark_adapter"]
 
 #: gain of the load-pressure loop [action per supply pressure]
 K_DP = 0.12
 #: loop crossover over the smallest hydraulic natural frequency
 CROSSOVER_RATIO = 0.03
-#: bandwidth of the P loop [1/s] and its load-pressure gain: without the PID's derivative the
-#: pressure loop takes less gain (on the plant linearised without dry friction over the
-#: randomisation's corners, k_dp = 0.12 leaves 3.9 dB of gain margin, 0.06 leaves 22 dB; tests)
-P_BANDWIDTH = 25.0
+#: bandwidth of the P loop over the smallest hydraulic natural frequency (25 1/s on the example
+#: rig's 904 rad/s) and its load-pressure gain: without the PID's derivative the pressure loop
+#: takes less gain (on the plant linearised without dry friction over the randomisation's
+#: corners, k_dp = 0.12 leaves 3.9 dB of gain margin, 0.06 leaves 22 dB; tests)
+P_CROSSOVER_RATIO = 0.02765
 P_K_DP = 0.06
 
 
@@ -103,7 +108,7 @@ class DifferentialPID(PressureLoopPID):
         p = params if params is not None else DifferentialCylinderParams()
         t = pid_tuning(p)
         ti, td = (t["ti"], t["td"]) if integral else (math.inf, 0.0)
-        kp = t["kp"] if integral else P_BANDWIDTH / t["k_q"]
+        kp = t["kp"] if integral else P_CROSSOVER_RATIO * t["omega_h"] / t["k_q"]
         k_dp = t["k_dp"] if integral else P_K_DP
         return cls(kp, ti, td, t["tf"], stroke=p.stroke, error_scale=error_scale, k_q=t["k_q"], area=p.piston_area,
                    supply_pressure=p.supply_pressure, k_dp=k_dp, vff=vff, model=model, alpha=p.area_ratio,
@@ -132,18 +137,23 @@ _STEP_REFERENCE = {
 }
 
 
-def controllers() -> dict:
-    """Classical controllers of this plant's envs: name -> zero-argument factory (module docstring)."""
+def controllers(params: DifferentialCylinderParams | None = None) -> dict:
+    """Classical controllers of this plant's envs: name -> zero-argument factory (module docstring),
+    tuned by the docstring's rule on ``params`` (default: the example rig) -- a rig from a
+    parameter file (``hydro benchmark --params FILE``) gets its own gains and friction model."""
     from agents.controllers.core import ZeroController
 
-    nominal = DifferentialCylinderParams()
+    nominal = params if params is not None else DifferentialCylinderParams()
+    if not isinstance(nominal, DifferentialCylinderParams):
+        raise TypeError(f"params must be DifferentialCylinderParams, got {type(nominal).__name__}")
     return {
         "zero": lambda: ZeroController(1),
-        "p": lambda: DifferentialPID.from_params(integral=False),
-        "pid": DifferentialPID.from_params,
-        "pid_vff": lambda: DifferentialPID.from_params(vff=True),
-        "pid_vff_arc": lambda: DifferentialPID.from_params(vff=True, arc=True),
-        "pid_vff_arc_stribeck": lambda: DifferentialPID.from_params(vff=True, arc=True, model=stribeck_law(nominal)),
+        "p": lambda: DifferentialPID.from_params(nominal, integral=False),
+        "pid": lambda: DifferentialPID.from_params(nominal),
+        "pid_vff": lambda: DifferentialPID.from_params(nominal, vff=True),
+        "pid_vff_arc": lambda: DifferentialPID.from_params(nominal, vff=True, arc=True),
+        "pid_vff_arc_stribeck": lambda: DifferentialPID.from_params(nominal, vff=True, arc=True,
+                                                                    model=stribeck_law(nominal)),
     }
 
 
