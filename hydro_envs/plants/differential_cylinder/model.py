@@ -48,6 +48,7 @@ import math
 
 import numpy as np
 
+from hydro_envs.contract import PlantModel
 from hydro_envs.jit import njit_noalloc
 from hydro_envs.laws.contact import end_stop_force
 from hydro_envs.laws.orifice import regularized_signed_sqrt, spool_edge_opening
@@ -67,6 +68,7 @@ from hydro_envs.plants.differential_cylinder.params import (  # noqa: F401  (ind
 from hydro_envs.sim.stiffness import second_order_pole_magnitude
 
 __all__ = [
+    "CONTRACT",
     "DifferentialCylinderParams", "STATE_NAMES", "differential_cylinder_rhs", "differential_cylinder_guard",
     "stiffness_modes", "friction_level", "hydraulic_natural_frequency", "minimum_natural_frequency",
     "no_load_velocity", "speed_ratio", "rest_state", "rest_state_from_measurement",
@@ -267,3 +269,12 @@ def rest_state_from_measurement(params: DifferentialCylinderParams, first: dict)
     y[P1] = first.get("p1", y[P1])
     y[P2] = first.get("p2", y[P2])
     return y
+
+
+#: the plant's typed contract (hydro_envs.contract.PlantModel): what the registry, sim, envs,
+#: identification, diagnosis and the soak test read of this model
+CONTRACT = PlantModel(
+    state_names=STATE_NAMES, state_units=STATE_UNITS, stiffness_modes=stiffness_modes,
+    state_outputs=STATE_OUTPUTS, derivative_outputs=DERIVATIVE_OUTPUTS,
+    fit_outputs=FIT_OUTPUTS, rest_state=rest_state, rest_state_from_measurement=rest_state_from_measurement,
+)
