@@ -80,6 +80,11 @@ class PlantModel:
     * ``piston_area(params) -> m^2``: the area that turns chamber pressures into force, for a
       plant whose parameter set has no ``piston_area`` field (the agents' friction-model fit,
       ``agents.controllers.friction_models``).
+    * ``load_params(source) -> params``: the plant's reader of a parameter file with units (a
+      data sheet: path, shipped name or mapping), converting and checking each value once
+      (``--params FILE`` of ``hydro identify`` and ``hydro diagnose``, the friction command's
+      geometry); ``None``: a parameter file is a preset (``plant:``, ``parameters:``, each
+      ``{value, unit, source}``, :func:`identification.ranges.load_preset`).
     """
 
     state_names: tuple[str, ...]
@@ -97,6 +102,7 @@ class PlantModel:
     soak_temperatures: Callable[[Any, Any], Any] | None = None
     soak_temperature_floor: Callable[[Any], Any] | None = None
     piston_area: Callable[[Any], float] | None = None
+    load_params: Callable[[Any], Any] | None = None
 
     def __post_init__(self) -> None:
         for f in ("state_names", "state_units"):
@@ -139,7 +145,7 @@ class PlantModel:
 
 
 _CALLABLES = ("computed_outputs", "rest_state", "rest_state_from_measurement", "n_states_for", "relief_bounds",
-              "soak_temperatures", "soak_temperature_floor", "piston_area")
+              "soak_temperatures", "soak_temperature_floor", "piston_area", "load_params")
 
 
 @dataclasses.dataclass(frozen=True)

@@ -433,7 +433,10 @@ def _differential_areas(args: argparse.Namespace, data: Any) -> tuple[float, flo
     if args.bore is not None:
         bore, rod = args.bore, args.rod
     elif getattr(args, "params", None) is not None:
-        rig = registry.get(args.plant).module("datasheet").load_rig(args.params)
+        load = registry.get(args.plant).contract.load_params
+        if load is None:
+            raise CliError(f"--params: plant {args.plant!r} reads no parameter file")
+        rig = load(args.params)
         bore, rod, amb, note = rig.bore, rig.rod, rig.ambient_pressure, f"bore and rod from {args.params}"
     else:
         bore = _param_metadata(data, "param.bore", str(args.data))
@@ -720,6 +723,10 @@ def _greybox_arguments(p: argparse.ArgumentParser) -> None:
                    help="parameters to fit (field names of the plant's parameter dataclass)")
     p.add_argument("--preset", default=None,
                    help="start from a preset of the plant's parameter class (where it has presets)")
+    p.add_argument("--params", default=None, metavar="FILE",
+                   help="start from a parameter file with units: a preset YAML (plant:, parameters: NAME: {value, "
+                   "unit, source}; it must list the rig's geometry unless --nominal-geometry) or the plant's data "
+                   "sheet where it reads one (differential_cylinder: bore: 63 mm, ...)")
     p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
                    help="override a start/fixed parameter value (repeatable)")
     p.add_argument("--outputs", default=None, metavar="CH[,CH...]",
@@ -771,7 +778,7 @@ def _greybox_geometry(args: argparse.Namespace, base: Any, over: dict[str, float
         base = cls.from_mapping(meta, base=base)
         print(f"hydro identify: note: geometry from the file's metadata: {geometry_text(base, list(meta))}",
               file=sys.stderr)
-    given = [*over, *meta, *fit, *(cls.geometry if args.preset or args.nominal_geometry else ())]
+    given = [*over, *meta, *fit, *(cls.geometry if args.preset or args.params or args.nominal_geometry else ())]
     err = missing_geometry_error(cls, given, str(args.data), "give each with --set NAME=VALUE (SI units), "
                                  "a --preset or the file's metadata", "--nominal-geometry")
     if err is not None:
@@ -792,7 +799,14 @@ def _greybox_run(args: argparse.Namespace) -> dict[str, Any]:
     cls = setup["params"]
     if args.preset and not setup["presets"]:
         raise ValueError(f"--preset: plant {args.plant!r} has no presets")
-    base = cls.preset(args.preset) if args.preset else cls()
+    if args.preset and args.params:
+        raise CliError(f"give --preset ({args.preset}) or --params ({args.params}), not both")
+    if args.params:
+        from identification.params_file import load_params_file
+
+        base = load_params_file(args.plant, args.params, require=() if args.nominal_geometry else cls.geometry)
+    else:
+        base = cls.preset(args.preset) if args.preset else cls()
     over = {}
     for item in args.set:
         if "=" not in item:
@@ -821,7 +835,8 @@ def _greybox_run(args: argparse.Namespace) -> dict[str, Any]:
     prog.close()
     d = res.to_json_dict()
     d.update({"plant": args.plant, "data": str(args.data), "model": type(base).__name__
-              + (f" (preset {args.preset})" if args.preset else "")})
+              + (f" (preset {args.preset})" if args.preset else "")
+              + (f" (parameters {args.params})" if args.params else "")})
     return d
 
 
