@@ -204,7 +204,7 @@ def conformance_problems(spec: Any, run_kernels: bool = True) -> list[str]:
     and evaluate the right-hand side there (finite results)."""
     import numpy as np
 
-    name = getattr(spec, "name", "?")
+    name = spec.name
     out: list[str] = []
     try:
         model = spec.contract
@@ -247,10 +247,11 @@ def _output_problems(name: str, model: PlantModel, spec: Any) -> list[str]:
         bad = [c for c in model.fit_outputs if c not in known]
         if bad:
             out.append(f"plant {name!r}: fit_outputs {bad} are neither outputs nor channels")
-    if model.presets is not None:
-        missing = [k for k in model.presets if not hasattr(spec.params_cls, "preset")]
-        if missing:
-            out.append(f"plant {name!r}: presets {missing} but {spec.params_cls.__name__} has no preset()")
+    for k in model.presets or ():
+        try:
+            spec.params_cls.preset(k)
+        except Exception as e:  # noqa: BLE001 -- reported, not raised
+            out.append(f"plant {name!r}: presets: {spec.params_cls.__name__}.preset({k!r}) raised {type(e).__name__}: {e}")
     return out
 
 

@@ -208,3 +208,12 @@ def test_the_factory_kernel_is_bit_identical_to_a_hand_written_one():
         runs.append((Y, c))
     assert np.array_equal(runs[0][0], runs[1][0]) and np.array_equal(runs[0][1], runs[1][1])
     assert not np.array_equal(runs[0][0], Y0)  # it moved
+
+
+def test_an_unknown_preset_is_named():
+    spec = registry.get("shaking_table")
+    broken = types.SimpleNamespace(name="broken_table", contract=dataclasses.replace(spec.contract, presets=("nope",)),
+                                   kernels=spec.kernels, params_cls=spec.params_cls, channels=spec.channels,
+                                   inputs=spec.inputs)
+    problems = conformance_problems(broken, run_kernels=False)
+    assert len(problems) == 1 and "broken_table" in problems[0] and "preset('nope')" in problems[0], problems
