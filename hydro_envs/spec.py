@@ -33,7 +33,10 @@ from typing import Any
 
 from hydro_envs.contract import KernelSet, PlantModel
 
-__all__ = ["Channel", "TIME_CHANNEL", "EnvEntry", "PlantSpec"]
+__all__ = ["Channel", "TIME_CHANNEL", "EnvEntry", "PlantSpec", "FRICTION_TESTS"]
+
+#: the friction command's tests a plant may declare (:attr:`PlantSpec.friction_test`)
+FRICTION_TESTS = (None, "annulus", "two_areas", "strokes")
 
 _NAME_RE = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
 _UNIT_RE = re.compile(r"[^\[\],\r\n]*")
@@ -107,6 +110,13 @@ class PlantSpec:
     max_pressure: float | None = None
     max_force: float | None = None
     regular_clock: bool = True
+    #: the friction command's constant-velocity test on this plant (``hydro identify friction``):
+    #: "annulus" (a double-rod cylinder's square wave, F = A (p1 - p2), A the annulus from --area,
+    #: --bore with --rod or the record's piston_area metadata), "two_areas" (a single-rod
+    #: cylinder's square wave, F = A1 p1 - A2 p2, from --bore with --rod, --params FILE or the
+    #: record's param.bore / param.rod metadata), "strokes" (a seal bench's constant-speed
+    #: strokes, F over one bore); None: no such test
+    friction_test: str | None = None
 
     def __post_init__(self) -> None:
         if not _NAME_RE.fullmatch(self.name):
@@ -119,6 +129,8 @@ class PlantSpec:
         missing = [i for i in self.inputs if i not in names]
         if missing:
             raise ValueError(f"plant {self.name!r}: inputs {missing} are not channels {names}")
+        if self.friction_test not in FRICTION_TESTS:
+            raise ValueError(f"plant {self.name!r}: friction_test = {self.friction_test!r}; allowed one of {FRICTION_TESTS}")
         for f in ("max_sample_time", "max_stroke", "max_pressure", "max_force"):
             v = getattr(self, f)
             if v is not None and not (isinstance(v, (int, float)) and 0 < v < float("inf")):

@@ -217,3 +217,12 @@ def test_an_unknown_preset_is_named():
                                    inputs=spec.inputs)
     problems = conformance_problems(broken, run_kernels=False)
     assert len(problems) == 1 and "broken_table" in problems[0] and "preset('nope')" in problems[0], problems
+
+
+def test_the_friction_command_takes_its_plants_and_tests_from_the_registry():
+    from identification.cli import _friction_tests
+
+    assert _friction_tests() == {"servo_cylinder": "annulus", "seal_friction": "strokes",
+                                 "differential_cylinder": "two_areas"}
+    with pytest.raises(ValueError, match="friction_test = 'square'"):
+        PlantSpec(name="p", title="t", source="s", channels=(Channel("x", "m", "x"),), friction_test="square")
