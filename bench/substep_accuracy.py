@@ -63,7 +63,7 @@ def record(env_id: str, copies: int, warmup: int, steps: int, hold: int, seed: i
     snap = {"Y": b.Y.copy(), "P": b.P.copy(), "NSUB": b.NSUB.copy(), "dt": float(b.dt),
             "W": np.zeros_like(b.W), "spec": b.plant_spec}
     kern = b.plant_spec.kernels
-    snap["step"] = (kern.for_params(b.P) if hasattr(kern, "for_params") else kern).step_parallel
+    snap["step"] = kern.pick(b.P).step_parallel
     inputs = []
     for k in range(steps):
         held = actions(k, held)

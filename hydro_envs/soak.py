@@ -118,6 +118,7 @@ import gymnasium as gym
 import numpy as np
 
 from hydro_envs import registry
+from hydro_envs.contract import PlantModel
 from hydro_envs.params import ParameterError
 
 __all__ = [
@@ -244,15 +245,15 @@ def _actions(rng, mode, level, hold, adim, mean_hold):
 
 class _LimitTracker:
     """The physical bounds of a plant's chambers, checked after every env step: pressures below
-    their relief valves' full-flow pressure (the model's ``relief_bounds(P) -> (state indices,
+    their relief valves' full-flow pressure (the contract's ``relief_bounds(P) -> (state indices,
     (n, k) bounds [Pa])``), pneumatic temperatures (the model's ``soak_temperatures(Y, P) ->
     (n, k) [K]``) above its ``soak_temperature_floor(P)`` (the steps below
     :data:`MIN_TEMPERATURE` counted apart); a plant without them has no such breach."""
 
-    def __init__(self, model: Any) -> None:
-        self.relief = getattr(model, "relief_bounds", None)
-        self.temperatures = getattr(model, "soak_temperatures", None)
-        self.floor = getattr(model, "soak_temperature_floor", None)
+    def __init__(self, model: PlantModel) -> None:
+        self.relief = model.relief_bounds
+        self.temperatures = model.soak_temperatures
+        self.floor = model.soak_temperature_floor
         self.max_ratio = self.max_pressure = self.min_temperature = float("nan")
         self.cold_steps = 0
 
@@ -267,7 +268,7 @@ class _LimitTracker:
             if np.isfinite(ratio).any():
                 self.max_ratio = float(np.fmax(self.max_ratio, np.nanmax(ratio)))
                 self.max_pressure = float(np.fmax(self.max_pressure, np.nanmax(pr)))
-        if self.temperatures is not None:
+        if self.temperatures is not None and self.floor is not None:
             t = self.temperatures(Y, P)
             out["temperature"] = np.any(~(t >= self.floor(P)[:, None]), axis=1)
             self.cold_steps += int(np.any(t < MIN_TEMPERATURE, axis=1).sum())
@@ -318,7 +319,7 @@ def soak_env(
     hold = np.zeros(n, dtype=np.int64)
     mean_hold = np.ones(n)
     max_excess = 0.0
-    limits = _LimitTracker(b.plant)
+    limits = _LimitTracker(b.plant_spec.contract)
     # energy-balance windows (see ENERGY_WINDOW): start energy and state, sums over the window
     win_e0 = np.zeros(n)
     win_y0 = np.zeros_like(b.Y)

@@ -4,9 +4,11 @@ A plant lives in one folder, ``hydro_envs/plants/<name>/``, with modules of fixe
 
 =================  ==========================================================================
 ``params.py``      the validated parameter dataclass (value, unit, range, source per field)
-``model.py``       state layout, numba right-hand side and guard, stiffness bound, outputs
-``kernels.py``     the right-hand side bound to the shared RK4 integrator (compiled, cached);
-                   optionally ``for_params(P)``: the env step kernels for parameter rows ``P``
+``model.py``       state layout, numba right-hand side and guard, stiffness bound, outputs;
+                   its ``CONTRACT``: the :class:`~hydro_envs.contract.PlantModel` consumers read
+``kernels.py``     its ``KERNELS``: the right-hand side bound to the shared RK4 integrator
+                   (:func:`hydro_envs.sim.binding.bind_rk4`, compiled, cached), a
+                   :class:`~hydro_envs.contract.KernelSet`
 ``energy.py``      energy/mass-balance terms and guard checks of the soak test
 ``validation.py``  rows comparing the model with numbers printed in its seed paper
 ``experiments.py`` virtual experiments of the rig (optional)
@@ -29,7 +31,12 @@ from importlib import resources
 from types import ModuleType
 from typing import Any
 
-__all__ = ["Channel", "TIME_CHANNEL", "EnvEntry", "PlantSpec"]
+from hydro_envs.contract import KernelSet, PlantModel
+
+__all__ = ["Channel", "TIME_CHANNEL", "EnvEntry", "PlantSpec", "FRICTION_TESTS"]
+
+#: the friction command's tests a plant may declare (:attr:`PlantSpec.friction_test`)
+FRICTION_TESTS = (None, "annulus", "two_areas", "strokes")
 
 _NAME_RE = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
 _UNIT_RE = re.compile(r"[^\[\],\r\n]*")
@@ -103,6 +110,13 @@ class PlantSpec:
     max_pressure: float | None = None
     max_force: float | None = None
     regular_clock: bool = True
+    #: the friction command's constant-velocity test on this plant (``hydro identify friction``):
+    #: "annulus" (a double-rod cylinder's square wave, F = A (p1 - p2), A the annulus from --area,
+    #: --bore with --rod or the record's piston_area metadata), "two_areas" (a single-rod
+    #: cylinder's square wave, F = A1 p1 - A2 p2, from --bore with --rod, --params FILE or the
+    #: record's param.bore / param.rod metadata), "strokes" (a seal bench's constant-speed
+    #: strokes, F over one bore); None: no such test
+    friction_test: str | None = None
 
     def __post_init__(self) -> None:
         if not _NAME_RE.fullmatch(self.name):
@@ -115,6 +129,8 @@ class PlantSpec:
         missing = [i for i in self.inputs if i not in names]
         if missing:
             raise ValueError(f"plant {self.name!r}: inputs {missing} are not channels {names}")
+        if self.friction_test not in FRICTION_TESTS:
+            raise ValueError(f"plant {self.name!r}: friction_test = {self.friction_test!r}; allowed one of {FRICTION_TESTS}")
         for f in ("max_sample_time", "max_stroke", "max_pressure", "max_force"):
             v = getattr(self, f)
             if v is not None and not (isinstance(v, (int, float)) and 0 < v < float("inf")):
@@ -149,20 +165,26 @@ class PlantSpec:
         return self.module("model")
 
     @property
-    def kernels(self) -> ModuleType:
-        return self.module("kernels")
+    def contract(self) -> PlantModel:
+        """The model's typed contract (``model.CONTRACT``, :class:`hydro_envs.contract.PlantModel`)."""
+        return _typed(self.model, "CONTRACT", PlantModel, self.name)
+
+    @property
+    def kernels(self) -> KernelSet:
+        """The compiled kernels (``kernels.KERNELS``, :class:`hydro_envs.contract.KernelSet`)."""
+        return _typed(self.module("kernels"), "KERNELS", KernelSet, self.name)
 
     @property
     def state_names(self) -> tuple[str, ...]:
-        return tuple(self.model.STATE_NAMES)
+        return self.contract.state_names
 
     @property
     def state_units(self) -> tuple[str, ...]:
-        return tuple(self.model.STATE_UNITS)
+        return self.contract.state_units
 
     @property
     def n_states(self) -> int:
-        return len(self.model.STATE_NAMES)
+        return self.contract.n_states
 
     @property
     def env_ids(self) -> tuple[str, ...]:
@@ -170,24 +192,24 @@ class PlantSpec:
 
     @property
     def state_outputs(self) -> dict[str, int]:
-        """Measured channel -> the state index its sensor reads (``model.STATE_OUTPUTS``)."""
-        return dict(getattr(self.model, "STATE_OUTPUTS", {}))
+        """Measured channel -> the state index its sensor reads (``PlantModel.state_outputs``)."""
+        return dict(self.contract.state_outputs)
 
     @property
     def derivative_outputs(self) -> dict[str, int]:
         """Measured channel -> the state whose derivative its sensor reads (an accelerometer)."""
-        return dict(getattr(self.model, "DERIVATIVE_OUTPUTS", {}))
+        return dict(self.contract.derivative_outputs)
 
     def sensor_outputs(self, states: Any, params_rows: Any, inputs: Any = None) -> dict[str, Any]:
         """Noise-free sensor outputs of trajectories ``states (c, T, n_states)`` under kernel
         parameter rows ``(c, n_params)``: state readings, computed outputs
-        (``model.computed_outputs``) and, when ``inputs (c, T', n_in)`` are given, derivative
+        (``PlantModel.computed_outputs``) and, when ``inputs (c, T', n_in)`` are given, derivative
         readings (the right-hand side along the trajectory)."""
         import numpy as np
 
         states = np.asarray(states, dtype=np.float64)
         out = {c: states[:, :, j] for c, j in self.state_outputs.items()}
-        computed = getattr(self.model, "computed_outputs", None)
+        computed = self.contract.computed_outputs
         if computed is not None:
             out.update(computed(states, np.asarray(params_rows)))
         if inputs is not None and self.derivative_outputs:
@@ -205,7 +227,7 @@ class PlantSpec:
 
     def stiffness_modes(self, params: Any) -> dict[str, float]:
         """Upper estimates of the Jacobian eigenvalue magnitudes [1/s] of ``params``."""
-        return self.model.stiffness_modes(params)
+        return dict(self.contract.stiffness_modes(params))
 
     def without_dry_friction(self, values: Any) -> dict[str, float]:
         """A parameter mapping ``values`` (overrides of the nominal set) with every dry-friction
@@ -249,6 +271,15 @@ class PlantSpec:
             d["parameters_class"] = self.params_class
             d["states"] = [{"name": n, "unit": u} for n, u in zip(self.state_names, self.state_units)]
         return d
+
+
+def _typed(module: ModuleType, attr: str, kind: type, plant: str) -> Any:
+    """``module.<attr>``, which must be a ``kind`` (:mod:`hydro_envs.contract`) instance."""
+    obj = module.__dict__.get(attr)
+    if not isinstance(obj, kind):
+        raise TypeError(f"plant {plant!r}: {module.__name__}.{attr} must be a hydro_envs.contract.{kind.__name__}, "
+                        f"got {type(obj).__name__}")
+    return obj
 
 
 @functools.lru_cache(maxsize=None)

@@ -315,21 +315,32 @@ def main(argv: Sequence[str] | None = None) -> int:
 # method: friction
 # ======================================================================================
 
-_FRICTION_PLANTS = ("servo_cylinder", "seal_friction", "differential_cylinder")
+def _friction_tests() -> dict[str, str]:
+    """Plant -> its friction test (``PlantSpec.friction_test``: annulus, two_areas, strokes), registry order."""
+    from hydro_envs import registry
+
+    return {s.name: s.friction_test for s in registry.specs() if s.friction_test is not None}
+
+
+def _friction_plants(test: str) -> list[str]:
+    return [n for n, t in _friction_tests().items() if t == test]
+
+
 _FRICTION_MODELS = ("stribeck", "stribeck_gaussian", "coulomb_viscous", "coulomb", "neural_ff",
                     "neural_rbf")
 
 
 def _friction_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--plant", required=True, choices=_FRICTION_PLANTS,
-                   help="servo_cylinder: square-wave constant-velocity test (002 sec. 4; "
-                   "channels u, x, p1, p2); seal_friction: constant-speed strokes (original "
-                   "whitespace files or measured-data CSV); differential_cylinder: the square wave of a "
+    annulus, two, strokes = (", ".join(_friction_plants(t)) for t in ("annulus", "two_areas", "strokes"))
+    p.add_argument("--plant", required=True, choices=list(_friction_tests()),
+                   help=f"{annulus}: square-wave constant-velocity test (002 sec. 4; "
+                   f"channels u, x, p1, p2); {strokes}: constant-speed strokes (original "
+                   f"whitespace files or measured-data CSV); {two}: the square wave of a "
                    "single-rod cylinder, F = A1 p1 - A2 p2 (gauge), its areas from --bore/--rod, --params "
                    "or the file's param.bore/param.rod metadata")
     p.add_argument("--data", required=True, metavar="FILE", help="measured-data file")
     p.add_argument("--params", default=None, metavar="FILE",
-                   help="differential_cylinder: parameter file with units giving bore and rod")
+                   help=f"{two}: parameter file with units giving bore and rod")
     p.add_argument("--model", default="stribeck", choices=_FRICTION_MODELS,
                    help="stribeck (002 eq (1)), stribeck_gaussian (003 eq (11)), "
                    "coulomb_viscous, coulomb, neural_ff / neural_rbf (002 sec. 5); "
@@ -339,15 +350,15 @@ def _friction_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--pressure-dependent", action="store_true",
                    help="add k_p * p to the Coulomb/static level (static models)")
     p.add_argument("--area", type=float, default=None, metavar="M2",
-                   help="piston area [m^2] that the pressure acts on (servo_cylinder: the annulus). "
+                   help=f"piston area [m^2] that the pressure acts on ({annulus}: the annulus). "
                    "Geometry is never assumed: --area, --bore or the file's piston_area metadata is required")
     p.add_argument("--bore", type=float, default=None, metavar="M",
-                   help="cylinder bore [m]: area = pi bore^2 / 4 (seal_friction, e.g. 0.025 or 0.0257 for the "
-                   "EvaZillen rigs) or pi (bore^2 - rod^2) / 4 with --rod (servo_cylinder, a double-rod cylinder). "
+                   help=f"cylinder bore [m]: area = pi bore^2 / 4 ({strokes}, e.g. 0.025 or 0.0257 for the "
+                   f"EvaZillen rigs) or pi (bore^2 - rod^2) / 4 with --rod ({annulus}, a double-rod cylinder). "
                    "The seal bench's irregular clock (10-17 ms steps, pauses) is accepted: each stroke window is "
                    "fitted on its own time stamps")
     p.add_argument("--rod", type=float, default=None, metavar="M",
-                   help="servo_cylinder with --bore: piston rod diameter [m]")
+                   help=f"{annulus} with --bore: piston rod diameter [m]")
     p.add_argument("--sign-velocity", type=float, default=0.0, metavar="V",
                    help="fit tanh(v/V) instead of sign(v) (match a simulator's regularisation)")
     p.add_argument("--unweighted", action="store_true",
@@ -388,27 +399,25 @@ def _check_geometry_flags(args: argparse.Namespace) -> None:
     _geometry_value("--rod", args.rod, "m", *_BORE_RANGE)
     if args.bore is not None and args.area is not None:
         raise CliError(f"give --bore ({args.bore:g} m) or --area ({args.area:g} m^2), not both")
-    if args.rod is not None and (args.plant not in _ROD_PLANTS or args.bore is None):
-        raise CliError(f"--rod = {args.rod:g} m: only with --bore, for {' or '.join(_ROD_PLANTS)}")
-    if getattr(args, "params", None) is not None and args.plant != "differential_cylinder":
-        raise CliError(f"--params: only for --plant differential_cylinder (got {args.plant})")
-    if args.plant == "differential_cylinder" and args.area is not None:
+    test = _friction_tests()[args.plant]
+    rod_plants = _friction_plants("annulus") + _friction_plants("two_areas")
+    if args.rod is not None and (args.plant not in rod_plants or args.bore is None):
+        raise CliError(f"--rod = {args.rod:g} m: only with --bore, for {' or '.join(rod_plants)}")
+    if getattr(args, "params", None) is not None and test != "two_areas":
+        raise CliError(f"--params: only for --plant {' or '.join(_friction_plants('two_areas'))} (got {args.plant})")
+    if test == "two_areas" and args.area is not None:
         raise CliError(f"--area = {args.area:g} m^2: a differential cylinder has two areas; give --bore M and "
                        "--rod M (or --params FILE)")
-    if args.plant == "differential_cylinder" and args.bore is not None and args.rod is None:
+    if test == "two_areas" and args.bore is not None and args.rod is None:
         raise CliError(f"--bore = {args.bore:g} m: give --rod M too (the rod-side area is pi (bore^2 - rod^2) / 4)")
-    if args.plant == "differential_cylinder" and args.bore is not None and not args.rod < args.bore:
+    if test == "two_areas" and args.bore is not None and not args.rod < args.bore:
         raise CliError(f"--rod = {args.rod:g} m; allowed below --bore = {args.bore:g} m")
-    if args.plant == "servo_cylinder" and args.bore is not None:
+    if test == "annulus" and args.bore is not None:
         if args.rod is None:
-            raise CliError(f"--bore = {args.bore:g} m: servo_cylinder is a double-rod cylinder, the pressure acts on "
+            raise CliError(f"--bore = {args.bore:g} m: {args.plant} is a double-rod cylinder, the pressure acts on "
                            "the annulus; give --rod M too (or --area M2 of the annulus)")
         if not args.rod < args.bore:
             raise CliError(f"--rod = {args.rod:g} m; allowed below --bore = {args.bore:g} m")
-
-
-#: plants whose friction command takes --rod
-_ROD_PLANTS = ("servo_cylinder", "differential_cylinder")
 
 
 def _param_metadata(data: Any, key: str, where: str) -> float | None:
@@ -433,7 +442,10 @@ def _differential_areas(args: argparse.Namespace, data: Any) -> tuple[float, flo
     if args.bore is not None:
         bore, rod = args.bore, args.rod
     elif getattr(args, "params", None) is not None:
-        rig = registry.get(args.plant).module("datasheet").load_rig(args.params)
+        load = registry.get(args.plant).contract.load_params
+        if load is None:
+            raise CliError(f"--params: plant {args.plant!r} reads no parameter file")
+        rig = load(args.params)
         bore, rod, amb, note = rig.bore, rig.rod, rig.ambient_pressure, f"bore and rod from {args.params}"
     else:
         bore = _param_metadata(data, "param.bore", str(args.data))
@@ -482,13 +494,14 @@ def _friction_run(args: argparse.Namespace) -> dict[str, Any]:
     from hydro_envs.data.measured import load_measured
 
     _check_geometry_flags(args)
-    if args.plant == "servo_cylinder":
-        data = load_measured(args.data, plant="servo_cylinder", required=("u", "x", "p1", "p2"),
+    test = _friction_tests()[args.plant]
+    if test == "annulus":
+        data = load_measured(args.data, plant=args.plant, required=("u", "x", "p1", "p2"),
                              **_record_kwargs(args))
         area, note = _servo_area(args, data)
         args.record_notes = units_note(data) + ([note] if note else [])
         pts = friction_points_from_square_wave(data, area)
-    elif args.plant == "differential_cylinder":
+    elif test == "two_areas":
         data = load_measured(args.data, plant=args.plant, required=("u", "x", "p1", "p2"), **_record_kwargs(args))
         area, area_2, amb, note = _differential_areas(args, data)
         args.record_notes = units_note(data) + ([note] if note else [])
@@ -522,7 +535,7 @@ def _friction_run(args: argparse.Namespace) -> dict[str, Any]:
         res["notes"] = [f"E of 002 sec. 5 on the paper's rig: {neural.PAPER_E[kind]} N"]
         return res
     sigma = None
-    equal = args.unweighted or args.plant == "seal_friction"
+    equal = args.unweighted or test == "strokes"
     if not equal and pts.force_std is not None and pts.n_samples is not None:
         se = pts.force_std / np.sqrt(pts.n_samples)
         if np.all(se > 0):
@@ -537,7 +550,7 @@ def _friction_run(args: argparse.Namespace) -> dict[str, Any]:
     res["metrics"] = {"nrmse": m["nrmse"], "E": m["E"], "rmse": m["rmse"],
                       "n_points": m["n_points"]}
     res["weighted"] = sigma is not None
-    if args.plant == "seal_friction":
+    if _friction_tests()[args.plant] == "strokes":
         _refuse_clamped(fit.parameters, fit.std_errors, fit.units, args.model)
     return res
 
@@ -720,6 +733,10 @@ def _greybox_arguments(p: argparse.ArgumentParser) -> None:
                    help="parameters to fit (field names of the plant's parameter dataclass)")
     p.add_argument("--preset", default=None,
                    help="start from a preset of the plant's parameter class (where it has presets)")
+    p.add_argument("--params", default=None, metavar="FILE",
+                   help="start from a parameter file with units: a preset YAML (plant:, parameters: NAME: {value, "
+                   "unit, source}; it must list the rig's geometry unless --nominal-geometry) or the plant's data "
+                   "sheet where it reads one (e.g. bore: 63 mm, rod: 36 mm, ...)")
     p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
                    help="override a start/fixed parameter value (repeatable)")
     p.add_argument("--outputs", default=None, metavar="CH[,CH...]",
@@ -771,7 +788,7 @@ def _greybox_geometry(args: argparse.Namespace, base: Any, over: dict[str, float
         base = cls.from_mapping(meta, base=base)
         print(f"hydro identify: note: geometry from the file's metadata: {geometry_text(base, list(meta))}",
               file=sys.stderr)
-    given = [*over, *meta, *fit, *(cls.geometry if args.preset or args.nominal_geometry else ())]
+    given = [*over, *meta, *fit, *(cls.geometry if args.preset or args.params or args.nominal_geometry else ())]
     err = missing_geometry_error(cls, given, str(args.data), "give each with --set NAME=VALUE (SI units), "
                                  "a --preset or the file's metadata", "--nominal-geometry")
     if err is not None:
@@ -792,7 +809,14 @@ def _greybox_run(args: argparse.Namespace) -> dict[str, Any]:
     cls = setup["params"]
     if args.preset and not setup["presets"]:
         raise ValueError(f"--preset: plant {args.plant!r} has no presets")
-    base = cls.preset(args.preset) if args.preset else cls()
+    if args.preset and args.params:
+        raise CliError(f"give --preset ({args.preset}) or --params ({args.params}), not both")
+    if args.params:
+        from identification.params_file import load_params_file
+
+        base = load_params_file(args.plant, args.params, require=() if args.nominal_geometry else cls.geometry)
+    else:
+        base = cls.preset(args.preset) if args.preset else cls()
     over = {}
     for item in args.set:
         if "=" not in item:
@@ -821,7 +845,8 @@ def _greybox_run(args: argparse.Namespace) -> dict[str, Any]:
     prog.close()
     d = res.to_json_dict()
     d.update({"plant": args.plant, "data": str(args.data), "model": type(base).__name__
-              + (f" (preset {args.preset})" if args.preset else "")})
+              + (f" (preset {args.preset})" if args.preset else "")
+              + (f" (parameters {args.params})" if args.params else "")})
     return d
 
 

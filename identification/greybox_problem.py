@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from hydro_envs import registry
+from hydro_envs.contract import PlantModel
 from hydro_envs.params import ParameterError, PhysicalParams
 from hydro_envs.sim.simulate import simulate
 from hydro_envs.sim.stiffness import substeps_from_stiffness as substeps_for_modes
@@ -107,38 +108,39 @@ class Experiment:
         return int(self.u.shape[0])
 
 
-def _plant_module(base: PhysicalParams):
-    return registry.get(type(base).plant).model
+def _plant_model(base: PhysicalParams) -> PlantModel:
+    return registry.get(type(base).plant).contract
 
 
 def _plants() -> dict[str, dict[str, Any]]:
-    """Plants a grey-box fit can simulate: every registry plant whose model declares its sensor
-    outputs and ``rest_state_from_measurement`` (the state at a record's first sample).
+    """Plants a grey-box fit can simulate: every registry plant whose contract
+    (:class:`hydro_envs.contract.PlantModel`) gives ``rest_state_from_measurement`` (the state
+    at a record's first sample).
 
-    Channels: the measured ones the model reads from a state or a state derivative, plus
-    ``v`` (the velocity state) where the model names one; presets: the parameter class's
-    ``PRESETS`` if any."""
+    Channels: the measured ones the model reads from a state or a state derivative or computes,
+    plus ``v`` (the velocity state) where the model names one; presets: the contract's
+    ``presets`` if any."""
     out: dict[str, dict[str, Any]] = {}
     for spec in registry.specs():
         if not spec.package or not spec.has_module("model"):
             continue
-        model = spec.model
-        if not hasattr(model, "rest_state_from_measurement"):
+        model = spec.contract
+        if model.rest_state_from_measurement is None:
             continue
         units = {c.name: c.unit for c in spec.channels}
         chans = {name: OutputChannel(name, state=int(i), unit=units.get(name, ""))
-                 for name, i in getattr(model, "STATE_OUTPUTS", {}).items()}
+                 for name, i in model.state_outputs.items()}
         chans.update({name: OutputChannel(name, derivative=int(i), unit=units.get(name, ""))
-                      for name, i in getattr(model, "DERIVATIVE_OUTPUTS", {}).items()})
-        computed = getattr(model, "computed_outputs", None)
+                      for name, i in model.derivative_outputs.items()})
+        computed = model.computed_outputs
         if computed is not None:  # functions of the state trajectory (names from a trial call)
             trial = computed(np.zeros((1, 1, len(spec.state_names))), spec.params_cls().to_array()[None, :])
             chans.update({name: OutputChannel(name, func=_computed_channel(computed, name), unit=units.get(name, ""))
                           for name in trial})
         if "v" in spec.state_names and "v" not in chans:
             chans["v"] = OutputChannel("v", state=spec.state_names.index("v"), unit="m/s")
-        presets = getattr(model, "PRESETS", None)
-        fit = tuple(getattr(model, "FIT_OUTPUTS", tuple(c for c in chans if c != "v")))
+        presets = model.presets
+        fit = model.fit_outputs if model.fit_outputs is not None else tuple(c for c in chans if c != "v")
         out[spec.name] = {"params": spec.params_cls, "channels": chans,
                           "presets": tuple(presets) if presets else None, "fit_outputs": fit}
     return out
@@ -451,10 +453,8 @@ def _build_problem(base, fit, experiments, channels, sigma, log_scale, bounds,
         if not (s > 0 and math.isfinite(s)):
             raise GreyboxError(f"channel {k!r}: scale sigma = {s} must be > 0 (constant record?)")
         sig[k] = s
-    mod = _plant_module(base)
-    n_states = int(getattr(mod, "N_STATES", len(getattr(mod, "STATE_NAMES", ()))))
-    if n_states <= 0:
-        raise GreyboxError(f"cannot find N_STATES of plant module {mod.__name__}")
+    mod = _plant_model(base)
+    n_states = mod.n_states
     for e in experiments:
         if not callable(e.y0) and np.asarray(e.y0).shape != (n_states,):
             raise GreyboxError(f"experiment {e.name!r}: y0 must have {n_states} states")
@@ -465,7 +465,7 @@ def _build_problem(base, fit, experiments, channels, sigma, log_scale, bounds,
         experiments=experiments, channels=[ch_map[k] for k in ch_map if k in used], sigma=sig, U=U,
         n_steps=np.array([e.n_samples - 1 for e in experiments], dtype=np.int64),
         dts=np.array([e.dt for e in experiments], dtype=np.float64), n_states=n_states,
-        stiffness=getattr(mod, "stiffness_modes", None), fixed_nsub=n_substeps, tie=tie,
+        stiffness=mod.stiffness_modes, fixed_nsub=n_substeps, tie=tie,
         offsets=tuple(offsets),
     )
 
@@ -538,7 +538,7 @@ def experiment_from_measured(data, plant: str, params: PhysicalParams, outputs: 
 
 def _initial_state(plant: str, params, x0: float | None, meas: Mapping[str, np.ndarray]) -> np.ndarray:
     """The plant's state at the record's first sample (its model's ``rest_state_from_measurement``)."""
-    model = registry.get(plant).model
-    if not hasattr(model, "rest_state_from_measurement"):
+    rest = registry.get(plant).contract.rest_state_from_measurement
+    if rest is None:
         raise GreyboxError(f"grey-box plant {plant!r} not supported; supported: {sorted(_plants())}")
-    return model.rest_state_from_measurement(params, {k: float(v[0]) for k, v in meas.items()})
+    return rest(params, {k: float(v[0]) for k, v in meas.items()})

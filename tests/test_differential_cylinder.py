@@ -314,16 +314,12 @@ def test_greybox_round_trip_through_the_cli_recovers_mass_bulk_modulus_and_visco
 
 
 def test_the_plant_gives_what_the_registry_sim_envs_and_identification_ask():
-    model, kernels, params_cls = SPEC.model, SPEC.kernels, SPEC.params_cls
-    need = {
-        model: ("STATE_NAMES", "STATE_UNITS", "N_STATES", "STATE_OUTPUTS", "DERIVATIVE_OUTPUTS", "FIT_OUTPUTS",
-                "stiffness_modes", "rest_state", "rest_state_from_measurement"),
-        kernels: ("step_serial", "step_parallel", "trajectories", "derivatives", "rhs", "guard"),
-    }
-    for module, names in need.items():
-        missing = [n for n in names if not hasattr(module, n)]
-        assert not missing, f"{module.__name__} lacks {missing}"
-    assert len(model.STATE_NAMES) == len(model.STATE_UNITS) == model.N_STATES
+    from hydro_envs.contract import conformance_problems
+
+    model, params_cls = SPEC.contract, SPEC.params_cls
+    assert conformance_problems(SPEC) == []  # the typed contract (tests/test_plant_contract.py for every plant)
+    assert model.rest_state is not None and model.rest_state_from_measurement is not None
+    assert model.fit_outputs == ("x", "p1", "p2") and model.load_params is load_rig
     assert set(params_cls.geometry) <= set(params_cls.names())
     assert set(SPEC.dry_friction_parameters) <= set(params_cls.names())
     # the kernel row's columns are the fields and the derived names, the indices generated from them

@@ -189,8 +189,7 @@ def test_vector_step_kernel_equals_the_serial_one_on_uneven_blocks(env_id, n):
     env.step(_actions(env.single_action_space, 1, 4, (n,))[0])
     b = env.unwrapped._batch
     kernels = b.plant_spec.kernels
-    pick = getattr(kernels, "for_params", None)
-    serial = (pick(b.P) if pick else kernels).step_serial
+    serial = kernels.pick(b.P).step_serial
     assert b.step_kernel is not serial
     out = []
     for kernel in (serial, b.step_kernel):

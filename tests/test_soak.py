@@ -33,10 +33,10 @@ def test_short_soak_has_no_breach(env_id):
     assert r.steps >= SHORT_STEPS
     assert r.draws["corner"] > 0 and r.draws["beyond"] > 0  # both kinds of extreme draws ran
     assert r.breaches == 0, (r.counts, r.examples)
-    model = registry.spec_for_env(env_id).module("model")
-    if hasattr(model, "relief_bounds"):  # the bound was checked and met
+    model = registry.spec_for_env(env_id).contract
+    if model.relief_bounds is not None:  # the bound was checked and met
         assert 0.3 < r.max_pressure_ratio <= 1.0 + soak.RELIEF_TOL, r.max_pressure_ratio
-    if hasattr(model, "soak_temperatures"):
+    if model.soak_temperatures is not None:
         assert 100.0 < r.min_temperature < 300.0, r.min_temperature
 
 
@@ -223,19 +223,19 @@ def test_limit_checks_fail_on_a_chamber_above_its_relief_and_a_cold_chamber():
     P = p.to_array()[None, :]
     full = p.relief_pressure + p.relief_override
     ok = np.array([[0.03, 0.0, full, p.tank_pressure, 0.0, 0.0, 0.0]])
-    tracker = soak._LimitTracker(sc)
+    tracker = soak._LimitTracker(sc.CONTRACT)
     assert not tracker.breaches(ok, P)["relief"].any() and tracker.max_ratio == pytest.approx(1.0)
     over = ok.copy()
     over[0, sc.P2] = full * (1.0 + 1.5 * soak.RELIEF_TOL)
     assert tracker.breaches(over, P)["relief"].all() and tracker.max_pressure == over[0, sc.P2]
     none = dataclasses.replace(p, relief_flow=0.0).to_array()[None, :]  # no relief: no bound
-    assert not soak._LimitTracker(sc).breaches(over, none)["relief"].any()
+    assert not soak._LimitTracker(sc.CONTRACT).breaches(over, none)["relief"].any()
     q = rc.RodlessCylinderParams()
-    cold = soak._LimitTracker(rc)
+    cold = soak._LimitTracker(rc.CONTRACT)
     floor = float(rc.soak_temperature_floor(q.to_array()[None, :])[0])  # 293.15 (1.01/10.5)^(2/7): 150 K
     assert floor == pytest.approx(q.supply_temperature * (q.exhaust_pressure / (1.5 * q.supply_pressure)) ** (0.4 / 1.4))
     for t, breach in ((0.98 * floor, True), (1.02 * floor, False), (240.0, False)):
         y = rc.rest_state(q, 0.5 * q.stroke, ta=t)[None, :]
         assert bool(cold.breaches(y, q.to_array()[None, :])["temperature"][0]) is breach
     assert cold.min_temperature == pytest.approx(0.98 * floor) and cold.cold_steps == 3
-    assert not soak._LimitTracker(fa).breaches(ok[:, :0], P)["relief"].any()  # no chambers: no bound
+    assert not soak._LimitTracker(fa.CONTRACT).breaches(ok[:, :0], P)["relief"].any()  # no chambers: no bound

@@ -132,7 +132,8 @@ def creep_points(plant: str, speeds: Any = None, *, travel: float = 0.2) -> tupl
         mask[i] = True
         obs, _ = venv.reset(seed=0, options={"reset_mask": mask, "reference": ref,
                                             "state": {b.position_name: float(ref[0])}})
-    area = spec.model.piston_area(p) if hasattr(spec.model, "piston_area") else p.piston_area
+    area_of = spec.contract.piston_area
+    area = area_of(p) if area_of is not None else p.piston_area
     ip1, ip2 = b.pressure_indices
     ctrl = make_controller(env_id, "pid_vff")
     X = np.empty((steps, len(ramps)))

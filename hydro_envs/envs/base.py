@@ -330,12 +330,9 @@ class PlantBatch:
     def select_step_kernel(self) -> None:
         """Bind ``step_kernel`` to the plant's serial or parallel step (and ``step_serial`` to the
         serial one, which a step-and-observe kernel runs on each block); a plant whose kernels
-        module has ``for_params(P)`` picks them for the current parameter rows (called after
-        the rows change: resets, restores)."""
-        kernels = self.plant_spec.kernels
-        pick = getattr(kernels, "for_params", None)
-        if pick is not None:
-            kernels = pick(self.P)
+        have ``for_params(P)`` (:class:`hydro_envs.contract.KernelSet`) picks them for the current
+        parameter rows (called after the rows change: resets, restores)."""
+        kernels = self.plant_spec.kernels.pick(self.P)
         self.step_kernel = kernels.step_parallel if self.parallel else kernels.step_serial
         self.step_serial = kernels.step_serial
         self._kernel_stale = False

@@ -69,9 +69,9 @@ def simulate(
     P, objs, single_p = _param_rows(spec, params)
     X0 = np.atleast_2d(np.asarray(x0, dtype=np.float64))
     ns = X0.shape[1]
-    # a plant whose state width depends on its parameters (model.n_states(params), e.g. the
-    # number of pipe segments) may use fewer than its N_STATES columns
-    variable = callable(getattr(spec.model, "n_states", None))
+    # a plant whose state width depends on its parameters (its contract's n_states_for, e.g.
+    # the number of pipe segments) may use fewer than its n_states columns
+    variable = spec.contract.n_states_for is not None
     if ns != spec.n_states and not (variable and 0 < ns <= spec.n_states):
         raise ValueError(
             f"x0 must have {spec.n_states} states ({', '.join(spec.state_names)}), got shape {np.shape(x0)}"

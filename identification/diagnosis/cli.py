@@ -1,13 +1,15 @@
 """``hydro diagnose``: run the diagnosis workflow on measured-data files.
 
-    hydro diagnose --plant P --data FILE [--data FILE2 ...] [--holdout FILE] [--base CONFIG | --nominal-geometry]
+    hydro diagnose --plant P --data FILE [--data FILE2 ...] [--holdout FILE]
+                   [--base CONFIG | --params FILE | --nominal-geometry]
                    [--effects a,b] [--max-effects N] [--out DIR] [--json]
 
 ``--base`` is a YAML preset (``plant:`` and ``parameters:``, each ``{value, unit, source}``, as
 :func:`identification.ranges.write_preset` writes them) that lists at least the rig's geometry
 (``PhysicalParams.geometry``: areas, stroke, volumes -- a record cannot reveal them); with
 ``--nominal-geometry`` and no ``--base``, the plant's nominal parameters (the seed rig) with every
-catalogue effect at its null value.
+catalogue effect at its null value. ``--params FILE`` takes a preset as ``--base`` does or the
+plant's data sheet where its contract reads one (:mod:`identification.params_file`).
 ``--out`` is checked before the work: a folder (created), empty unless ``--force``, never a file.
 Errors follow the command line's convention (:mod:`hydro_envs.cli_errors`): one line, no
 traceback. Exit codes: 0 done (any verdict: named, none, ambiguous, unexplained), 1 the data
@@ -40,6 +42,8 @@ def add_diagnose_parser(subparsers: Any) -> argparse.ArgumentParser:
                    help="held-out record(s) for scoring (default: the last 30 %% of every --data record)")
     p.add_argument("--base", metavar="CONFIG", help="YAML parameter preset of the base model (it must list the "
                    "rig's geometry: areas, stroke, volumes)")
+    p.add_argument("--params", metavar="FILE", help="parameter file with units of the base model: a preset as "
+                   "--base takes or the plant's data sheet where it reads one (not both flags)")
     p.add_argument("--nominal-geometry", action="store_true",
                    help="without --base: the plant's nominal parameters, the seed rig's geometry (printed); "
                    "with --base: geometry fields the preset does not list from the seed rig")
@@ -65,6 +69,13 @@ def _load_base(args: argparse.Namespace):
     from identification.ranges import load_preset
 
     cls = diagnosis_plant(args.plant).params_cls
+    if args.params:
+        from hydro_envs.cli_errors import CliError
+        from identification.params_file import load_params_file
+
+        if args.base:
+            raise CliError(f"give --base ({args.base}) or --params ({args.params}), not both")
+        return load_params_file(args.plant, args.params, require=() if args.nominal_geometry else cls.geometry)
     if args.base:
         return load_preset(args.base, cls, require=() if args.nominal_geometry else cls.geometry)
     if not cls.geometry:

@@ -48,6 +48,7 @@ import math
 
 import numpy as np
 
+from hydro_envs.contract import PlantModel
 from hydro_envs.jit import njit_noalloc
 from hydro_envs.laws.contact import end_stop_force
 from hydro_envs.laws.orifice import regularized_signed_sqrt, spool_edge_opening
@@ -59,6 +60,7 @@ from hydro_envs.laws.seal_friction import (
 )
 from hydro_envs.laws.valve import second_order_valve_acceleration
 from hydro_envs.libm import exp
+from hydro_envs.plants.differential_cylinder.datasheet import load_rig
 from hydro_envs.plants.differential_cylinder.params import (  # noqa: F401  (indices re-exported)
     I_A1, I_A2, I_FAMB, I_ASTOP, I_BETA, I_D, I_DFADE, I_DPTR, I_FC, I_FL, I_FS, I_KQ, I_KSTOP, I_L, I_LAP, I_M,
     I_PFLOOR, I_PS, I_PT, I_SIG0, I_SIG1, I_UMAX, I_V1, I_V2, I_VMIN, I_VS, I_WV, I_ZCAP, I_ZV, N_FIELDS,
@@ -67,6 +69,7 @@ from hydro_envs.plants.differential_cylinder.params import (  # noqa: F401  (ind
 from hydro_envs.sim.stiffness import second_order_pole_magnitude
 
 __all__ = [
+    "CONTRACT",
     "DifferentialCylinderParams", "STATE_NAMES", "differential_cylinder_rhs", "differential_cylinder_guard",
     "stiffness_modes", "friction_level", "hydraulic_natural_frequency", "minimum_natural_frequency",
     "no_load_velocity", "speed_ratio", "rest_state", "rest_state_from_measurement",
@@ -267,3 +270,13 @@ def rest_state_from_measurement(params: DifferentialCylinderParams, first: dict)
     y[P1] = first.get("p1", y[P1])
     y[P2] = first.get("p2", y[P2])
     return y
+
+
+#: the plant's typed contract (hydro_envs.contract.PlantModel): what the registry, sim, envs,
+#: identification, diagnosis and the soak test read of this model
+CONTRACT = PlantModel(
+    state_names=STATE_NAMES, state_units=STATE_UNITS, stiffness_modes=stiffness_modes,
+    state_outputs=STATE_OUTPUTS, derivative_outputs=DERIVATIVE_OUTPUTS,
+    fit_outputs=FIT_OUTPUTS, rest_state=rest_state, rest_state_from_measurement=rest_state_from_measurement,
+    load_params=load_rig,
+)

@@ -19,6 +19,7 @@ import dataclasses
 import math
 from typing import ClassVar
 
+from hydro_envs.contract import param_columns
 from hydro_envs.params import ParameterError, PhysicalParams, physical
 
 __all__ = ["PLANT", "DifferentialCylinderParams", "N_PARAMS", "ATMOSPHERE", "bandwidth_to_natural_frequency",
@@ -195,14 +196,43 @@ class DifferentialCylinderParams(PhysicalParams):
         ]
 
 
-# Column indices of the packed parameter row, generated from the dataclass' field order.
-_COLUMNS = DifferentialCylinderParams.names() + DifferentialCylinderParams.derived_names
-(
-    I_BORE, I_ROD, I_L, I_V1, I_V2, I_M, I_PS, I_PT, I_PAMB, I_BETA, I_QN, I_DPN, I_FB, I_ZV, I_LAP, I_UMAX,
-    I_D, I_FC, I_FS, I_VS, I_SIG0, I_SIG1, I_ZCAP, I_FL, I_KSTOP, I_ASTOP, I_DPTR, I_PFLOOR, I_VMIN,
-    I_A1, I_A2, I_FAMB, I_KQ, I_WV, I_DFADE,
-) = range(len(_COLUMNS))
+# Column indices of the packed parameter row (``to_array()``), generated from the dataclass'
+# fields and derived names (:func:`hydro_envs.contract.param_columns`), each looked up by name.
+_COL = param_columns(DifferentialCylinderParams)
 N_FIELDS = len(DifferentialCylinderParams.names())
-N_PARAMS = len(_COLUMNS)
-if _COLUMNS[I_VMIN] != "min_chamber_volume" or _COLUMNS[I_DFADE] != "micro_damping_velocity":
-    raise ImportError("differential_cylinder: column indices do not match the parameter fields")
+N_PARAMS = len(_COL)
+I_BORE = _COL["bore"]
+I_ROD = _COL["rod"]
+I_L = _COL["stroke"]
+I_V1 = _COL["line_volume_1"]
+I_V2 = _COL["line_volume_2"]
+I_M = _COL["mass"]
+I_PS = _COL["supply_pressure"]
+I_PT = _COL["tank_pressure"]
+I_PAMB = _COL["ambient_pressure"]
+I_BETA = _COL["bulk_modulus"]
+I_QN = _COL["rated_flow"]
+I_DPN = _COL["rated_pressure_drop"]
+I_FB = _COL["valve_bandwidth"]
+I_ZV = _COL["valve_damping"]
+I_LAP = _COL["valve_lap"]
+I_UMAX = _COL["command_max"]
+I_D = _COL["viscous_friction"]
+I_FC = _COL["coulomb_friction"]
+I_FS = _COL["static_friction"]
+I_VS = _COL["stribeck_velocity"]
+I_SIG0 = _COL["bristle_stiffness"]
+I_SIG1 = _COL["bristle_damping"]
+I_ZCAP = _COL["bristle_relaxation_cap"]
+I_FL = _COL["load_force"]
+I_KSTOP = _COL["stop_stiffness"]
+I_ASTOP = _COL["stop_damping"]
+I_DPTR = _COL["orifice_transition_pressure"]
+I_PFLOOR = _COL["pressure_floor"]
+I_VMIN = _COL["min_chamber_volume"]
+I_A1 = _COL["piston_area_1"]
+I_A2 = _COL["annulus_area_2"]
+I_FAMB = _COL["ambient_rod_force"]
+I_KQ = _COL["edge_flow_coefficient"]
+I_WV = _COL["valve_natural_frequency"]
+I_DFADE = _COL["micro_damping_velocity"]

@@ -40,4 +40,5 @@ SPEC = PlantSpec(
     dry_friction_parameters=("coulomb_friction", "static_friction"),
     # assumed: the valve (60 Hz) and the oil spring (>= 130 Hz) need at least 50 Hz sampling
     max_sample_time=0.02,
+    friction_test="two_areas",
 )

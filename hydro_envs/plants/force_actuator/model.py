@@ -126,6 +126,7 @@ import math
 import numba as nb
 import numpy as np
 
+from hydro_envs.contract import PlantModel
 from hydro_envs.jit import njit_noalloc
 from hydro_envs.laws.contact import end_stop_force
 from hydro_envs.laws.elementary import tanh_one_exp
@@ -143,6 +144,7 @@ from hydro_envs.plants.force_actuator.params import (  # noqa: F401  (re-exporte
 )
 
 __all__ = [
+    "CONTRACT",
     "ForceActuatorParams",
     "STATE_NAMES",
     "force_actuator_rhs",
@@ -677,3 +679,13 @@ def rest_state_from_measurement(params: ForceActuatorParams, first: dict) -> np.
     hysteresis, no force, piston at mid-stroke). The blocked-force record must start there: the
     internal valve and fluid states are not measured, so a first force reading is not used."""
     return rest_state(params)
+
+
+#: the plant's typed contract (hydro_envs.contract.PlantModel): what the registry, sim, envs,
+#: identification, diagnosis and the soak test read of this model
+CONTRACT = PlantModel(
+    state_names=STATE_NAMES, state_units=STATE_UNITS, stiffness_modes=stiffness_modes,
+    state_outputs=STATE_OUTPUTS, derivative_outputs=DERIVATIVE_OUTPUTS,
+    fit_outputs=FIT_OUTPUTS, computed_outputs=computed_outputs, rest_state=rest_state,
+    rest_state_from_measurement=rest_state_from_measurement,
+)

@@ -16,6 +16,7 @@ from typing import ClassVar
 
 from hydro_envs.laws.elementary import tanh_one_exp
 from hydro_envs.laws.hysteresis import pi_threshold_scale
+from hydro_envs.contract import param_columns
 from hydro_envs.params import ParameterError, PhysicalParams, physical
 
 __all__ = ["PLANT", "ForceActuatorParams", "N_PARAMS", "N_FIELDS", "N_PLAY", "null_valve_offset"]
@@ -256,17 +257,47 @@ class ForceActuatorParams(PhysicalParams):
         return -(self.bore_area - self.rod_area) * self.supply_pressure
 
 
-(
-    I_PS, I_A1, I_AR, I_L, I_IR, I_IMAX, I_XOFF, I_HW, I_HR, I_M, I_KS, I_BS, I_MP, I_ML, I_KL,
-    I_LOCK, I_FC, I_FSR, I_FSE, I_VS, I_SIG, I_DG, I_DLIN, I_WC, I_DA, I_DV, I_DK, I_KSTOP, I_ASTOP,
-    I_FMOD, I_VEPS, I_FLOAD, I_FFILT, I_TDEL,
-) = range(34)
-N_FIELDS = 34
-assert ForceActuatorParams.names()[I_ASTOP] == "stop_damping" and len(ForceActuatorParams.names()) == N_FIELDS
+# Column indices of the packed parameter row (``to_array()``), generated from the dataclass'
+# fields and derived names (:func:`hydro_envs.contract.param_columns`), each looked up by name.
+_COL = param_columns(ForceActuatorParams)
+N_FIELDS = len(ForceActuatorParams.names())
+N_PARAMS = len(_COL)
+I_PS = _COL["supply_pressure"]
+I_A1 = _COL["bore_area"]
+I_AR = _COL["rod_area"]
+I_L = _COL["stroke"]
+I_IR = _COL["rated_current"]
+I_IMAX = _COL["current_max"]
+I_XOFF = _COL["valve_offset"]
+I_HW = _COL["hysteresis_width"]
+I_HR = _COL["hysteresis_reversal_slope"]
+I_M = _COL["sensor_mass"]
+I_KS = _COL["sensor_stiffness"]
+I_BS = _COL["sensor_damping"]
+I_MP = _COL["piston_mass"]
+I_ML = _COL["load_mass"]
+I_KL = _COL["load_stiffness"]
+I_LOCK = _COL["piston_locked"]
+I_FC = _COL["coulomb_friction"]
+I_FSR = _COL["stiction_retract"]
+I_FSE = _COL["stiction_extend"]
+I_VS = _COL["stribeck_velocity"]
+I_SIG = _COL["friction_stiffness"]
+I_DG = _COL["damping_gain"]
+I_DLIN = _COL["damping_linear"]
+I_WC = _COL["damping_filter_frequency"]
+I_DA = _COL["damping_force_scale"]
+I_DV = _COL["damping_knee_velocity"]
+I_DK = _COL["damping_sharpness"]
+I_KSTOP = _COL["stop_stiffness"]
+I_ASTOP = _COL["stop_damping"]
+I_FMOD = _COL["friction_model"]
+I_VEPS = _COL["friction_sign_velocity"]
+I_FLOAD = _COL["load_force"]
+I_FFILT = _COL["feedback_filter_frequency"]
+I_TDEL = _COL["control_delay"]
 #: derived columns: tanh(kappa) of the damping law (eq (5)), the plays' weight
 #: (1 - w0)/n and their thresholds R k/n (sec. 3.3), k = 1..N_PLAY
-D_TANHK, D_PLAYW, D_PLAY0 = N_FIELDS, N_FIELDS + 1, N_FIELDS + 2
-N_PARAMS = N_FIELDS + len(ForceActuatorParams.derived_names)
-assert ForceActuatorParams.names()[I_VEPS] == "friction_sign_velocity"
-assert ForceActuatorParams.names()[I_FLOAD] == "load_force"
-assert ForceActuatorParams.names()[I_TDEL] == "control_delay"
+D_TANHK = _COL["tanh_damping_sharpness"]
+D_PLAYW = _COL["play_weight"]
+D_PLAY0 = _COL["play_threshold_1"]

@@ -64,6 +64,7 @@ import math
 import numba as nb
 import numpy as np
 
+from hydro_envs.contract import PlantModel
 from hydro_envs.jit import njit_noalloc
 from hydro_envs.laws.contact import end_stop_force
 from hydro_envs.laws.seal_friction import seal_friction
@@ -83,6 +84,7 @@ from hydro_envs.sim.rk4 import STABLE_H_LAMBDA, local_substeps, rk4_advance, wor
 from hydro_envs.sim.stiffness import substeps_from_stiffness
 
 __all__ = [
+    "CONTRACT",
     "LoadSensingParams",
     "STATE_NAMES",
     "N_STATES",
@@ -389,3 +391,12 @@ def rest_state_from_measurement(params: LoadSensingParams, first: dict) -> np.nd
     actuator position ``xa`` (5 cm if not measured). The pump, FC and LS-line states are not
     measured, so the record must start from that standby (as LoadSensing-v0 episodes do)."""
     return settled_standby_state(params, first.get("xa", 0.05))
+
+
+#: the plant's typed contract (hydro_envs.contract.PlantModel): what the registry, sim, envs,
+#: identification, diagnosis and the soak test read of this model
+CONTRACT = PlantModel(
+    state_names=STATE_NAMES, state_units=STATE_UNITS, stiffness_modes=stiffness_modes,
+    state_outputs=STATE_OUTPUTS, derivative_outputs=DERIVATIVE_OUTPUTS,
+    fit_outputs=FIT_OUTPUTS, rest_state_from_measurement=rest_state_from_measurement, relief_bounds=relief_bounds,
+)

@@ -18,6 +18,7 @@ from typing import ClassVar
 from hydro_envs.laws.pipe import pipe_inductance, pipe_laminar_resistance
 from hydro_envs.laws.relief import pressure_relief_conductance_bound
 from hydro_envs.laws.viscosity import iso_vg_kinematic_viscosity
+from hydro_envs.contract import param_columns
 from hydro_envs.params import ParameterError, PhysicalParams, physical
 from hydro_envs.plants.load_sensing.bounds import local_mode_rates, orifice_rate_coefficients
 from hydro_envs.plants.ls_compensator.params import ORIGINAL_SPRING_STIFFNESS, LSCompensatorParams
@@ -247,21 +248,88 @@ class LoadSensingParams(PhysicalParams):
         return [d[k] for k in self.derived_names]
 
 
-_FIELDS = LoadSensingParams.names()
-N_FIELDS = len(_FIELDS)
-(
-    I_VG, I_T, I_RHO, I_BETA, I_DS, I_MS, I_K, I_F0, I_C40, I_XMAX, I_KSS, I_ASS, I_W, I_XLAP,
-    I_LPORT, I_CD, I_THETA, I_FSMAX, I_TSOL, I_LLS, I_DLS, I_RD, I_VSC, I_DP, I_WP, I_GP, I_A1, I_A2,
-    I_YMAX, I_MY, I_BY, I_FB0, I_KB, I_VX0, I_GX, I_KYS, I_VS, I_PRV, I_GRV, I_ACVMAX, I_AC,
-    I_STROKE, I_VL0, I_M, I_FL, I_BA, I_FCA, I_SIG0, I_SIG1, I_ZCAP, I_KAS, I_PT, I_DPTR, I_PFLOOR,
-    I_PRVL, I_POVL, I_QRVL,
-) = range(57)
-assert N_FIELDS == 57 and _FIELDS[I_QRVL] == "load_relief_flow" and _FIELDS[I_PFLOOR] == "pressure_floor" and _FIELDS[I_FL] == "load_force"
-assert _FIELDS[I_ZCAP] == "actuator_bristle_relaxation_cap"
+# Column indices of the packed parameter row (``to_array()``), generated from the dataclass'
+# fields and derived names (:func:`hydro_envs.contract.param_columns`), each looked up by name.
+_COL = param_columns(LoadSensingParams)
+N_FIELDS = len(LoadSensingParams.names())
 _DERIVED = LoadSensingParams.derived_names
-(D_A, D_C, D_LLS, D_RLS, D_VLINE, D_KM, D_KFF, D_LOCAL, D_DROPRATE, D_LEAKRATE, D_INV_MS, D_INV_MY, D_INV_YMAX,
- D_BETA_VS, D_INV_M, D_INV_LLS, D_INV_TSOL, D_FADE, D_GRVL) = range(N_FIELDS, N_FIELDS + len(_DERIVED))
-N_PARAMS = N_FIELDS + len(_DERIVED)
+N_PARAMS = len(_COL)
+I_VG = _COL["oil_grade"]
+I_T = _COL["oil_temperature"]
+I_RHO = _COL["oil_density"]
+I_BETA = _COL["bulk_modulus"]
+I_DS = _COL["spool_diameter"]
+I_MS = _COL["spool_mass"]
+I_K = _COL["spring_stiffness"]
+I_F0 = _COL["spring_preload"]
+I_C40 = _COL["viscous_friction_40c"]
+I_XMAX = _COL["spool_stroke"]
+I_KSS = _COL["spool_stop_stiffness"]
+I_ASS = _COL["spool_stop_damping"]
+I_W = _COL["metering_width"]
+I_XLAP = _COL["metering_lap"]
+I_LPORT = _COL["port_length"]
+I_CD = _COL["discharge_coefficient"]
+I_THETA = _COL["jet_angle"]
+I_FSMAX = _COL["solenoid_force_max"]
+I_TSOL = _COL["solenoid_time_constant"]
+I_LLS = _COL["ls_line_length"]
+I_DLS = _COL["ls_line_diameter"]
+I_RD = _COL["ls_damping_resistance"]
+I_VSC = _COL["spring_chamber_volume"]
+I_DP = _COL["pump_displacement"]
+I_WP = _COL["pump_speed"]
+I_GP = _COL["pump_leakage"]
+I_A1 = _COL["control_area_large"]
+I_A2 = _COL["control_area_small"]
+I_YMAX = _COL["control_stroke"]
+I_MY = _COL["control_mass"]
+I_BY = _COL["control_damping"]
+I_FB0 = _COL["bias_spring_preload"]
+I_KB = _COL["bias_spring_stiffness"]
+I_VX0 = _COL["control_volume"]
+I_GX = _COL["control_leakage"]
+I_KYS = _COL["control_stop_stiffness"]
+I_VS = _COL["delivery_volume"]
+I_PRV = _COL["relief_pressure"]
+I_GRV = _COL["relief_gradient"]
+I_ACVMAX = _COL["cv_area_max"]
+I_AC = _COL["piston_area"]
+I_STROKE = _COL["stroke"]
+I_VL0 = _COL["line_volume"]
+I_M = _COL["load_mass"]
+I_FL = _COL["load_force"]
+I_BA = _COL["actuator_viscous"]
+I_FCA = _COL["actuator_coulomb"]
+I_SIG0 = _COL["actuator_bristle_stiffness"]
+I_SIG1 = _COL["actuator_bristle_damping"]
+I_ZCAP = _COL["actuator_bristle_relaxation_cap"]
+I_KAS = _COL["actuator_stop_stiffness"]
+I_PT = _COL["tank_pressure"]
+I_DPTR = _COL["orifice_transition_pressure"]
+I_PFLOOR = _COL["pressure_floor"]
+I_PRVL = _COL["load_relief_pressure"]
+I_POVL = _COL["load_relief_override"]
+I_QRVL = _COL["load_relief_flow"]
+D_A = _COL["spool_area"]
+D_C = _COL["viscous"]
+D_LLS = _COL["ls_inductance"]
+D_RLS = _COL["ls_resistance"]
+D_VLINE = _COL["ls_line_volume"]
+D_KM = _COL["k_meter"]
+D_KFF = _COL["k_flow_force"]
+D_LOCAL = _COL["local_rate"]
+D_DROPRATE = _COL["drop_rate"]
+D_LEAKRATE = _COL["leak_rate"]
+D_INV_MS = _COL["inv_spool_mass"]
+D_INV_MY = _COL["inv_control_mass"]
+D_INV_YMAX = _COL["inv_control_stroke"]
+D_BETA_VS = _COL["delivery_stiffness"]
+D_INV_M = _COL["inv_load_mass"]
+D_INV_LLS = _COL["inv_ls_inductance"]
+D_INV_TSOL = _COL["inv_solenoid_time_constant"]
+D_FADE = _COL["micro_damping_velocity"]
+D_GRVL = _COL["load_relief_conductance"]
 
 
 def derived(params: LoadSensingParams) -> dict[str, float]:

@@ -98,6 +98,7 @@ import math
 
 import numpy as np
 
+from hydro_envs.contract import PlantModel
 from hydro_envs.jit import njit_noalloc
 from hydro_envs.laws.contact import end_stop_force
 from hydro_envs.laws.orifice import regularized_signed_sqrt
@@ -111,6 +112,7 @@ from hydro_envs.plants.ls_compensator.params import (  # noqa: F401  (re-exporte
 )
 
 __all__ = [
+    "CONTRACT",
     "LSCompensatorParams",
     "STATE_NAMES",
     "N_STATES",
@@ -529,3 +531,18 @@ def stiffness_modes(params: LSCompensatorParams) -> dict[str, float]:
         g_out = (d["k_meter"] * params.metering_width * params.port_length + d["k_orifice"]) * g_lam
         modes["outlet"] = beta / params.outlet_volume * g_out
     return modes
+
+
+def rest_state(params: LSCompensatorParams, p_inlet: float = _ATM + METHOD1_MEAN_GAUGE) -> np.ndarray:
+    """:func:`equilibrium_state` at inlet pressure ``p_inlet`` [Pa abs], by default method 1's
+    mean pressure (:data:`METHOD1_MEAN_GAUGE` above the atmosphere): the contract's rest."""
+    return equilibrium_state(params, p_inlet)
+
+
+#: the plant's typed contract (hydro_envs.contract.PlantModel): what the registry, sim, envs,
+#: identification, diagnosis and the soak test read of this model
+CONTRACT = PlantModel(
+    state_names=STATE_NAMES, state_units=STATE_UNITS, stiffness_modes=stiffness_modes,
+    state_outputs=STATE_OUTPUTS, derivative_outputs=DERIVATIVE_OUTPUTS,
+    n_states_for=n_states, rest_state=rest_state,
+)

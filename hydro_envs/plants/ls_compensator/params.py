@@ -15,6 +15,7 @@ from typing import ClassVar
 
 from hydro_envs.laws.pipe import pipe_inductance, pipe_laminar_resistance
 from hydro_envs.laws.viscosity import iso_vg_kinematic_viscosity
+from hydro_envs.contract import param_columns
 from hydro_envs.params import ParameterError, PhysicalParams, physical
 
 __all__ = [
@@ -216,17 +217,53 @@ class LSCompensatorParams(PhysicalParams):
         return [d[name] for name in self.derived_names]
 
 
-(
-    I_VG, I_T, I_RHO, I_BETA, I_LP, I_DP, I_NSEG, I_VCH, I_DS, I_MS, I_MSPR, I_K, I_F0, I_C40,
-    I_MLVDT, I_CLVDT, I_PSPR, I_STROKE, I_KSTOP, I_ASTOP, I_W, I_XLAP, I_LPORT, I_CD, I_THETA,
-    I_VO, I_DO, I_CDO, I_PT, I_PMAX, I_DPTR, I_PFLOOR,
-) = range(32)
-assert LSCompensatorParams.names()[I_PFLOOR] == "pressure_floor"
-N_FIELDS = 32
-# derived columns appended by to_array()
+# Column indices of the packed parameter row (``to_array()``), generated from the dataclass'
+# fields and derived names (:func:`hydro_envs.contract.param_columns`), each looked up by name.
+_COL = param_columns(LSCompensatorParams)
+N_FIELDS = len(LSCompensatorParams.names())
 _DERIVED = LSCompensatorParams.derived_names
-(D_M, D_C, D_A, D_L, D_R, D_VPIPE, D_KM, D_KO, D_KFF) = range(N_FIELDS, N_FIELDS + len(_DERIVED))
-N_PARAMS = N_FIELDS + len(_DERIVED)
+N_PARAMS = len(_COL)
+I_VG = _COL["oil_grade"]
+I_T = _COL["oil_temperature"]
+I_RHO = _COL["oil_density"]
+I_BETA = _COL["bulk_modulus"]
+I_LP = _COL["pipe_length"]
+I_DP = _COL["pipe_diameter"]
+I_NSEG = _COL["pipe_segments"]
+I_VCH = _COL["chamber_volume"]
+I_DS = _COL["spool_diameter"]
+I_MS = _COL["spool_mass"]
+I_MSPR = _COL["spring_mass"]
+I_K = _COL["spring_stiffness"]
+I_F0 = _COL["spring_preload"]
+I_C40 = _COL["viscous_friction_40c"]
+I_MLVDT = _COL["lvdt_mass"]
+I_CLVDT = _COL["lvdt_friction_40c"]
+I_PSPR = _COL["spring_chamber_pressure"]
+I_STROKE = _COL["spool_stroke"]
+I_KSTOP = _COL["stop_stiffness"]
+I_ASTOP = _COL["stop_damping"]
+I_W = _COL["metering_width"]
+I_XLAP = _COL["metering_lap"]
+I_LPORT = _COL["port_length"]
+I_CD = _COL["discharge_coefficient"]
+I_THETA = _COL["jet_angle"]
+I_VO = _COL["outlet_volume"]
+I_DO = _COL["outlet_orifice_diameter"]
+I_CDO = _COL["outlet_orifice_cd"]
+I_PT = _COL["tank_pressure"]
+I_PMAX = _COL["max_pressure"]
+I_DPTR = _COL["orifice_transition_pressure"]
+I_PFLOOR = _COL["pressure_floor"]
+D_M = _COL["mass"]
+D_C = _COL["viscous"]
+D_A = _COL["area"]
+D_L = _COL["inductance"]
+D_R = _COL["resistance"]
+D_VPIPE = _COL["pipe_volume"]
+D_KM = _COL["k_meter"]
+D_KO = _COL["k_orifice"]
+D_KFF = _COL["k_flow_force"]
 
 
 def derived(params: LSCompensatorParams) -> dict[str, float]:

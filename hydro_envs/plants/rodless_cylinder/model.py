@@ -93,6 +93,7 @@ import math
 import numba as nb
 import numpy as np
 
+from hydro_envs.contract import PlantModel
 from hydro_envs.jit import njit_noalloc
 from hydro_envs.laws.contact import end_stop_force
 from hydro_envs.laws.friction import stribeck_exponential, stribeck_exponential_slope_bound
@@ -118,6 +119,7 @@ from hydro_envs.plants.rodless_cylinder.params import (  # noqa: F401  (re-expor
 )
 
 __all__ = [
+    "CONTRACT",
     "RodlessCylinderParams",
     "STATE_NAMES",
     "rodless_cylinder_rhs",
@@ -894,3 +896,13 @@ def rest_state_from_measurement(params: RodlessCylinderParams, first: dict) -> n
     (mid-stroke if not measured) and chamber pressures (the valve's centre pressure p_0 where
     not measured), gas at the supply temperature, spool centred, unloaded seals (z = 0)."""
     return rest_state(params, first.get("y", 0.5 * params.stroke), pa=first.get("pa"), pb=first.get("pb"))
+
+
+#: the plant's typed contract (hydro_envs.contract.PlantModel): what the registry, sim, envs,
+#: identification, diagnosis and the soak test read of this model
+CONTRACT = PlantModel(
+    state_names=STATE_NAMES, state_units=STATE_UNITS, stiffness_modes=stiffness_modes,
+    state_outputs=STATE_OUTPUTS, derivative_outputs=DERIVATIVE_OUTPUTS,
+    fit_outputs=FIT_OUTPUTS, rest_state=rest_state, rest_state_from_measurement=rest_state_from_measurement,
+    soak_temperatures=soak_temperatures, soak_temperature_floor=soak_temperature_floor, piston_area=piston_area,
+)

@@ -17,6 +17,7 @@ from hydro_envs.laws.nozzle_fast import nozzle_flow_constants, nozzle_mass_flow_
 from hydro_envs.laws.orifice import circular_orifice_area, iso6358_mass_flow_laminar
 from hydro_envs.laws.seal_friction import dissipative_fade_velocity
 from hydro_envs.plants.rodless_cylinder.bounds import local_mode_rates
+from hydro_envs.contract import param_columns
 from hydro_envs.params import ParameterError, PhysicalParams, physical
 
 __all__ = ["PLANT", "RodlessCylinderParams", "N_PARAMS", "N_FIELDS", "ATM", "T_REF_ISO", "RHO_REF_ISO"]
@@ -241,18 +242,58 @@ class RodlessCylinderParams(PhysicalParams):
         return self.heat_capacity_ratio * self.gas_constant * t_max * flow / (ps * (1.0 - rl))
 
 
-# Column indices of the packed parameter array (declaration order of the dataclass).
-(
-    I_PS, I_PE, I_TS, I_R, I_K, I_M, I_D, I_L, I_VDA, I_VDB, I_RP, I_ULAP, I_XVM, I_UC, I_UMAX,
-    I_CD, I_RLAM, I_FLOW, I_CISO, I_BISO, I_WV, I_ZV, I_FS, I_FC, I_VS, I_SIG2, I_SIG0, I_SIG1,
-    I_VEPS, I_FL, I_KSTOP, I_ASTOP, I_HW, I_PFLOOR, I_MFLOOR, I_VMIN, I_RSUP,
-) = range(37)
-N_FIELDS = 37
-# derived columns appended by RodlessCylinderParams.to_array()
-(D_AREA, D_CRIT, D_PSIC, D_PSIL, D_INVK, D_COEF, D_SQRTRTS, D_KV, D_SFULL, D_ORIFICE, D_LOCAL, D_FADE,
- D_WALL) = range(N_FIELDS, N_FIELDS + 13)
-N_PARAMS = N_FIELDS + len(RodlessCylinderParams.derived_names)
-assert RodlessCylinderParams.names()[I_VMIN] == "min_chamber_volume"
-assert RodlessCylinderParams.names()[I_SIG1] == "bristle_damping"
-assert RodlessCylinderParams.names()[I_RSUP] == "supply_line_resistance"
-assert len(RodlessCylinderParams.names()) == N_FIELDS
+# Column indices of the packed parameter row (``to_array()``), generated from the dataclass'
+# fields and derived names (:func:`hydro_envs.contract.param_columns`), each looked up by name.
+_COL = param_columns(RodlessCylinderParams)
+N_FIELDS = len(RodlessCylinderParams.names())
+N_PARAMS = len(_COL)
+I_PS = _COL["supply_pressure"]
+I_PE = _COL["exhaust_pressure"]
+I_TS = _COL["supply_temperature"]
+I_R = _COL["gas_constant"]
+I_K = _COL["heat_capacity_ratio"]
+I_M = _COL["mass"]
+I_D = _COL["bore"]
+I_L = _COL["stroke"]
+I_VDA = _COL["dead_volume_a"]
+I_VDB = _COL["dead_volume_b"]
+I_RP = _COL["port_radius"]
+I_ULAP = _COL["valve_underlap"]
+I_XVM = _COL["spool_stroke"]
+I_UC = _COL["command_centre"]
+I_UMAX = _COL["command_max"]
+I_CD = _COL["discharge_coefficient"]
+I_RLAM = _COL["laminar_pressure_ratio"]
+I_FLOW = _COL["flow_model"]
+I_CISO = _COL["sonic_conductance"]
+I_BISO = _COL["critical_pressure_ratio"]
+I_WV = _COL["valve_natural_frequency"]
+I_ZV = _COL["valve_damping"]
+I_FS = _COL["static_friction"]
+I_FC = _COL["coulomb_friction"]
+I_VS = _COL["stribeck_velocity"]
+I_SIG2 = _COL["viscous_friction"]
+I_SIG0 = _COL["bristle_stiffness"]
+I_SIG1 = _COL["bristle_damping"]
+I_VEPS = _COL["friction_sign_velocity"]
+I_FL = _COL["load_force"]
+I_KSTOP = _COL["stop_stiffness"]
+I_ASTOP = _COL["stop_damping"]
+I_HW = _COL["wall_heat_transfer_coefficient"]
+I_PFLOOR = _COL["pressure_floor"]
+I_MFLOOR = _COL["min_gas_mass"]
+I_VMIN = _COL["min_chamber_volume"]
+I_RSUP = _COL["supply_line_resistance"]
+D_AREA = _COL["piston_area"]
+D_CRIT = _COL["crit"]
+D_PSIC = _COL["psi_c"]
+D_PSIL = _COL["psi_lam"]
+D_INVK = _COL["inv_k"]
+D_COEF = _COL["coef"]
+D_SQRTRTS = _COL["sqrt_rts"]
+D_KV = _COL["k_v"]
+D_SFULL = _COL["s_full"]
+D_ORIFICE = _COL["orifice_rate"]
+D_LOCAL = _COL["local_rate"]
+D_FADE = _COL["micro_damping_velocity"]
+D_WALL = _COL["wall_area_per_volume"]

@@ -20,4 +20,5 @@ SPEC = PlantSpec(
     max_pressure=5e7,
     max_force=1e4,
     regular_clock=False,
+    friction_test="strokes",
 )

@@ -83,6 +83,7 @@ import math
 
 import numpy as np
 
+from hydro_envs.contract import PlantModel
 from hydro_envs.jit import njit_noalloc
 from hydro_envs.laws.contact import end_stop_force
 from hydro_envs.laws.seal_friction import (
@@ -103,6 +104,7 @@ from hydro_envs.plants.servo_cylinder.params import (  # noqa: F401  (indices re
 )
 
 __all__ = [
+    "CONTRACT",
     "ServoCylinderParams",
     "STATE_NAMES",
     "servo_cylinder_rhs",
@@ -388,3 +390,13 @@ def rest_state_from_measurement(params: ServoCylinderParams, first: dict) -> np.
     y[P1] = first.get("p1", pm)
     y[P2] = first.get("p2", pm)
     return y
+
+
+#: the plant's typed contract (hydro_envs.contract.PlantModel): what the registry, sim, envs,
+#: identification, diagnosis and the soak test read of this model
+CONTRACT = PlantModel(
+    state_names=STATE_NAMES, state_units=STATE_UNITS, stiffness_modes=stiffness_modes,
+    state_outputs=STATE_OUTPUTS, derivative_outputs=DERIVATIVE_OUTPUTS,
+    fit_outputs=FIT_OUTPUTS, rest_state_from_measurement=rest_state_from_measurement,
+    relief_bounds=relief_bounds,
+)

@@ -11,6 +11,7 @@ import dataclasses
 import math
 from typing import ClassVar
 
+from hydro_envs.contract import param_columns
 from hydro_envs.params import ParameterError, PhysicalParams, physical
 
 __all__ = ["PLANT", "ServoCylinderParams", "N_PARAMS"]
@@ -208,18 +209,47 @@ class ServoCylinderParams(PhysicalParams):
         return [dissipative_fade_velocity(self.bristle_damping, self.stribeck_velocity, g_min)]
 
 
-# Column indices of the packed parameter array (declaration order of the dataclass).
-(
-    I_PS, I_PT, I_M, I_A, I_L, I_V1, I_V2, I_RHO, I_BETA, I_CD, I_W, I_XVM, I_KV, I_WV,
-    I_ZV, I_UMAX, I_D, I_FC, I_FS, I_VS, I_SIG0, I_SIG1, I_ZCAP, I_FL, I_KSTOP, I_ASTOP, I_DPTR, I_PFLOOR,
-    I_VMIN, I_LAP, I_CIL, I_CEL, I_FASYM, I_FPC, I_RS, I_PRV, I_POV, I_QRV,
-) = range(38)
-assert ServoCylinderParams.names()[I_SIG1] == "bristle_damping"
-assert ServoCylinderParams.names()[I_VMIN] == "min_chamber_volume"
-assert ServoCylinderParams.names()[I_FPC] == "friction_pressure_coefficient"
-assert ServoCylinderParams.names()[I_RS] == "supply_line_resistance"
-assert ServoCylinderParams.names()[I_QRV] == "relief_flow"
-N_FIELDS = 38
-#: derived column (ServoCylinderParams.derived_names)
-I_DFADE = N_FIELDS
-N_PARAMS = N_FIELDS + len(ServoCylinderParams.derived_names)
+# Column indices of the packed parameter row (``to_array()``), generated from the dataclass'
+# fields and derived names (:func:`hydro_envs.contract.param_columns`), each looked up by name.
+_COL = param_columns(ServoCylinderParams)
+N_FIELDS = len(ServoCylinderParams.names())
+N_PARAMS = len(_COL)
+I_PS = _COL["supply_pressure"]
+I_PT = _COL["tank_pressure"]
+I_M = _COL["mass"]
+I_A = _COL["piston_area"]
+I_L = _COL["stroke"]
+I_V1 = _COL["line_volume_1"]
+I_V2 = _COL["line_volume_2"]
+I_RHO = _COL["oil_density"]
+I_BETA = _COL["bulk_modulus"]
+I_CD = _COL["discharge_coefficient"]
+I_W = _COL["area_gradient"]
+I_XVM = _COL["spool_stroke"]
+I_KV = _COL["spool_gain"]
+I_WV = _COL["valve_natural_frequency"]
+I_ZV = _COL["valve_damping"]
+I_UMAX = _COL["command_max"]
+I_D = _COL["viscous_friction"]
+I_FC = _COL["coulomb_friction"]
+I_FS = _COL["static_friction"]
+I_VS = _COL["stribeck_velocity"]
+I_SIG0 = _COL["bristle_stiffness"]
+I_SIG1 = _COL["bristle_damping"]
+I_ZCAP = _COL["bristle_relaxation_cap"]
+I_FL = _COL["load_force"]
+I_KSTOP = _COL["stop_stiffness"]
+I_ASTOP = _COL["stop_damping"]
+I_DPTR = _COL["orifice_transition_pressure"]
+I_PFLOOR = _COL["pressure_floor"]
+I_VMIN = _COL["min_chamber_volume"]
+I_LAP = _COL["valve_overlap"]
+I_CIL = _COL["internal_leakage"]
+I_CEL = _COL["external_leakage"]
+I_FASYM = _COL["friction_asymmetry"]
+I_FPC = _COL["friction_pressure_coefficient"]
+I_RS = _COL["supply_line_resistance"]
+I_PRV = _COL["relief_pressure"]
+I_POV = _COL["relief_override"]
+I_QRV = _COL["relief_flow"]
+I_DFADE = _COL["micro_damping_velocity"]

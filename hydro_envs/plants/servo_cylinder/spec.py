@@ -41,4 +41,5 @@ SPEC = PlantSpec(
     # assumed: 002 samples at 1 kHz (sec. 3); coarser than 50 Hz misses the valve and the hydraulic
     # resonance (hundreds of rad/s)
     max_sample_time=0.02,
+    friction_test="annulus",
 )

@@ -96,6 +96,7 @@ from typing import Any
 import numba as nb
 import numpy as np
 
+from hydro_envs.contract import PlantModel
 from hydro_envs.jit import NOALLOC_OPTIONS, njit_noalloc
 from hydro_envs.laws.bulk_modulus_fast import ifas_bulk_modulus_scaled, modified_ifas_shape_fast
 from hydro_envs.laws.contact import end_stop_force
@@ -123,6 +124,7 @@ from hydro_envs.sim.rk4 import STABLE_H_LAMBDA, local_substeps, worst_case_subst
 from hydro_envs.sim.roots import brent_root
 
 __all__ = [
+    "CONTRACT",
     "PLANT",
     "ShakingTableParams",
     "PRESETS",
@@ -596,3 +598,13 @@ def rest_state_from_measurement(params: ShakingTableParams, first: dict) -> np.n
     """State at a record's first sample: :func:`rest_state` at the measured position (0 if not
     measured)."""
     return rest_state(params, first.get("x", 0.0))
+
+
+#: the plant's typed contract (hydro_envs.contract.PlantModel): what the registry, sim, envs,
+#: identification, diagnosis and the soak test read of this model
+CONTRACT = PlantModel(
+    state_names=STATE_NAMES, state_units=STATE_UNITS, stiffness_modes=stiffness_modes,
+    state_outputs=STATE_OUTPUTS, derivative_outputs=DERIVATIVE_OUTPUTS,
+    fit_outputs=FIT_OUTPUTS, presets=tuple(PRESETS), rest_state=rest_state,
+    rest_state_from_measurement=rest_state_from_measurement, relief_bounds=relief_bounds,
+)

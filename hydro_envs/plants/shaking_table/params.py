@@ -13,6 +13,7 @@ from typing import Any, ClassVar
 
 from hydro_envs.laws.bulk_modulus import modified_ifas_shape_is_valid
 from hydro_envs.laws.bulk_modulus_fast import ifas_constants, modified_ifas_shape_constants
+from hydro_envs.contract import param_columns
 from hydro_envs.params import ParameterError, PhysicalParams, physical
 from hydro_envs.plants.shaking_table.bounds import (
     air_release_pressure, local_mode_rates, modulus_upper_bound, relief_conductance,
@@ -312,21 +313,66 @@ PRESETS: dict[str, dict[str, float]] = {
 SPECIMENS: dict[str, float] = {"none": 0.0, "200kg": 200.0, "500kg": 500.0}
 
 
-# Column indices of the packed parameter array (declaration order of the dataclass).
-(
-    I_PS, I_PT, I_MB, I_MS, I_A, I_L, I_V0, I_R, I_U, I_KU, I_UMAX, I_W0, I_ZETA, I_CIL, I_CEL,
-    I_FC, I_FS, I_FV, I_VS, I_BETA, I_SIG0, I_SIG1, I_ZCAP, I_MODEL, I_E0, I_P0, I_M, I_ALPHA, I_KAPPA, I_L1, I_L2, I_MU,
-    I_PLT, I_KSTOP, I_ASTOP, I_DPTR, I_PFLOOR, I_VMIN, I_PRV, I_POV, I_QRV,
-) = range(41)
-N_FIELDS = 41
-assert ShakingTableParams.names()[I_VMIN] == "min_chamber_volume"
-assert ShakingTableParams.names()[I_QRV] == "relief_flow"
-assert ShakingTableParams.names()[I_MODEL] == "bulk_modulus_model"
-assert ShakingTableParams.names()[I_SIG1] == "bristle_damping"
-assert len(ShakingTableParams.names()) == N_FIELDS
+# Column indices of the packed parameter row (``to_array()``), generated from the dataclass'
+# fields and derived names (:func:`hydro_envs.contract.param_columns`), each looked up by name.
+_COL = param_columns(ShakingTableParams)
+N_FIELDS = len(ShakingTableParams.names())
+N_PARAMS = len(_COL)
+I_PS = _COL["supply_pressure"]
+I_PT = _COL["tank_pressure"]
+I_MB = _COL["platform_mass"]
+I_MS = _COL["specimen_mass"]
+I_A = _COL["piston_area"]
+I_L = _COL["stroke"]
+I_V0 = _COL["dead_volume"]
+I_R = _COL["flow_coefficient"]
+I_U = _COL["underlap"]
+I_KU = _COL["spool_gain"]
+I_UMAX = _COL["command_max"]
+I_W0 = _COL["valve_natural_frequency"]
+I_ZETA = _COL["valve_damping"]
+I_CIL = _COL["internal_leakage"]
+I_CEL = _COL["external_leakage"]
+I_FC = _COL["coulomb_friction"]
+I_FS = _COL["static_friction"]
+I_FV = _COL["viscous_friction"]
+I_VS = _COL["stribeck_velocity"]
+I_BETA = _COL["tanh_gain"]
+I_SIG0 = _COL["bristle_stiffness"]
+I_SIG1 = _COL["bristle_damping"]
+I_ZCAP = _COL["bristle_relaxation_cap"]
+I_MODEL = _COL["bulk_modulus_model"]
+I_E0 = _COL["e0"]
+I_P0 = _COL["p0"]
+I_M = _COL["oil_exponent"]
+I_ALPHA = _COL["air_content"]
+I_KAPPA = _COL["polytropic_exponent"]
+I_L1 = _COL["lambda_1"]
+I_L2 = _COL["lambda_2"]
+I_MU = _COL["mu"]
+I_PLT = _COL["threshold_pressure"]
+I_KSTOP = _COL["stop_stiffness"]
+I_ASTOP = _COL["stop_damping"]
+I_DPTR = _COL["orifice_transition_pressure"]
+I_PFLOOR = _COL["pressure_floor"]
+I_VMIN = _COL["min_chamber_volume"]
+I_PRV = _COL["relief_pressure"]
+I_POV = _COL["relief_override"]
+I_QRV = _COL["relief_flow"]
 #: derived columns (:meth:`ShakingTableParams.derived_columns`)
-(
-    D_EMAX, D_LOCAL, D_PAIR, D_INV_M, D_IFAS_M_E0, D_IFAS_INV_M, D_IFAS_INV_KAPPA, D_IFAS_LN_P0, D_IFAS_OIL_E0,
-    D_IFAS_ALPHA_KAPPA, D_NOTCH_AMP, D_NOTCH_C2, D_NOTCH_ONE_C2, D_NOTCH_FAR, D_DFADE, D_GRV,
-) = range(N_FIELDS, N_FIELDS + len(ShakingTableParams.derived_names))
-N_PARAMS = N_FIELDS + len(ShakingTableParams.derived_names)
+D_EMAX = _COL["modulus_max"]
+D_LOCAL = _COL["local_rate"]
+D_PAIR = _COL["air_release_pressure"]
+D_INV_M = _COL["inv_mass"]
+D_IFAS_M_E0 = _COL["ifas_m_over_e0"]
+D_IFAS_INV_M = _COL["ifas_inv_m"]
+D_IFAS_INV_KAPPA = _COL["ifas_inv_kappa"]
+D_IFAS_LN_P0 = _COL["ifas_ln_p0"]
+D_IFAS_OIL_E0 = _COL["ifas_oil_over_e0"]
+D_IFAS_ALPHA_KAPPA = _COL["ifas_alpha_over_kappa"]
+D_NOTCH_AMP = _COL["notch_amplitude"]
+D_NOTCH_C2 = _COL["notch_c2"]
+D_NOTCH_ONE_C2 = _COL["notch_one_plus_c2"]
+D_NOTCH_FAR = _COL["notch_far"]
+D_DFADE = _COL["micro_damping_velocity"]
+D_GRV = _COL["relief_conductance"]

@@ -62,6 +62,7 @@ from collections.abc import Sequence
 import numba as nb
 import numpy as np
 
+from hydro_envs.contract import PlantModel
 from hydro_envs.jit import njit_noalloc
 from hydro_envs.laws.contact import CONTACT_DAMPING_RAMP, backlash_force, end_stop_force
 from hydro_envs.laws.friction import stribeck_exponential
@@ -74,6 +75,7 @@ from hydro_envs.sim.simulate import simulate
 from hydro_envs.sim.stiffness import substeps_from_stiffness
 
 __all__ = [
+    "CONTRACT",
     "SliderParams",
     "PLANT",
     "STATE_NAMES",
@@ -267,3 +269,12 @@ def simulate_slider(
         nsub = int(n_sub)
     out = simulate(SPEC, plist, F[:, :, None], Y, dt, n_sub=nsub)
     return out[0] if single else out
+
+
+#: the plant's typed contract (hydro_envs.contract.PlantModel): what the registry, sim, envs,
+#: identification, diagnosis and the soak test read of this model
+CONTRACT = PlantModel(
+    state_names=STATE_NAMES, state_units=STATE_UNITS, stiffness_modes=stiffness_modes,
+    state_outputs=STATE_OUTPUTS, derivative_outputs=DERIVATIVE_OUTPUTS,
+    rest_state=rest_state,
+)

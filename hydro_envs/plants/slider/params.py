@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 
+from hydro_envs.contract import param_columns
 from hydro_envs.params import ParameterError, PhysicalParams, physical
 
 __all__ = ["PLANT", "SliderParams", "N_PARAMS"]
@@ -82,8 +83,22 @@ class SliderParams(PhysicalParams):
             )
 
 
-(I_M, I_FC, I_FS, I_VS, I_B, I_F0, I_VEPS, I_L, I_FMAX, I_KSTOP, I_ASTOP, I_GAP, I_MU, I_KC, I_AC) = range(15)
-N_PARAMS = 15
-assert SliderParams.names()[I_ASTOP] == "stop_damping"
-assert SliderParams.names()[I_AC] == "coupling_damping"
-assert len(SliderParams.names()) == N_PARAMS
+# Column indices of the packed parameter row (``to_array()``), generated from the dataclass'
+# fields and derived names (:func:`hydro_envs.contract.param_columns`), each looked up by name.
+_COL = param_columns(SliderParams)
+N_PARAMS = len(_COL)
+I_M = _COL["mass"]
+I_FC = _COL["coulomb_friction"]
+I_FS = _COL["static_friction"]
+I_VS = _COL["stribeck_velocity"]
+I_B = _COL["viscous_friction"]
+I_F0 = _COL["force_offset"]
+I_VEPS = _COL["friction_sign_velocity"]
+I_L = _COL["stroke"]
+I_FMAX = _COL["force_max"]
+I_KSTOP = _COL["stop_stiffness"]
+I_ASTOP = _COL["stop_damping"]
+I_GAP = _COL["backlash_gap"]
+I_MU = _COL["load_mass_fraction"]
+I_KC = _COL["coupling_stiffness"]
+I_AC = _COL["coupling_damping"]
