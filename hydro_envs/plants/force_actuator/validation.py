@@ -180,7 +180,9 @@ NOTES = """\
   so it is not adopted. Also measured at 0.25 m/s: a load-pressure factor sqrt(1 - p_L / p_s) on the
   knee (the square-root orifice law of sec. 3.1 on the supply edge) moves 10-400 N by under 1 Hz and
   800 N by 2 Hz; an orifice floor phi(0) = 0.5 (areas 1 +- xi) instead of 0.1 gives 131, 131, 137,
-  141, 118 Hz.
+  141, 118 Hz; a slew limit on the coil current (a driver's compliance voltage) of 400 rated currents
+  per second gives 131, 131, 136, 115, 83 Hz and of 800 per second 131, 131, 136, 139, 107 Hz: a rate
+  limit bites as 1/amplitude, so one that removes the rise at 200 N puts 800 N far below 100 Hz.
 * **Eq (6)'s phase crossover (156 Hz) and gain (52.6).** The locked actuator's response to small
   current sines (`experiments.open_loop_force_response`, 0.1 rated current) is 48.4 N/mA at 1 Hz against
   eq (6)'s 52.6 (read in mA -> N; the rated current is assumed with this gain in view, so it is not an
