@@ -731,9 +731,21 @@ def test_linearised_natural_frequency_matches_small_signal_response(preset, spec
     assert abs(res["fft_peak"] - lin) < 0.05 * lin  # independent of the fit
 
 
+def test_tap_frequency_off_centre_matches_the_linearisation():
+    """The stroke-sweep helper of the independent row: the simulated tap's FFT peak at +-60 mm against
+    the linearisation of 003 eqs (6), (7), (10) at that position (stiffer off centre)."""
+    p = ShakingTableParams.preset("modified_ifas", "200kg")
+    for x in (-0.06, 0.06):
+        lin = st.hydraulic_natural_frequency(p, x) / (2.0 * np.pi)
+        assert st_validation.tap_frequency(p, x) == pytest.approx(lin, rel=0.02)
+    assert st.hydraulic_natural_frequency(p, 0.06) > 1.02 * st.hydraulic_natural_frequency(p, 0.0)
+
+
 def test_validation_rows_pass_and_absolute_rows():
     rows = st_validation.rows()
-    assert len(rows) == 5
+    assert len(rows) == 7
+    assert [r.kind for r in rows].count("independent") == 1 and rows[5].absolute  # stroke centre, 003 eq (14)
+    assert rows[6].kind == "table" and rows[6].published == 20.0  # 003 sec. 2 catalogue flow
     for r in rows:
         assert r.passed, (r.name, r.published, r.reproduced, r.tolerance)
     assert rows[0].absolute and rows[0].published == 0.0

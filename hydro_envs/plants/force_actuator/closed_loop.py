@@ -36,6 +36,7 @@ __all__ = [
     "closed_loop_summary",
     "LIMIT_CYCLE_GAINS",
     "RESPONSE_FREQUENCIES",
+    "AMPLITUDES",
 ]
 
 
@@ -208,6 +209,9 @@ def sensor_ring_down(params: ForceActuatorParams, duration: float = 0.03, dt: fl
 
 #: gain sweep of the limit-cycle row (001 sec. 4.7: limit cycle at K_f >= 3.66, ~95 Hz)
 LIMIT_CYCLE_GAINS = np.round(np.arange(2.0, 12.01, 0.1), 2)
+#: sine amplitudes of the closed-loop frequency-response rows [N] (001 figs. 11-13 use 50, 200
+#: and 800 N square waves; fig. 9's amplitudes are not printed)
+AMPLITUDES = (10.0, 50.0, 200.0, 400.0, 800.0)
 #: frequencies of the closed-loop frequency-response rows [Hz]
 RESPONSE_FREQUENCIES = np.geomspace(5.0, 500.0, 36)
 
@@ -215,7 +219,7 @@ RESPONSE_FREQUENCIES = np.geomspace(5.0, 500.0, 36)
 def closed_loop_summary(params: ForceActuatorParams | None = None) -> dict[str, object]:
     """Numbers of the closed-loop validation rows (proportional force control, 001 sec. 4.7)."""
     p = params or ForceActuatorParams()
-    amps = (10.0, 50.0, 200.0, 800.0)
+    amps = AMPLITUDES
     h = closed_loop_frequency_response(p, 2.44, amps, RESPONSE_FREQUENCIES)
     bw3 = {a: bandwidth(RESPONSE_FREQUENCIES, h[j], 3.0) for j, a in enumerate(amps)}
     bw6 = {a: bandwidth(RESPONSE_FREQUENCIES, h[j], 6.0) for j, a in enumerate(amps)}
