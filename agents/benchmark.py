@@ -179,7 +179,7 @@ def _rig_params(env_id: str, env_kwargs: Mapping[str, Any]) -> Any:
     if env_kwargs.get("params") is None:
         return None
     venv = _vector_env(env_id, 1, None, False, **dict(env_kwargs))
-    base = venv._batch.base_params
+    base = venv.batch.base_params
     venv.close()
     return base
 
@@ -216,7 +216,7 @@ def draw_parameters(env_id: str, params: str, n: int, seed: int = 0,
     if not (math.isfinite(factor) and factor > 1.0):
         raise ValueError(f"factor must be > 1, got {factor}")
     venv = _vector_env(env_id, 1, None, True, **dict(env_kwargs or {}))
-    batch = venv._batch
+    batch = venv.batch
     spec, base = batch.spec, batch.base_params
     venv.close()
     if spec is None or not spec.entries:
@@ -314,7 +314,7 @@ def rollout(env_id: str, controller: Any, draws: Sequence[Mapping[str, float]], 
     ad = _adapter(env_id)
     n = len(draws)
     venv = _vector_env(env_id, n, steps, False, **dict(env_kwargs or {}))
-    b = venv._batch
+    b = venv.batch
     # a few dozen copies: the serial kernel (entering numba's parallel region costs more than
     # stepping 20 copies, 8 ms vs 0.1 ms per step on a loaded 2-core machine)
     b.parallel = n >= SERIAL_BELOW

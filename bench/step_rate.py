@@ -115,7 +115,7 @@ def profile_split(env_id: str, n: int, steps: int, **env_kwargs: object) -> dict
 
     venv = gym.make_vec(env_id, num_envs=n, vectorization_mode="vector_entry_point", **env_kwargs)
     venv.reset(seed=0)
-    b = venv.unwrapped._batch
+    b = venv.unwrapped.batch
     rng = np.random.default_rng(0)
     space = venv.single_action_space
     actions = rng.uniform(space.low, space.high, (steps,) + (n,) + space.shape).astype(space.dtype)

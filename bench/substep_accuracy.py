@@ -47,7 +47,7 @@ def record(env_id: str, copies: int, warmup: int, steps: int, hold: int, seed: i
 
     venv = gym.make_vec(env_id, num_envs=copies, vectorization_mode="vector_entry_point")
     venv.reset(seed=seed)
-    b = venv.unwrapped._batch
+    b = venv.unwrapped.batch
     space = venv.single_action_space
     rng = np.random.default_rng(seed)
 

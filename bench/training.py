@@ -168,7 +168,7 @@ def tracking_rmse(policy, n: int, seed: int, reference: str = "mixed") -> float:
     venv = gym.make_vec(ENV_ID, num_envs=n, vectorization_mode="vector_entry_point", randomize=False,
                         reference=reference)
     obs, _ = venv.reset(seed=seed)
-    batch = venv.unwrapped._batch
+    batch = venv.unwrapped.batch
     steps = venv.unwrapped.max_episode_steps
     ref = batch.REF[:, 1 : steps + 1].copy()  # compared with x after step k: r[k + 1]
     xs = np.empty((n, steps))

@@ -116,13 +116,13 @@ def creep_points(plant: str, speeds: Any = None, *, travel: float = 0.2) -> tupl
     ramps = [(v, sg) for v in speeds for sg in (1.0, -1.0)]
     cls = load_env_creator(gym.spec(env_id).vector_entry_point)
     probe = cls(num_envs=1, randomize=False)
-    p, dt = probe._batch.base_params, probe._batch.dt
+    p, dt = probe.batch.base_params, probe.batch.dt
     probe.close()
     L = p.stroke
     lengths = [int(round(travel * L / v / dt)) + 1 for v, _ in ramps]
     steps = max(lengths)
     venv = cls(num_envs=len(ramps), randomize=False, max_episode_steps=steps)
-    b = venv._batch
+    b = venv.batch
     b.parallel = False  # eight copies: the serial kernel (a parallel region costs more to enter)
     venv.reset(seed=0)
     for i, ((v, sg), n) in enumerate(zip(ramps, lengths)):

@@ -686,6 +686,13 @@ class BatchedEnv(gym.Env):
         self._dim = self._batch.action_dim
 
     @property
+    def batch(self) -> PlantBatch:
+        """The plant batch this env is a view on (one copy): states ``Y``, parameter rows ``P``,
+        ``base_params``, randomisation ``spec``, ``dt``, the plant's index attributes. Read it; its
+        states change only through the env's ``reset``/``step``."""
+        return self._batch
+
+    @property
     def params(self) -> PhysicalParams:
         """This episode's parameter set."""
         return self._batch.params[0]
@@ -806,6 +813,14 @@ class BatchedVectorEnv(VectorEnv):
         self._steps_bound = 0
         self._params_info: dict[str, np.ndarray] = {}
         self._reset_done = False
+
+    @property
+    def batch(self) -> PlantBatch:
+        """The plant batch behind all copies: states ``Y`` (copies x states), parameter rows
+        ``P``, ``base_params``, randomisation ``spec``, ``dt``, the plant's index attributes
+        (what the benchmark's adapters read). Read it; its states change only through
+        ``reset``/``step`` (its ``parallel`` flag picks the serial or threaded kernel)."""
+        return self._batch
 
     @property
     def n_substeps(self) -> np.ndarray:
