@@ -22,7 +22,9 @@ import numpy as np
 
 from identification.diagnosis.plants import DiagnosisPlant
 from identification.diagnosis.records import Record
-from identification.diagnosis.workflow import DiagnosisResult, _simulate, residual_maps
+from identification.diagnosis.fitting import _simulate
+from identification.diagnosis.residuals import residual_maps
+from identification.diagnosis.workflow import DiagnosisResult
 
 __all__ = ["write_report"]
 
