@@ -165,4 +165,5 @@ def summary_text(res) -> str:
         lines += [f"    {line}" for line in final_model_lines(res.final_model_table)]
     for n in res.notes:
         lines.append(f"  note: {n}")
+    lines.append(f"  run time: {res.seconds:.1f} s")
     return "\n".join(lines)

@@ -476,6 +476,7 @@ def refit(data: Prepared, bf: BaseFit, run: Run, ranked: Ranked, scores: _Heldou
         opts.say(f"  candidate {e.name} (signature {s:.4f})" + (" (warm refit only)" if settled else ""))
         c = _refit_one(data, bf, run, e, s, settled, scores)
         results.append(c)
+        opts.say(f"    {c.seconds:.1f} s: " + (f"held-out gain {c.gain:+.1%}" if math.isfinite(c.gain) else c.reasons[-1]))
         if not settled and c.model is not None and c.plausible and c.identifiable and c.gain >= opts.accept_gain:
             settled = scores.settles(c.model)
             if settled:
