@@ -12,7 +12,7 @@ the confusion matrix (true effect x named effect), the relative error of every f
 parameter against its drawn value (cases where the effect was named) and the three rates:
 top-1 (hidden effect named first), none (effect-free data -> "none") and shrink (held-out
 NRMSE falls by >= 50 % when an effect is named; over the channels the effect acts on, see
-identification.diagnosis.workflow.effect_channels).
+identification.diagnosis.residuals.effect_channels).
 
 ``--backend ray`` runs every case as one Ray core task (agents/backend.py; a cluster by
 ``--ray-address`` or ``$RAY_ADDRESS``, else a local Ray); rows, matrix and rates are the same.

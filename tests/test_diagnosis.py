@@ -18,18 +18,17 @@ from identification.diagnosis import CATALOGUE, DiagnosisDataError, diagnose, di
 from identification.diagnosis.plants import PLANTS
 from identification.diagnosis.records import Record, check_records
 from identification.diagnosis.synthetic import base_for, draw_effect, hidden_effect_records
-from identification.diagnosis.workflow import (
+from identification.diagnosis.fitting import DISTINCT_MIN, input_noise_floor
+from identification.diagnosis.models import (
     ACCEPT_GAIN,
     BASE_FIT_FACTOR,
-    DISTINCT_MIN,
     Model,
     base_fit_bounds,
-    effect_channels,
-    input_noise_floor,
     null_base,
     present_effects,
     with_effect,
 )
+from identification.diagnosis.residuals import effect_channels
 
 REQUIRED_EFFECTS = {"coulomb", "stribeck", "asymmetric_friction", "pressure_friction", "internal_leakage",
                     "external_leakage", "valve_lap", "valve_dynamics", "ifas", "modified_ifas", "sensor_delay"}
@@ -178,7 +177,7 @@ def test_rodless_valve_overlap_is_named_as_a_negative_lap():
     outside the underlap draws of the bench) is named valve_lap and fitted below zero."""
     from identification.diagnosis.plants import diagnosis_plant
     from identification.diagnosis.synthetic import base_for, closed_loop_record
-    from identification.diagnosis.workflow import Model, with_effect
+    from identification.diagnosis.models import Model, with_effect
 
     spec = diagnosis_plant("rodless_cylinder")
     base = Model(base_for(spec, "valve_lap"))
@@ -276,7 +275,7 @@ def test_greybox_profiles_out_sensor_offsets():
     on a channel, the offset recovered, the model outputs carry it."""
     from identification import greybox as gb
     from identification.diagnosis.records import segments
-    from identification.diagnosis.workflow import _channels
+    from identification.diagnosis.models import _channels
 
     spec = diagnosis_plant("servo_cylinder")
     case = hidden_effect_records("servo_cylinder", None, 31, duration=3.0)
@@ -382,7 +381,7 @@ def test_pairs_leave_out_the_sensor_offset_candidate():
     from identification.diagnosis.candidates import Candidate
     from identification.diagnosis.models import SENSOR_OFFSETS
     from identification.diagnosis.pairs import pair_candidates
-    from identification.diagnosis.workflow import Model
+    from identification.diagnosis.models import Model
 
     from hydro_envs.plants.rodless_cylinder.params import RodlessCylinderParams
 
@@ -398,7 +397,7 @@ def test_pairs_leave_out_implausible_single_refits(monkeypatch):
     from identification.diagnosis import pairs
     from identification.diagnosis.candidates import Candidate
     from identification.diagnosis.pairs import pair_candidates
-    from identification.diagnosis.workflow import Model
+    from identification.diagnosis.models import Model
 
     from hydro_envs.plants.slider.params import SliderParams
 

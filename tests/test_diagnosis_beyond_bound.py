@@ -11,7 +11,8 @@ import pytest
 
 from identification.diagnosis import diagnose, diagnosis_plant
 from identification.diagnosis.synthetic import base_for, closed_loop_record
-from identification.diagnosis.workflow import Model, _implausible_best_notes, with_effect
+from identification.diagnosis.decision import implausible_best_notes
+from identification.diagnosis.models import Model, with_effect
 
 
 def test_a_better_but_implausible_candidate_is_noted_with_its_value_and_bound():
@@ -21,12 +22,12 @@ def test_a_better_but_implausible_candidate_is_noted_with_its_value_and_bound():
 
     leak = cand("internal_leakage", 0.01, 0.9, False, ["internal_leakage = 2e-11 outside its plausible range"])
     lap = cand("valve_lap", 0.05, 0.5, True)
-    notes = _implausible_best_notes([leak, lap], "valve_lap", 0.02, 1)
+    notes = implausible_best_notes([leak, lap], "valve_lap", 0.02, 1)
     assert len(notes) == 1 and "internal_leakage = 2e-11 outside its plausible range" in notes[0]
     assert "check the rig" in notes[0]
-    assert _implausible_best_notes([lap, cand("x", 0.09, 0.1, False)], "valve_lap", 0.02, 1) == []  # worse
-    assert len(_implausible_best_notes([leak], "none", 0.02, 2)) == 1
-    assert len(_implausible_best_notes([leak, lap], "ambiguous: valve_lap vs coulomb", 0.02, 1)) == 1
+    assert implausible_best_notes([lap, cand("x", 0.09, 0.1, False)], "valve_lap", 0.02, 1) == []  # worse
+    assert len(implausible_best_notes([leak], "none", 0.02, 2)) == 1
+    assert len(implausible_best_notes([leak, lap], "ambiguous: valve_lap vs coulomb", 0.02, 1)) == 1
 
 
 @pytest.fixture(scope="module")

@@ -199,7 +199,8 @@ def test_a_failed_score_is_an_error_or_inf_never_a_sentinel():
 
 
 def test_a_base_fit_that_does_not_run_is_an_error_that_says_why():
-    from identification.diagnosis.workflow import Model, _check_base_fit
+    from identification.diagnosis.models import Model
+    from identification.diagnosis.workflow import _check_base_fit
 
     spec = diagnosis_plant("slider")
     m = Model(base_for(spec, None))
@@ -213,7 +214,7 @@ def test_a_winner_correlated_with_an_earlier_effect_is_ambiguous():
     """Identifiability of a multi-effect model: the winner's parameter correlated at 0.999 with
     one of an effect named earlier (not its prerequisite) -> ambiguous, both listed; with its
     prerequisite (Coulomb for the Stribeck levels) or at 0.96 -> kept, the pair noted."""
-    from identification.diagnosis.workflow import _check_correlated
+    from identification.diagnosis.decision import check_correlated
 
     spec = diagnosis_plant("slider")
 
@@ -222,14 +223,14 @@ def test_a_winner_correlated_with_an_earlier_effect_is_ambiguous():
         return SimpleNamespace(name=name, fit=fit, reasons=[])
 
     w = winner("force_offset", [("force_offset", "stribeck_velocity", 0.999)])
-    dec, sep = _check_correlated(spec, w, ["stribeck"], "force_offset", "")
+    dec, sep = check_correlated(spec, w, ["stribeck"], "force_offset", "")
     assert dec == "ambiguous: force_offset vs stribeck" and "stribeck" in sep
     w = winner("force_offset", [("coulomb_friction", "force_offset", -0.999)])
-    assert _check_correlated(spec, w, ["coulomb"], "force_offset", "")[0] == "ambiguous: force_offset vs coulomb"
+    assert check_correlated(spec, w, ["coulomb"], "force_offset", "")[0] == "ambiguous: force_offset vs coulomb"
     w = winner("stribeck", [("coulomb_friction", "static_friction", 0.999)])
-    assert _check_correlated(spec, w, ["coulomb"], "stribeck", "")[0] == "stribeck"
+    assert check_correlated(spec, w, ["coulomb"], "stribeck", "")[0] == "stribeck"
     w = winner("force_offset", [("force_offset", "stribeck_velocity", 0.96)])
-    assert _check_correlated(spec, w, ["stribeck"], "force_offset", "")[0] == "force_offset"
+    assert check_correlated(spec, w, ["stribeck"], "force_offset", "")[0] == "force_offset"
     assert "correlated with stribeck_velocity of stribeck" in w.reasons[0]
 
 

@@ -21,7 +21,7 @@ _EXPORTS = {
     "CATALOGUE": "catalogue", "Effect": "catalogue", "effect": "catalogue", "effects_for": "catalogue",
     "PLANTS": "plants", "diagnosis_plant": "plants",
     "DiagnosisError": "records", "DiagnosisDataError": "records", "DiagnosisFitError": "records", "Record": "records", "record_from_measured": "records",
-    "DiagnosisResult": "workflow", "Model": "workflow", "diagnose": "workflow",
+    "DiagnosisResult": "workflow", "Model": "models", "diagnose": "workflow",
 }
 __all__ = sorted(_EXPORTS)
 

@@ -152,6 +152,12 @@ def summary_text(res) -> str:
     if res.noise_floor:
         lines.append("  noise floor (held-out, in the score band): " + _fmt(
             {k: v["floor"] for k, v in res.noise_floor.items()}, res.noise_floor))
+        lines.append(f"  threshold of 'unexplained' ({res.unexplained_factor:g} floors): " + _fmt(
+            {k: v.get("threshold", res.unexplained_factor * v["floor"]) for k, v in res.noise_floor.items()},
+            res.noise_floor))
+        est = next((v["estimator"] for v in res.noise_floor.values() if v.get("estimator")), "")
+        if est:
+            lines.append(f"  noise levels: {est}")
     for r in res.residual:
         lines.append(f"  held-out residual RMS, {r['step']}: {_fmt(r['rms'], res.noise_floor)} ("
                      + ", ".join(f"{k} {v:.2f}" for k, v in r["floors"].items()) + " noise floors)")
@@ -170,4 +176,5 @@ def summary_text(res) -> str:
         lines += [f"    {line}" for line in final_model_lines(res.final_model_table)]
     for n in res.notes:
         lines.append(f"  note: {n}")
+    lines.append(f"  run time: {res.seconds:.1f} s")
     return "\n".join(lines)

@@ -8,13 +8,22 @@ when a measured input drives the simulation -- the spread that the input's own n
 Both are estimated from the data, per output channel, in the channel's unit::
 
     sensor   = sigma_y * g                 sigma_y: white-noise level of the measured channel
-                                           (records.noise_estimate: the residual of a 5-point
-                                           cubic Savitzky-Golay smoother, which passes the signal
-                                           below ~fs/6, over its white-noise gain), pooled over
-                                           the held-out records; g: RMS of unit white noise after
-                                           the score's low-pass (computed, not assumed)
-    input    = fitting.input_noise_floor   (0 when every input is commanded, i.e. exact)
+                                           (records.noise_estimate: the median absolute deviation
+                                           of the residual of a 5-point cubic Savitzky-Golay
+                                           smoother, which passes the signal below ~fs/6, over its
+                                           white-noise gain; at least q/sqrt(12) on a channel
+                                           quantised in steps q), pooled over the held-out records;
+                                           g: RMS of unit white noise after the score's low-pass
+                                           (computed, not assumed)
+    input    = fitting.input_noise_floor   (0 when every input is commanded, i.e. exact; the
+                                           input's level by the same robust estimate)
     floor    = sqrt(sensor^2 + input^2)
+    threshold = unexplained_factor * floor (the verdict's bar, reported per channel)
+
+The median, not the standard deviation, separates the noise from the deterministic excitation:
+a step of the reference and the controller's reaction to it leave large smoother residuals at a
+few samples only (a standard deviation made 1.0-1.5 N of "noise" of a slider's noise-free force
+record, a position floor of 47-236 um instead of ~0.3 um, issue 56).
 
 A model's held-out residual (:func:`heldout_rms`) is the RMS of the same band-limited error over
 the scored samples of the held-out windows, in the same unit; ``residual / floor`` is how many
@@ -52,6 +61,10 @@ __all__ = ["UNEXPLAINED_FACTOR", "BANDS", "noise_floor", "heldout_rms", "where_m
 # diagnosis settings; this is the default.
 UNEXPLAINED_FACTOR = DiagnosisPlant.__dataclass_fields__["unexplained_factor"].default
 
+# how the floor's white-noise levels are estimated (reported with the floor)
+ESTIMATOR = ("robust: 1.4826 x median absolute deviation of the 5-point cubic Savitzky-Golay residual "
+             "(steps and the controller's reaction are not noise), at least q/sqrt(12) when quantised")
+
 # frequency bands [Hz] of the mismatch report (upper edge inf: up to the Nyquist frequency)
 BANDS = ((0.0, 1.0), (1.0, 5.0), (5.0, 20.0), (20.0, 50.0), (50.0, math.inf))
 
@@ -66,7 +79,9 @@ def _band_gain(n: int, dt: float, band: float) -> float:
 def noise_floor(spec: DiagnosisPlant, model: Model, records: Sequence[Record]) -> dict[str, dict[str, Any]]:
     """Per measured output channel of ``records``: ``sensor_noise`` (white-noise level sigma_y),
     ``sensor`` (its part inside the score band), ``input`` (spread from the noise of measured
-    inputs through ``model``), ``floor`` (their root sum of squares) and ``unit``."""
+    inputs through ``model``), ``floor`` (their root sum of squares), ``threshold`` (the plant's
+    ``unexplained_factor`` times the floor: the verdict's bar in the channel's unit), ``unit``
+    and ``estimator`` (how the noise levels were estimated)."""
     chans = [k for k in list(spec.outputs) + list(spec.derivative_outputs) if any(k in r.channels for r in records)]
     inp = input_noise_floor(spec, model, records)
     n_win = max(16, int(round((spec.segment_seconds + spec.warmup_seconds) / records[0].dt)))
@@ -76,8 +91,9 @@ def noise_floor(spec: DiagnosisPlant, model: Model, records: Sequence[Record]) -
         parts = [(noise_estimate(r.channels[k]), r.n) for r in records if k in r.channels]
         s = math.sqrt(sum(v * v * n for v, n in parts) / sum(n for _, n in parts))
         i = float(inp.get(k, 0.0))
+        fl = math.sqrt((s * g) ** 2 + i * i)
         out[k] = {"unit": spec.units.get(k, ""), "sensor_noise": s, "sensor": s * g, "input": i,
-                  "floor": math.sqrt((s * g) ** 2 + i * i)}
+                  "floor": fl, "threshold": spec.unexplained_factor * fl, "estimator": ESTIMATOR}
     return out
 
 

@@ -125,13 +125,44 @@ def shifted(x: np.ndarray, dt: float, delay: float) -> np.ndarray:
     return np.interp(t + delay, t, x)
 
 
+# white-noise gain of the 5-point cubic Savitzky-Golay residual (1 - the smoother's centre weight 17/35)
+_SG_RESIDUAL_GAIN = math.sqrt(1 - 17 / 35)
+# median absolute deviation of a normal variable over its standard deviation (Phi^-1(3/4))
+_MAD_PER_SIGMA = 0.6744897501960817
+# a channel counts as quantised when this share of its non-zero sample-to-sample changes are whole
+# multiples of the smallest one (to QUANTUM_TOL of it)
+QUANTISED_SHARE, QUANTUM_TOL = 0.99, 1e-3
+
+
+def quantum(x: np.ndarray) -> float:
+    """The resolution of a quantised channel (an encoder count, an ADC step): the smallest
+    non-zero change between samples when nearly every change is a whole multiple of it
+    (``QUANTISED_SHARE``); 0 for a channel that is not quantised (or hardly moves)."""
+    d = np.abs(np.diff(np.asarray(x, dtype=float)))
+    d = d[d > 0]
+    if d.size < 20:
+        return 0.0
+    q = float(d.min())
+    k = d / q
+    return q if float(np.mean(np.abs(k - np.round(k)) <= QUANTUM_TOL)) >= QUANTISED_SHARE else 0.0
+
+
 def noise_estimate(x: np.ndarray) -> float:
-    """White-noise level of a sampled signal: the residual of a 5-point cubic Savitzky-Golay
-    smoother (which passes signals below ~1/6 of the sample rate) divided by its white-noise
-    factor sqrt(1 - 17/35) = 0.717."""
+    """White measurement-noise level (standard deviation) of a sampled signal, robust to its
+    deterministic content. The residual of a 5-point cubic Savitzky-Golay smoother passes the
+    signal below ~1/6 of the sample rate and white noise with the gain sqrt(1 - 17/35) = 0.717;
+    its spread is taken as the median absolute deviation (1.4826 MAD = sigma for normal noise),
+    so the few samples at a step of the reference, the controller's reaction to it or an end
+    stop -- large residuals, but deterministic -- do not count as noise (a standard deviation
+    counted a controller's force steps as 1.0-1.5 N of noise on a record with none, issue 56).
+    A quantised channel's level is at least its quantisation noise q / sqrt(12): a MAD of a
+    staircase that mostly rests is 0, but the sensor cannot resolve below its count."""
+    x = np.asarray(x, dtype=float)
     if x.size < 7:
         return float(np.std(x))
-    return float(np.std(x - signal.savgol_filter(x, 5, 3))) / math.sqrt(1 - 17 / 35)
+    r = x - signal.savgol_filter(x, 5, 3)
+    mad = float(np.median(np.abs(r - np.median(r))))
+    return max(mad / _MAD_PER_SIGMA / _SG_RESIDUAL_GAIN, quantum(x) / math.sqrt(12.0))
 
 
 def check_records(records: Sequence[Record], spec: DiagnosisPlant, *, role: str = "data",

@@ -22,7 +22,9 @@ import numpy as np
 
 from identification.diagnosis.plants import DiagnosisPlant
 from identification.diagnosis.records import Record
-from identification.diagnosis.workflow import DiagnosisResult, _simulate, residual_maps
+from identification.diagnosis.fitting import _simulate
+from identification.diagnosis.residuals import residual_maps
+from identification.diagnosis.workflow import DiagnosisResult
 
 __all__ = ["write_report"]
 
@@ -133,6 +135,33 @@ def _final_model_section(rows: list[dict[str, Any]]) -> list[str]:
     return lines + [""]
 
 
+def _floor_section(res: DiagnosisResult) -> list[str]:
+    """The noise floor per channel (its parts, the estimator and the verdict's threshold) and
+    the held-out residual after each step, in channel units and floors."""
+    if not res.noise_floor:
+        return []
+    lines: list[str] = []
+    lines += ["## Noise floor and held-out residual", "",
+              "Noise floor per channel (estimated from the held-out data: white sensor noise inside the score "
+              f"band, plus the spread the noise of measured inputs causes); verdict `unexplained` above "
+              f"{res.unexplained_factor:g} floors (the threshold column)."
+              + "".join(f" Noise levels: {v['estimator']}." for v in list(res.noise_floor.values())[:1]
+                        if v.get("estimator")), "",
+              "| channel | unit | sensor noise | in score band | from input noise | floor | threshold |",
+              "|---|---|---|---|---|---|---|"]
+    for k, v in res.noise_floor.items():
+        lines.append(f"| {k} | {v['unit']} | {v['sensor_noise']:.3g} | {v['sensor']:.3g} | {v['input']:.3g} "
+                     f"| {v['floor']:.3g} | {v.get('threshold', res.unexplained_factor * v['floor']):.3g} |")
+    lines += ["", "| step | " + " | ".join(f"{k} RMS [{v['unit']}] (floors)" for k, v in res.noise_floor.items())
+              + " |", "|---|" + "---|" * len(res.noise_floor)]
+    for r in res.residual:
+        lines.append(f"| {r['step']} | " + " | ".join(
+            f"{r['rms'].get(k, float('nan')):.3g} ({r['floors'].get(k, float('nan')):.2f})" for k in res.noise_floor)
+            + " |")
+    lines.append("")
+    return lines
+
+
 def write_report(res: DiagnosisResult, spec: DiagnosisPlant, records: Sequence[Record],
                  holdout: Sequence[Record] | None, out_dir: str | Path) -> Path:
     """Write ``report.md``, ``result.json`` and the figures into ``out_dir``; return the
@@ -166,22 +195,7 @@ def _write_report(stage: Any, res: DiagnosisResult, spec: DiagnosisPlant, record
         lines += [f"Reason: {res.reason}", ""]
     lines.append("Base-model fit: " + ", ".join(f"{k} = {v:.4g}" for k, v in res.base_fit.items()))
     lines.append("")
-    if res.noise_floor:
-        lines += ["## Noise floor and held-out residual", "",
-                  "Noise floor per channel (estimated from the held-out data: white sensor noise inside the score "
-                  f"band, plus the spread the noise of measured inputs causes); verdict `unexplained` above "
-                  f"{res.unexplained_factor:g} floors.", "",
-                  "| channel | unit | sensor noise | in score band | from input noise | floor |", "|---|---|---|---|---|---|"]
-        for k, v in res.noise_floor.items():
-            lines.append(f"| {k} | {v['unit']} | {v['sensor_noise']:.3g} | {v['sensor']:.3g} | {v['input']:.3g} "
-                         f"| {v['floor']:.3g} |")
-        lines += ["", "| step | " + " | ".join(f"{k} RMS [{v['unit']}] (floors)" for k, v in res.noise_floor.items())
-                  + " |", "|---|" + "---|" * len(res.noise_floor)]
-        for r in res.residual:
-            lines.append(f"| {r['step']} | " + " | ".join(
-                f"{r['rms'].get(k, float('nan')):.3g} ({r['floors'].get(k, float('nan')):.2f})" for k in res.noise_floor)
-                + " |")
-        lines.append("")
+    lines += _floor_section(res)
     if res.mismatch:
         m = res.mismatch
         lines += [f"Where the mismatch remains: channel `{m['channel']}` ({m['ratio']:.1f} floors); by operating "

@@ -22,7 +22,7 @@ from hydro_envs.sim.stiffness import substeps_from_stiffness
 from identification.diagnosis.catalogue import effect, effects_for
 from identification.diagnosis.plants import DiagnosisPlant, diagnosis_plant, reference_signal
 from identification.diagnosis.records import Record
-from identification.diagnosis.workflow import Model, null_base, with_effect
+from identification.diagnosis.models import Model, null_base, with_effect
 
 __all__ = ["HiddenEffectCase", "hidden_effect_records", "closed_loop_record", "base_for"]
 

@@ -1,6 +1,13 @@
 r"""The diagnosis loop: fit, locate, propose, refit, score on held-out data, accept or not.
 
-One round (:func:`diagnose`)::
+The run is a chain of phases, each a function whose result the next one takes
+(:func:`diagnose`): :func:`prepare` (checked data, held-out split) -> :func:`fit_base`
+(:class:`BaseFit`) -> per round :func:`locate` (:class:`Located`), :func:`rank`
+(:class:`Ranked`), :func:`refit` (candidates), :func:`score` (:class:`Scored`), :func:`advance`
+(the :class:`Run` so far) -> :func:`verdict` (:class:`DiagnosisResult`). The judgement rules
+live in :mod:`.decision`.
+
+One round::
 
     1. fit the current model (base-fit parameters + the effects already present) to the fit
        windows by grey-box output error (identification.greybox, batched kernel);
@@ -15,7 +22,7 @@ One round (:func:`diagnose`)::
     4. REFIT each augmented model (base parameters + effect parameters, bounded NLS);
     5. SCORE every model by free-run NRMSE on held-out windows (a separate record or the
        record's tail): per channel, the band-limited error over the window spread
-       (:func:`_nrmse`), combined over channels by the geometric mean (:func:`_mean`);
+       (:func:`.fitting._nrmse`), combined over channels by the geometric mean (:func:`.fitting._mean`);
     6. ACCEPT the best only if it (a) lowers the held-out NRMSE by >= ``accept_gain`` of the
        current model's, (b) its held-out NRMSE is below the runner-up's (among candidates that
        pass (a), (c), (d)) by the factor ``1 + margin``, (c) has
@@ -84,99 +91,62 @@ from __future__ import annotations
 import dataclasses
 import math
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Any
 
-import numpy as np
-
+from hydro_envs.jsonutil import to_jsonable as jsonable
 from hydro_envs.params import ParameterError, PhysicalParams
 from identification import greybox as gb
-from hydro_envs.jsonutil import to_jsonable as jsonable
 from identification.diagnosis.base_estimates import estimate_base, position_shift, shifted
-from identification.diagnosis.catalogue import effect, effects_for
-from identification.diagnosis.pairs import PAIR_MEMBERS, explained_in_final_model, pair_candidates
-from identification.diagnosis.plants import DiagnosisPlant, diagnosis_plant
-from identification.diagnosis.records import DiagnosisFitError, Record, check_records
-
-__all__ = ["Model", "Candidate", "Round", "DiagnosisResult", "diagnose", "fit_model", "heldout_nrmse",
-           "present_effects", "with_effect", "null_base"]
-
-# the steps of the loop live in .models, .fitting, .residuals and .candidates; their names are
-# re-exported here (reports, synthetic data and tests import them from this module)
-from identification.diagnosis.models import (  # noqa: F401
-    ACCEPT_GAIN,
-    AT_NOISE_FLOOR,
-    BASE_FIT_FACTOR,
-    BOUND_TOL,
-    COLD_START_SCORE,
-    DRIFT_FLAG,
-    HOPELESS_NFEV,
-    HOPELESS_SCORE,
-    MARGIN,
-    MAX_REL_SE,
-    Model,
-    OFFSET_ESTIMATE_FLAG,
-    SENSOR_OFFSETS,
-    SETTLED_FRACTION,
-    _channels,
-    _delayed_channels,
-    _demeaned_state,
-    _fit_names,
-    _replace_tied,
-    _scored,
-    _tie_function,
-    base_fit_bounds,
-    null_base,
-    present_effects,
-    prerequisites,
-    with_effect,
+from identification.diagnosis.candidates import Candidate, _fit_candidate, _fit_delay, _judge, _round_scores
+from identification.diagnosis.catalogue import Effect, effects_for
+from identification.diagnosis.decision import (
+    check_correlated,
+    check_distinct,
+    decide,
+    implausible_best_notes,
+    named_entry,
+    offset_candidate,
+    verdict_reason,
 )
-from identification.diagnosis.fitting import (  # noqa: F401
-    DISTINCT_MIN,
+from identification.diagnosis.final_model import final_model_rows
+from identification.diagnosis.fitting import (
     FitOutcome,
-    noise_cost_tol,
-    LOO_GAIN_FRACTION,
-    _band_limited,
     _check_windows,
-    _distinctness,
     _mean,
-    _nrmse,
-    _pooled_score,
-    _raw,
-    _rms_difference,
-    _simulate,
-    _window_sums,
     fit_model,
     heldout_nrmse,
     heldout_scores,
     input_noise_floor,
+    noise_cost_tol,
 )
-from identification.diagnosis.residuals import (  # noqa: F401
+from identification.diagnosis.floor import UNEXPLAINED_FACTOR, heldout_rms, noise_floor, ratios, where_mismatch
+from identification.diagnosis.models import (
+    ACCEPT_GAIN,
+    AT_NOISE_FLOOR,
+    HOPELESS_SCORE,
+    MARGIN,
+    SENSOR_OFFSETS,
+    SETTLED_FRACTION,
+    Model,
+    base_fit_bounds,
+    null_base,
+)
+from identification.diagnosis.pairs import PAIR_MEMBERS, explained_in_final_model, pair_candidates
+from identification.diagnosis.plants import DiagnosisPlant, diagnosis_plant
+from identification.diagnosis.records import DiagnosisFitError, Record, check_records
+from identification.diagnosis.residuals import (
     _base_bound_notes,
-    _stiffness_cap_notes,
     _candidates,
     _sensor_notes,
-    effect_channels,
-    mean_weighted_residual,
+    _stiffness_cap_notes,
     prediction_residual,
     residual_maps,
-    signature_scores,
 )
-from identification.diagnosis.final_model import final_model_rows
-from identification.diagnosis.floor import UNEXPLAINED_FACTOR, heldout_rms, noise_floor, ratios, where_mismatch
-from identification.diagnosis.candidates import (  # noqa: F401
-    Candidate,
-    START_GRID_POINTS,
-    _alternate_delay,
-    _cold_start_params,
-    _delay_grid_search,
-    _fit_candidate,
-    _fit_delay,
-    _grid_start,
-    _judge,
-    _round_scores,
-    _weighted_costs,
-)
+
+__all__ = ["Round", "DiagnosisResult", "diagnose", "Options", "Prepared", "BaseFit", "Run", "Located", "Ranked",
+           "Scored", "prepare", "fit_base", "locate", "rank", "refit", "score", "advance", "verdict"]
+
 
 @dataclasses.dataclass
 class Round:
@@ -240,6 +210,121 @@ class DiagnosisResult:
         })
 
 
+
+# ======================================================================================
+# the data of one run, phase by phase
+# ======================================================================================
+
+
+@dataclasses.dataclass(frozen=True)
+class Options:
+    """The caller's choices for one run (the keyword arguments of :func:`diagnose`)."""
+
+    effects: Sequence[str] | None
+    max_effects: int
+    accept_gain: float
+    margin: float
+    maps: bool
+    say: Callable[[str], None]
+
+
+@dataclasses.dataclass(frozen=True)
+class Prepared:
+    """Before the base fit: the plant settings (windows adapted to the base model), the checked
+    fit and held-out records, the base model's parameters and the notes on the data."""
+
+    spec: DiagnosisPlant
+    records: list[Record]
+    holdout: list[Record]
+    base: PhysicalParams | None
+    notes: list[str]
+
+
+@dataclasses.dataclass(frozen=True)
+class BaseFit:
+    """Phase *base fit*: the start model (with its base-fit bounds), the fitted base model, its
+    channel weights and values, its held-out score and the noise floor of the held-out data."""
+
+    start: Model
+    outcome: FitOutcome
+    sigma: dict[str, float]
+    values: dict[str, float]
+    nrmse_heldout: dict[str, float]
+    heldout: float
+    floor: dict[str, dict[str, Any]]
+    notes: list[str]
+
+
+@dataclasses.dataclass
+class Run:
+    """What one round hands to the next: the current fit and its held-out score, the model
+    after each step, the rounds so far, the named effects, an ambiguous decision and notes."""
+
+    cur: FitOutcome
+    h_cur: float
+    h_nr: dict[str, float]
+    steps: list[tuple[str, Model]]
+    notes: list[str]
+    rounds: list[Round] = dataclasses.field(default_factory=list)
+    accepted: list[dict[str, Any]] = dataclasses.field(default_factory=list)
+    ambiguous: str = ""
+    ambiguous_model: Model | None = None
+    beyond: list[str] = dataclasses.field(default_factory=list)  # best fits beyond a plausible bound
+
+
+@dataclasses.dataclass(frozen=True)
+class Located:
+    """Phase *locate*: residual maps and k-step prediction residual of the current model (empty
+    without ``maps``) and, after a named effect, its held-out residual in noise floors."""
+
+    maps: dict[str, Any]
+    prediction: dict[str, float]
+    left: dict[str, float] | None
+
+
+@dataclasses.dataclass(frozen=True)
+class Ranked:
+    """Phase *rank*: the candidate effects, best signature score first; ``stop``: nothing to refit."""
+
+    effects: list[Effect]
+    scores: dict[str, float]
+    stop: bool = False
+
+
+@dataclasses.dataclass(frozen=True)
+class Scored:
+    """Phase *score*: every judged candidate of the round (pairs included), best held-out score
+    first, the round's decision and the experiment that separates an ambiguous one."""
+
+    results: list[Candidate]
+    decision: str
+    separating: str = ""
+
+
+class _HeldoutScores:
+    """Held-out NRMSE and residual in noise floors of a model, one free run per model (a
+    round's refits and its pair check share them)."""
+
+    def __init__(self, spec: DiagnosisPlant, holdout: Sequence[Record], floor: dict[str, dict[str, Any]]):
+        self.spec, self.holdout, self.floor = spec, holdout, floor
+        self._done: dict[int, tuple[Model, dict[str, float], dict[str, float]]] = {}
+
+    def __call__(self, m: Model) -> tuple[dict[str, float], dict[str, float]]:
+        if id(m) not in self._done:
+            ((nr_m, rms_m),) = heldout_scores(self.spec, [m], self.holdout)
+            self._done[id(m)] = (m, nr_m, ratios(rms_m, self.floor))
+        return self._done[id(m)][1:]
+
+    def settles(self, m: Model) -> bool:
+        """Whether ``m`` leaves a correct model's residual (:func:`_settled_by`)."""
+        return _settled_by(self.spec, self(m)[1])
+
+
+# ======================================================================================
+# the loop
+# ======================================================================================
+
+
 def diagnose(plant: str | DiagnosisPlant, records: Sequence[Record], holdout: Sequence[Record] | None = None, *,
              base: PhysicalParams | None = None, effects: Sequence[str] | None = None, max_effects: int = 3,
              accept_gain: float = ACCEPT_GAIN, margin: float = MARGIN, holdout_fraction: float = 0.3,
@@ -247,10 +332,44 @@ def diagnose(plant: str | DiagnosisPlant, records: Sequence[Record], holdout: Se
     """Run the diagnosis loop (module docstring) on ``records``; ``holdout`` records score the
     candidates (default: the last ``holdout_fraction`` of every record). ``base`` is the model
     to start from (default: the plant's nominal parameters with every catalogue effect at its
-    null value); ``effects`` restricts the candidates to these catalogue names."""
+    null value); ``effects`` restricts the candidates to these catalogue names.
+
+    The phases: :func:`prepare` the data, :func:`fit_base`; per round :func:`locate`,
+    :func:`rank`, :func:`refit`, :func:`score` and :func:`advance`; at the end :func:`verdict`."""
     t0 = time.perf_counter()
+    opts = Options(effects, max_effects, accept_gain, margin, maps, progress or (lambda msg: None))
+    data = prepare(plant, records, holdout, base=base, effects=effects, holdout_fraction=holdout_fraction)
+    bf = fit_base(data, opts)
+    run = Run(bf.outcome, bf.heldout, bf.nrmse_heldout, [("base model", bf.outcome.model)], data.notes + bf.notes)
+    while len(run.accepted) < max_effects and len(run.rounds) <= max_effects:
+        if not _round(data, bf, run, opts):
+            break
+    return verdict(data, bf, run, t0)
+
+
+def _round(data: Prepared, bf: BaseFit, run: Run, opts: Options) -> bool:
+    """One round: locate, rank, refit, score, advance; False when the run ends here."""
+    where = locate(data, bf, run, opts)
+    if where.left is not None and max(where.left.values(), default=math.inf) <= AT_NOISE_FLOOR:
+        opts.say(f"  the residual left is at the noise floor (<= {AT_NOISE_FLOOR:g} floors in every channel): "
+                 "nothing more to name")
+        run.rounds.append(Round(run.h_cur, run.h_nr, where.maps, where.prediction, [], "none"))
+        return False
+    ranked = rank(data, bf, run, opts)
+    if ranked.stop:
+        run.rounds.append(Round(run.h_cur, run.h_nr, where.maps, where.prediction, [], "none"))
+        return False
+    scores = _HeldoutScores(data.spec, data.holdout, bf.floor)
+    results = refit(data, bf, run, ranked, scores, opts)
+    return advance(data, run, where, score(data, bf, run, where, results, scores, opts), opts)
+
+
+def prepare(plant: str | DiagnosisPlant, records: Sequence[Record], holdout: Sequence[Record] | None, *,
+            base: PhysicalParams | None, effects: Sequence[str] | None, holdout_fraction: float) -> Prepared:
+    """Check the data and the effect names, split off the held-out data (when not given), read
+    the base model off the data (plants with ``base_from_data`` and no ``base``) and lengthen the
+    windows of slowly settling base models."""
     spec = plant if isinstance(plant, DiagnosisPlant) else diagnosis_plant(plant)
-    say = progress or (lambda msg: None)
     records = list(records)
     notes: list[str] = [n for r in records for n in r.notes]
     if effects is not None:
@@ -282,12 +401,18 @@ def diagnose(plant: str | DiagnosisPlant, records: Sequence[Record], holdout: Se
                          f"scored (3 and 5 start-error time constants of the base model, {tau:.3g} s)")
     notes += check_records(records, spec, role="fit data", min_segments=3)
     notes += check_records(holdout, spec, role="held-out data", min_segments=1)
+    return Prepared(spec, records, holdout, base, notes)
 
-    model = Model(base if base is not None else null_base(spec))
+
+def fit_base(data: Prepared, opts: Options) -> BaseFit:
+    """Phase *base fit*: fit the base parameters (within ``BASE_FIT_FACTOR`` of the start
+    model's), score the fitted model on the held-out windows and estimate their noise floor;
+    :class:`DiagnosisFitError` when the fitted base model does not run or breaks a relation."""
+    spec, records, holdout = data.spec, data.records, data.holdout
+    model = Model(data.base if data.base is not None else null_base(spec))
     model = model.copy(base_bounds=base_fit_bounds(spec, model.params))
-    notes += _stroke_notes(spec, model.params, list(records) + list(holdout))
-    start_model = model
-    say(f"fit base model of {spec.name} ({', '.join(spec.base_fit)})")
+    notes = _stroke_notes(spec, model.params, list(records) + list(holdout))
+    opts.say(f"fit base model of {spec.name} ({', '.join(spec.base_fit)})")
     try:
         cur = fit_model(spec, model, records)
     except (ParameterError, gb.GreyboxError) as err:
@@ -300,196 +425,229 @@ def diagnose(plant: str | DiagnosisPlant, records: Sequence[Record], holdout: Se
                                 f"fitted {_describe_params(spec, cur.model.params)}; the base model carries an "
                                 "effect the data do not support: give a base model without it (--base preset)")
     _check_base_fit(spec, cur, model, records, "fit")
-    base_outcome = cur
-    base_model = cur.model
-    sigma = dict(cur.result.sigma)
-    base_fit = dict(cur.result.values)
     (h_nr,) = heldout_nrmse(spec, [cur.model], holdout)
     _check_base_fit(spec, cur, model, holdout, "held-out", h_nr)
-    h_cur = _mean(h_nr)
-    floor = noise_floor(spec, base_model, holdout)
-    say("noise floor: " + ", ".join(f"{k} {v['floor']:.3g} {v['unit']}" for k, v in floor.items()))
-    steps: list[tuple[str, Model]] = [("base model", base_model)]
-    ambiguous_model: Model | None = None
-    rounds: list[Round] = []
-    accepted: list[dict[str, Any]] = []
-    ambiguous = ""
-    beyond: list[str] = []  # candidates that fit best but beyond their plausible bound (notes say how far)
-    while len(accepted) < max_effects and len(rounds) <= max_effects:
-        in_floor: dict[str, float] | None = None
-        locate = residual_maps(spec, cur.model, records, sigma) if maps else {}
-        pred = prediction_residual(spec, cur.model, records, sigma) if maps else {}
-        cur_left = _floors_left(spec, cur.model, holdout, floor) if accepted else None
-        if accepted:
-            if max(cur_left.values(), default=math.inf) <= AT_NOISE_FLOOR:
-                say(f"  the residual left is at the noise floor (<= {AT_NOISE_FLOOR:g} floors in every channel): "
-                    "nothing more to name")
-                rounds.append(Round(h_cur, h_nr, locate, pred, [], "none"))
-                break
-        cands = _candidates(spec, cur.model, effects)
-        if not cands:
-            rounds.append(Round(h_cur, h_nr, locate, pred, [], "none"))
-            break
-        scores = _round_scores(spec, cur.model, start_model, records, sigma, cands)
-        cands.sort(key=lambda e: -scores.get(e.name, 0.0))
-        if accepted and max(scores.get(e.name, 0.0) for e in cands) < HOPELESS_SCORE:
-            # after a named effect: no signature explains even HOPELESS_SCORE of the residual left
-            say("  every candidate's signature explains < "
-                f"{HOPELESS_SCORE:.1%} of the residual left: nothing more to name")
-            rounds.append(Round(h_cur, h_nr, locate, pred, [], "none"))
-            break
-        results: list[Candidate] = []
-        cost_tol = noise_cost_tol(sigma, floor)
-        scored: dict[int, tuple[Model, dict[str, float], dict[str, float]]] = {}
+    floor = noise_floor(spec, cur.model, holdout)
+    opts.say("noise floor: " + ", ".join(f"{k} {v['floor']:.3g} {v['unit']}" for k, v in floor.items()))
+    return BaseFit(model, cur, dict(cur.result.sigma), dict(cur.result.values), h_nr, _mean(h_nr), floor, notes)
 
-        def score_of(m: Model) -> tuple[dict[str, float], dict[str, float]]:
-            """Held-out NRMSE and residual in noise floors of ``m`` (one free run per model)."""
-            if id(m) not in scored:
-                ((nr_m, rms_m),) = heldout_scores(spec, [m], holdout)
-                scored[id(m)] = (m, nr_m, ratios(rms_m, floor))
-            return scored[id(m)][1:]
 
-        def leaves_correct(m: Model) -> bool:
-            return _settled_by(spec, score_of(m)[1])
+def locate(data: Prepared, bf: BaseFit, run: Run, opts: Options) -> Located:
+    """Phase *locate*: where the current model's residual lies (module docstring, step 2)."""
+    spec, model = data.spec, run.cur.model
+    maps = residual_maps(spec, model, data.records, bf.sigma) if opts.maps else {}
+    pred = prediction_residual(spec, model, data.records, bf.sigma) if opts.maps else {}
+    left = _floors_left(spec, model, data.holdout, bf.floor) if run.accepted else None
+    return Located(maps, pred, left)
 
-        settled = False  # a candidate of this round already leaves a correct model's residual
-        rival_score = HOPELESS_SCORE  # in a settled round, candidates scoring below this are not refitted
-        for e in cands:
-            skip = (NOT_REFITTED if settled and scores.get(e.name, 0.0) < rival_score else
-                    HOPELESS_AFTER_NAMED if accepted and scores.get(e.name, 0.0) < HOPELESS_SCORE else None)
-            if skip:
-                say(f"  candidate {e.name} (signature {scores.get(e.name, 0.0):.4f}): not refitted")
-                results.append(Candidate(e.name, scores.get(e.name, 0.0), {}, {}, {}, {}, math.inf, -math.inf,
-                                         False, False, [skip], 0.0))
-                continue
-            say(f"  candidate {e.name} (signature {scores.get(e.name, 0.0):.4f})"
-                + (" (warm refit only)" if settled else ""))
-            tc = time.perf_counter()
-            try:
-                if e.kind == "sensor":
-                    fit = _fit_delay(spec, cur.model, records, sigma, e, start_model, scores.get(e.name, 0.0),
-                                     cold=not settled)
-                else:
-                    fit = _fit_candidate(spec, cur.model, start_model, e.name, records, sigma,
-                                         scores.get(e.name, 0.0), cold=not settled,
-                                         ceiling=cur.result.cost if cur.result is not None else None,
-                                         settles=lambda f: leaves_correct(f.model), cost_tol=cost_tol)
-            except (ParameterError, gb.GreyboxError) as err:
-                results.append(Candidate(e.name, scores.get(e.name, 0.0), {}, {}, {}, {}, math.inf, -math.inf,
-                                         False, False, [f"fit failed: {err}"], time.perf_counter() - tc))
-                continue
-            nr = score_of(fit.model)[0]
-            h = _mean(nr)
-            vals, ses, plausible, ident, reasons = _judge(spec, e, fit)
-            if not math.isfinite(h):
-                reasons.append("its free run is not finite on the held-out windows")
-            results.append(Candidate(
-                e.name, scores.get(e.name, 0.0), vals, ses, dict(fit.result.nrmse) if fit.result else {}, nr, h,
-                (h_cur - h) / h_cur, plausible, ident, reasons, time.perf_counter() - tc, fit.model, fit))
-            if not settled and plausible and ident and (h_cur - h) / h_cur >= accept_gain:
-                settled = leaves_correct(fit.model)
-                if settled:
-                    rival_score = max(HOPELESS_SCORE, SETTLED_RIVAL_RATIO * scores.get(e.name, 0.0))
-        if in_floor is None:
-            in_floor = input_noise_floor(spec, cur.model, holdout)
-        if in_floor:
-            _check_distinct(spec, cur.model, results, holdout, in_floor)
-        if cur.model.offsets is None and any(c in r.channels for r in records for c in spec.sensor_offsets):
-            say(f"  candidate {SENSOR_OFFSETS} (measuring chain: {', '.join(spec.sensor_offsets)})")
-            results.append(_offset_candidate(spec, cur, records, holdout, sigma, h_cur))
-        _check_windows(spec, cur.model, results, holdout, accept_gain)
-        results.sort(key=lambda c: c.heldout)
-        decision, sep = _decide(spec, results, accept_gain, margin)
-        if decision not in ("none", SENSOR_OFFSETS) and not decision.startswith("ambiguous"):
-            decision, sep = _check_correlated(spec, next(c for c in results if c.name == decision),
-                                              [a["name"] for a in accepted], decision, sep)
-        if len(accepted) + 2 <= max_effects:
-            why = single = None
-            if decision == "none":
-                if cur_left is None:
-                    cur_left = _floors_left(spec, cur.model, holdout, floor)
-                if max(cur_left.values(), default=0.0) > spec.unexplained_factor:
-                    why = "no single effect wins and the residual stays above the noise floor"
-            elif decision != SENSOR_OFFSETS and not decision.startswith("ambiguous"):
-                single = next(c for c in results if c.name == decision)
-                left = max(score_of(single.model)[1].values(), default=0.0)
-                if left > spec.unexplained_factor:
-                    why = (f"{decision} wins but leaves {left:.3g} noise floors (> {spec.unexplained_factor:g}: "
-                           "unexplained)")
-            if why:
-                say(f"  {why}: pairs")
-                # beside a winning single: the pair of the two best others (its own pairs are next round's)
-                pairs = pair_candidates(spec, cur.model, [c for c in results if c is not single], records, holdout,
-                                        sigma, h_cur, accept_gain,
-                                        ceiling=cur.result.cost if cur.result is not None else None,
-                                        cost_tol=cost_tol, members=PAIR_MEMBERS if single is None else 2,
-                                        rival_cost=None if single is None or single.fit.result is None
-                                        else single.fit.result.cost)
-                pair_decision, pair_sep = _decide(spec, pairs, accept_gain, margin)
-                results = results + pairs
-                if single is None:
-                    if pair_decision != "none":
-                        decision, sep = pair_decision, pair_sep
-                elif "+" in pair_decision and not pair_decision.startswith("ambiguous"):
-                    pair = next(c for c in pairs if c.name == pair_decision)
-                    if pair.heldout * (1 + margin) < single.heldout:  # the pair explains clearly more
-                        decision, sep = pair_decision, pair_sep
-        rounds.append(Round(h_cur, h_nr, locate, pred, results, decision, sep))
-        say(f"  -> {decision}")
-        for n in _implausible_best_notes(results, decision, accept_gain, len(rounds)):
-            say(f"  {n}")
-            notes.append(n)
-            beyond.append(n.split(": ", 2)[1].split(" explains")[0])
-        if decision.startswith("ambiguous"):
-            ambiguous = decision
-            ambiguous_model = next(c for c in results if c.name == decision.split(": ")[1].split(" vs ")[0]).model
-            break
-        if decision == "none":
-            break
-        best = next(c for c in results if c.name == decision)
-        if decision != SENSOR_OFFSETS:  # (a measuring-chain correction is kept but not named)
-            # a pair names both members (ordered with the rest at the end of the run)
-            accepted += [_named(spec, name, best, h_cur, h_nr, decision if "+" in decision else None)
+
+def rank(data: Prepared, bf: BaseFit, run: Run, opts: Options) -> Ranked:
+    """Phase *rank*: the applicable absent effects, ordered by the share of the residual their
+    signature explains (step 3); ``stop`` when there is none, or when after a named effect every
+    signature explains less than ``HOPELESS_SCORE``."""
+    cands = _candidates(data.spec, run.cur.model, opts.effects)
+    if not cands:
+        return Ranked([], {}, stop=True)
+    scores = _round_scores(data.spec, run.cur.model, bf.start, data.records, bf.sigma, cands)
+    cands.sort(key=lambda e: -scores.get(e.name, 0.0))
+    if run.accepted and max(scores.get(e.name, 0.0) for e in cands) < HOPELESS_SCORE:
+        opts.say("  every candidate's signature explains < "
+                 f"{HOPELESS_SCORE:.1%} of the residual left: nothing more to name")
+        return Ranked(cands, scores, stop=True)
+    return Ranked(cands, scores)
+
+
+def refit(data: Prepared, bf: BaseFit, run: Run, ranked: Ranked, scores: _HeldoutScores,
+          opts: Options) -> list[Candidate]:
+    """Phase *refit*: refit each ranked candidate (step 4), judge its parameters and score it on
+    the held-out windows; once one leaves a correct model's residual the round is settled (the
+    later ones get a warm refit only, or none: ``SETTLED_RIVAL_RATIO``)."""
+    results: list[Candidate] = []
+    settled = False  # a candidate of this round already leaves a correct model's residual
+    rival_score = HOPELESS_SCORE  # in a settled round, candidates scoring below this are not refitted
+    for e in ranked.effects:
+        s = ranked.scores.get(e.name, 0.0)
+        skip = (NOT_REFITTED if settled and s < rival_score else
+                HOPELESS_AFTER_NAMED if run.accepted and s < HOPELESS_SCORE else None)
+        if skip:
+            opts.say(f"  candidate {e.name} (signature {s:.4f}): not refitted")
+            results.append(_unfitted(e.name, s, skip, 0.0))
+            continue
+        opts.say(f"  candidate {e.name} (signature {s:.4f})" + (" (warm refit only)" if settled else ""))
+        c = _refit_one(data, bf, run, e, s, settled, scores)
+        results.append(c)
+        opts.say(f"    {c.seconds:.1f} s: " + (f"held-out gain {c.gain:+.1%}" if math.isfinite(c.gain) else c.reasons[-1]))
+        if not settled and c.model is not None and c.plausible and c.identifiable and c.gain >= opts.accept_gain:
+            settled = scores.settles(c.model)
+            if settled:
+                rival_score = max(HOPELESS_SCORE, SETTLED_RIVAL_RATIO * s)
+    return results
+
+
+def _unfitted(name: str, signature: float, reason: str, seconds: float) -> Candidate:
+    """A candidate without a refit (skipped, or its fit failed) and the reason."""
+    return Candidate(name, signature, {}, {}, {}, {}, math.inf, -math.inf, False, False, [reason], seconds)
+
+
+def _refit_one(data: Prepared, bf: BaseFit, run: Run, e: Effect, signature: float, settled: bool,
+               scores: _HeldoutScores) -> Candidate:
+    """The refit of one candidate (a sensor delay by its search), judged and scored."""
+    spec, records, sigma, cur = data.spec, data.records, bf.sigma, run.cur
+    tc = time.perf_counter()
+    try:
+        if e.kind == "sensor":
+            fit = _fit_delay(spec, cur.model, records, sigma, e, bf.start, signature, cold=not settled)
+        else:
+            fit = _fit_candidate(spec, cur.model, bf.start, e.name, records, sigma, signature, cold=not settled,
+                                 ceiling=cur.result.cost if cur.result is not None else None,
+                                 settles=lambda f: scores.settles(f.model), cost_tol=noise_cost_tol(sigma, bf.floor))
+    except (ParameterError, gb.GreyboxError) as err:
+        return _unfitted(e.name, signature, f"fit failed: {err}", time.perf_counter() - tc)
+    nr = scores(fit.model)[0]
+    h = _mean(nr)
+    vals, ses, plausible, ident, reasons = _judge(spec, e, fit)
+    if not math.isfinite(h):
+        reasons.append("its free run is not finite on the held-out windows")
+    return Candidate(e.name, signature, vals, ses, dict(fit.result.nrmse) if fit.result else {}, nr, h,
+                     (run.h_cur - h) / run.h_cur, plausible, ident, reasons, time.perf_counter() - tc, fit.model, fit)
+
+
+def score(data: Prepared, bf: BaseFit, run: Run, where: Located, results: list[Candidate], scores: _HeldoutScores,
+          opts: Options) -> Scored:
+    """Phase *score*: the input-noise distinctness and leave-one-window-out checks, the
+    measuring-chain candidate, the round's decision (step 6) and, when room for two is left,
+    the pairs (step 7)."""
+    spec, records, holdout, cur = data.spec, data.records, data.holdout, run.cur
+    in_floor = input_noise_floor(spec, cur.model, holdout)
+    if in_floor:
+        check_distinct(spec, cur.model, results, holdout, in_floor)
+    if cur.model.offsets is None and any(c in r.channels for r in records for c in spec.sensor_offsets):
+        opts.say(f"  candidate {SENSOR_OFFSETS} (measuring chain: {', '.join(spec.sensor_offsets)})")
+        results.append(offset_candidate(spec, cur, records, holdout, bf.sigma, run.h_cur))
+    _check_windows(spec, cur.model, results, holdout, opts.accept_gain)
+    results.sort(key=lambda c: c.heldout)
+    decision, sep = decide(spec, results, opts.accept_gain, opts.margin)
+    if decision not in ("none", SENSOR_OFFSETS) and not decision.startswith("ambiguous"):
+        decision, sep = check_correlated(spec, next(c for c in results if c.name == decision),
+                                         [a["name"] for a in run.accepted], decision, sep)
+    out = Scored(results, decision, sep)
+    return _with_pairs(data, bf, run, where, out, scores, opts) if len(run.accepted) + 2 <= opts.max_effects else out
+
+
+def _with_pairs(data: Prepared, bf: BaseFit, run: Run, where: Located, out: Scored, scores: _HeldoutScores,
+                opts: Options) -> Scored:
+    """Step 7: pair refits when no single effect wins while the residual stays above the
+    plant's threshold, or the single that wins leaves it above (beside a winning single only the
+    two best others are paired); a pair replaces a winning single only when it explains clearly
+    more (the ambiguity margin)."""
+    spec, cur, decision = data.spec, run.cur, out.decision
+    why, single = None, None
+    if decision == "none":
+        left = where.left if where.left is not None else _floors_left(spec, cur.model, data.holdout, bf.floor)
+        if max(left.values(), default=0.0) > spec.unexplained_factor:
+            why = "no single effect wins and the residual stays above the noise floor"
+    elif decision != SENSOR_OFFSETS and not decision.startswith("ambiguous"):
+        single = next(c for c in out.results if c.name == decision)
+        worst = max(scores(single.model)[1].values(), default=0.0)
+        if worst > spec.unexplained_factor:
+            why = f"{decision} wins but leaves {worst:.3g} noise floors (> {spec.unexplained_factor:g}: unexplained)"
+    if not why:
+        return out
+    opts.say(f"  {why}: pairs")
+    pairs = pair_candidates(spec, cur.model, [c for c in out.results if c is not single], data.records, data.holdout,
+                            bf.sigma, run.h_cur, opts.accept_gain,
+                            ceiling=cur.result.cost if cur.result is not None else None,
+                            cost_tol=noise_cost_tol(bf.sigma, bf.floor), members=PAIR_MEMBERS if single is None else 2,
+                            rival_cost=None if single is None or single.fit.result is None else single.fit.result.cost)
+    pair_decision, pair_sep = decide(spec, pairs, opts.accept_gain, opts.margin)
+    results = out.results + pairs
+    if single is None:
+        if pair_decision != "none":
+            return Scored(results, pair_decision, pair_sep)
+    elif "+" in pair_decision and not pair_decision.startswith("ambiguous"):
+        pair = next(c for c in pairs if c.name == pair_decision)
+        if pair.heldout * (1 + opts.margin) < single.heldout:  # the pair explains clearly more
+            return Scored(results, pair_decision, pair_sep)
+    return Scored(results, decision, out.separating)
+
+
+def advance(data: Prepared, run: Run, where: Located, out: Scored, opts: Options) -> bool:
+    """Record the round in ``run`` and make its winner the current model (a pair names both
+    members; a measuring-chain correction is kept but not named); False when the run ends
+    (``none`` or ambiguous)."""
+    decision = out.decision
+    run.rounds.append(Round(run.h_cur, run.h_nr, where.maps, where.prediction, out.results, decision,
+                            out.separating))
+    opts.say(f"  -> {decision}")
+    for n in implausible_best_notes(out.results, decision, opts.accept_gain, len(run.rounds)):
+        opts.say(f"  {n}")
+        run.notes.append(n)
+        run.beyond.append(n.split(": ", 2)[1].split(" explains")[0])
+    if decision.startswith("ambiguous"):
+        run.ambiguous = decision
+        first = decision.split(": ")[1].split(" vs ")[0]
+        run.ambiguous_model = next(c for c in out.results if c.name == first).model
+        return False
+    if decision == "none":
+        return False
+    best = next(c for c in out.results if c.name == decision)
+    if decision != SENSOR_OFFSETS:
+        run.accepted += [named_entry(data.spec, name, best, run.h_cur, run.h_nr, decision if "+" in decision else None)
                          for name in decision.split("+")]
-        cur = best.fit
-        h_cur, h_nr = best.heldout, best.nrmse_heldout
-        steps.append((decision, cur.model))
-    if ambiguous_model is not None:
-        steps.append((f"best of the {ambiguous} (not added)", ambiguous_model))
+    run.cur = best.fit
+    run.h_cur, run.h_nr = best.heldout, best.nrmse_heldout
+    run.steps.append((decision, run.cur.model))
+    return True
+
+
+def verdict(data: Prepared, bf: BaseFit, run: Run, t0: float) -> DiagnosisResult:
+    """Phase *verdict*: the held-out residual after each step in noise floors, where a mismatch
+    remains, the named effects in order of what each explains in the final model, the one
+    verdict and its reason, the final model's parameters and the closing notes."""
+    spec, holdout, floor, cur, accepted = data.spec, data.holdout, bf.floor, run.cur, run.accepted
+    steps = list(run.steps)
+    if run.ambiguous_model is not None:
+        steps.append((f"best of the {run.ambiguous} (not added)", run.ambiguous_model))
     rms = heldout_rms(spec, [m for _, m in steps], holdout)
     residual = [{"step": name, "rms": r, "floors": ratios(r, floor)} for (name, _), r in zip(steps, rms)]
-    final = residual[-1]["floors"]
-    worst = max(final.values(), default=0.0)
+    worst = max(residual[-1]["floors"].values(), default=0.0)
     factor = spec.unexplained_factor
     mismatch = where_mismatch(spec, steps[-1][1], holdout, floor) if worst > factor else {}
-    if len(accepted) > 1:  # in order of the residual each explains in the final model
-        found = [a["name"] for a in accepted]
-        explained = explained_in_final_model(spec, cur.model, found, holdout)
-        for i, a in enumerate(accepted):
-            a["found_in_step"] = i + 1
-            a["explained_in_final_model"] = explained[a["name"]]
-        accepted.sort(key=lambda a: -a["explained_in_final_model"])
-        if [a["name"] for a in accepted] != found:
-            notes.append("named in order of the held-out residual each explains in the final model (NRMSE "
-                         "lost without it: " + ", ".join(f"{a['name']} {a['explained_in_final_model']:.3g}"
-                                                        for a in accepted)
-                         + "); found in the order " + ", ".join(found))
-    verdict, reason = _verdict(accepted, ambiguous, worst, mismatch, residual[-1]["step"], factor)
-    if beyond:
-        reason += (f"; best fit beyond its plausible bound, not named: {', '.join(dict.fromkeys(beyond))} "
+    notes = list(run.notes)
+    if len(accepted) > 1:
+        notes += _order_named(spec, cur.model, accepted, holdout)
+    name, reason = verdict_reason(accepted, run.ambiguous, worst, mismatch, residual[-1]["step"], factor)
+    if run.beyond:
+        reason += (f"; best fit beyond its plausible bound, not named: {', '.join(dict.fromkeys(run.beyond))} "
                    "(value and bound in the notes: check the rig)")
     for a in accepted:  # every named effect's values in the final model (later rounds refit them)
         a["final_parameters"] = {k: (float(cur.model.delay) if k == "delay" else float(getattr(cur.model.params, k)))
                                  for k in a["parameters"]}
-    notes += _sensor_notes(spec, cur, records, sigma)
-    notes += _base_bound_notes(base_model, "base fit") + _base_bound_notes(cur.model, "final model")
-    notes += _stiffness_cap_notes(base_outcome, "base fit")
-    if cur is not base_outcome:
+    notes += _sensor_notes(spec, cur, data.records, bf.sigma)
+    notes += _base_bound_notes(bf.outcome.model, "base fit") + _base_bound_notes(cur.model, "final model")
+    notes += _stiffness_cap_notes(bf.outcome, "base fit")
+    if cur is not bf.outcome:
         notes += _stiffness_cap_notes(cur, "final model")
-    return DiagnosisResult(spec.name, verdict, accepted, rounds, base_model, cur.model, base_fit, notes,
-                           time.perf_counter() - t0, sigma, ambiguous, floor, residual, mismatch, reason, factor,
-                           final_model_rows(spec, cur, accepted))
+    return DiagnosisResult(spec.name, name, accepted, run.rounds, bf.outcome.model, cur.model, bf.values, notes,
+                           time.perf_counter() - t0, bf.sigma, run.ambiguous, floor, residual, mismatch, reason,
+                           factor, final_model_rows(spec, cur, accepted))
 
+
+def _order_named(spec: DiagnosisPlant, model: Model, accepted: list[dict[str, Any]],
+                 holdout: Sequence[Record]) -> list[str]:
+    """Sort several named effects (in place) by the held-out residual each explains in the final
+    model; a note when that is not the order the rounds found them in."""
+    found = [a["name"] for a in accepted]
+    explained = explained_in_final_model(spec, model, found, holdout)
+    for i, a in enumerate(accepted):
+        a["found_in_step"] = i + 1
+        a["explained_in_final_model"] = explained[a["name"]]
+    accepted.sort(key=lambda a: -a["explained_in_final_model"])
+    if [a["name"] for a in accepted] == found:
+        return []
+    return ["named in order of the held-out residual each explains in the final model (NRMSE lost without it: "
+            + ", ".join(f"{a['name']} {a['explained_in_final_model']:.3g}" for a in accepted)
+            + "); found in the order " + ", ".join(found)]
 
 
 # in a settled round a candidate is not refitted when its signature explains less than this
@@ -521,56 +679,6 @@ def _floors_left(spec: DiagnosisPlant, model: Model, holdout: Sequence[Record],
     (left,) = heldout_rms(spec, [model], holdout)
     return ratios(left, floor)
 
-
-def _named(spec: DiagnosisPlant, name: str, best: Candidate, h_cur: float, h_nr: dict[str, float],
-           pair: str | None) -> dict[str, Any]:
-    """The report entry of effect ``name`` named from candidate ``best`` (a single effect, or
-    one member of the pair ``pair``): its parameters, the held-out score before and after, and
-    the shrink over the channels it acts on (every channel for a pair)."""
-    e = effect(name)
-    fields = ["delay"] if e.kind == "sensor" else [q.field for q in e.on(spec.name).parameters]
-    chans = list(h_nr) if pair else list(effect_channels(spec, name, h_nr))
-    shrink = 1 - _mean({k: best.nrmse_heldout[k] for k in chans}) / _mean({k: h_nr[k] for k in chans})
-    out = {"name": name, "title": e.title,
-           "parameters": {k: best.parameters[k] for k in fields},
-           "std_errors": {k: best.std_errors.get(k, math.nan) for k in fields},
-           "nrmse_before": h_cur, "nrmse_after": best.heldout,
-           "nrmse_before_per_channel": h_nr, "nrmse_after_per_channel": best.nrmse_heldout,
-           "shrink": shrink, "shrink_channels": chans}
-    if pair:
-        out["pair"] = pair
-    return out
-
-def _verdict(accepted: Sequence[dict[str, Any]], ambiguous: str, worst: float, mismatch: dict[str, Any],
-             last: str, factor: float = UNEXPLAINED_FACTOR) -> tuple[str, str]:
-    """The one verdict of a run and its reason: ``unexplained`` when the last model's held-out
-    residual stays above ``factor`` (the plant's ``unexplained_factor``) noise floors in some channel (whatever was named
-    or left ambiguous before: the catalogue does not explain the data); else ``ambiguous`` when
-    any round was; else ``named`` or ``none``."""
-    names = ", ".join(e["name"] for e in accepted)
-    if worst > factor:
-        where = (f"channel {mismatch['channel']!r}: {mismatch['rms']:.3g} {mismatch['unit']} RMS = "
-                 f"{mismatch['ratio']:.1f} noise floors of {mismatch['floor']:.3g} {mismatch['unit']}")
-        if mismatch.get("worst_region"):
-            reg = mismatch["regions"][mismatch["worst_region"]]
-            where += f"; largest while {mismatch['worst_region']} ({reg['floors']:.1f} floors)"
-        if mismatch.get("worst_band"):
-            where += (f"; {mismatch['bands'][mismatch['worst_band']]:.0%} of the excess residual power in "
-                      f"{mismatch['worst_band']}")
-        after = f"after {last}" if accepted or ambiguous else "with no catalogue effect accepted"
-        return "unexplained", (f"the held-out residual {after} stays above {factor:g} noise floors "
-                               f"({where}): an effect outside the catalogue, or a base model that does not match the "
-                               "rig" + (f"; named so far: {names}" if names else "")
-                               + (f"; {ambiguous}" if ambiguous else ""))
-    if ambiguous:
-        return "ambiguous", (f"{ambiguous}: both explain the held-out data (residual {worst:.1f} noise floors with the "
-                             "better one) and the data cannot tell them apart" + (f"; named before: {names}" if names
-                                                                                  else ""))
-    if accepted:
-        return "named", (f"{names} lowered the held-out error and the residual left is {worst:.1f} noise floors "
-                         f"(<= {factor:g})")
-    return "none", (f"no catalogue effect clearly lowers the held-out error and the base model's residual is "
-                    f"{worst:.1f} noise floors (<= {factor:g})")
 
 
 def _stroke_notes(spec: DiagnosisPlant, params: PhysicalParams, records: Sequence[Record]) -> list[str]:
@@ -614,128 +722,3 @@ def _check_base_fit(spec: DiagnosisPlant, fit: FitOutcome, start: Model, records
             "mass, stroke and geometry of the record)")
 
 
-def _check_distinct(spec: DiagnosisPlant, current: Model, results: Sequence[Candidate], holdout: Sequence[Record],
-                    floor: dict[str, float]) -> None:
-    """Mark candidates whose prediction the input noise could produce (``DISTINCT_MIN``) as not
-    identifiable; the ratio is kept in ``Candidate.distinct``. Plant effects only: a sensor
-    delay is applied to the measured channels, not to the prediction (its standard error comes
-    from the curvature of the delay cost), and white input noise has no phase to mimic it."""
-    live = [c for c in results if c.model is not None and effect(c.name).kind != "sensor"]
-    for c, ratio in zip(live, _distinctness(spec, current, [c.model for c in live], holdout, floor)):
-        c.distinct = ratio
-        if ratio < DISTINCT_MIN:
-            c.identifiable = False
-            c.reasons.append(f"its prediction differs from the current model's by {ratio:.2f} times the spread the "
-                             f"noise of the measured input(s) causes (< {DISTINCT_MIN:g}): not distinguishable")
-
-
-OFFSET_MAX_FRACTION = 0.05
-_OFFSET_EXPERIMENT = ("zero the pressure transducers at rest (valve closed, both chambers vented to tank) "
-                      "before and after the test: an offset reads non-zero, a physical effect does not")
-
-
-def _offset_candidate(spec: DiagnosisPlant, cur: FitOutcome, records: Sequence[Record], holdout: Sequence[Record],
-                      sigma: dict[str, float], h_cur: float) -> Candidate:
-    """The measuring-chain candidate: a constant sensor offset per ``sensor_offsets`` channel
-    (profiled nuisance parameters in the refit; the fitted values are carried to the held-out
-    records as fixed corrections, so it is scored out of sample like every physical effect)."""
-    tc = time.perf_counter()
-    try:
-        fit = fit_model(spec, cur.model.copy(offsets={}), records, sigma=sigma)
-    except (ParameterError, gb.GreyboxError) as err:
-        return Candidate(SENSOR_OFFSETS, 0.0, {}, {}, {}, {}, math.inf, -math.inf, False, False,
-                         [f"fit failed: {err}"], time.perf_counter() - tc)
-    (nr,) = heldout_nrmse(spec, [fit.model], holdout)
-    h = _mean(nr)
-    # plausible: a zero error of at most OFFSET_MAX_FRACTION of the largest value the channel
-    # recorded (a proxy of its full scale; zero errors are 0.1-0.5 % of full scale)
-    reasons = []
-    for k, b in (fit.model.offsets or {}).items():
-        top = max(float(np.max(np.abs(r.channels[k]))) for r in records if k in r.channels)
-        if abs(b) > OFFSET_MAX_FRACTION * top:
-            reasons.append(f"offset of {k!r} {b:+.4g} beyond {OFFSET_MAX_FRACTION:.0%} of the largest recorded "
-                           f"value {top:.4g}: not a transducer zero error")
-    # identifiable (and worth a correction): at least one offset above OFFSET_ESTIMATE_FLAG
-    # noise levels of its channel (the corrected model's RMS residual over the scored samples);
-    # smaller ones are the constant part of model error or noise (effect-free rodless records:
-    # ~0.8 levels), not a finding
-    stats = mean_weighted_residual(spec, fit.model, records, sigma)
-    levels = {k: abs(b) / max(stats[k][2] * sigma[k], 1e-300)
-              for k, b in (fit.model.offsets or {}).items() if k in stats}
-    ident = any(v > OFFSET_ESTIMATE_FLAG for v in levels.values())
-    if not ident:
-        reasons.append("offsets below {:g} noise levels ({}): negligible".format(
-            OFFSET_ESTIMATE_FLAG, ", ".join(f"{k} {v:.2f}" for k, v in levels.items())))
-    return Candidate(SENSOR_OFFSETS, 0.0, dict(fit.model.offsets or {}), {}, dict(fit.result.nrmse), nr, h,
-                     (h_cur - h) / h_cur, not any("beyond" in r_ for r_ in reasons), ident, reasons,
-                     time.perf_counter() - tc, fit.model, fit)
-
-
-# a winner whose parameter correlates with a parameter of an effect named earlier in the run by
-# more than this (the joint fit's parameter correlation, identification.greybox) cannot be told
-# apart from it on these data: the decision is "ambiguous: winner vs earlier effect"; pairs above
-# greybox's CORRELATION_LIMIT (0.95) are noted in the candidate's reasons
-AMBIGUOUS_CORRELATION = 0.99
-
-
-def _check_correlated(spec: DiagnosisPlant, winner: Candidate, earlier: Sequence[str], decision: str,
-                      sep: str) -> tuple[str, str]:
-    """The decision after the identifiability check of the winner against the effects named
-    earlier in the run (not its prerequisites): a parameter pair correlated above
-    ``AMBIGUOUS_CORRELATION`` in the joint fit makes the round ``ambiguous: winner vs earlier``."""
-    res = getattr(winner.fit, "result", None)
-    if res is None or effect(winner.name).kind != "plant":
-        return decision, sep
-    own = {p.field for p in effect(winner.name).on(spec.name).parameters}
-    skip = prerequisites(spec, winner.name)
-    fields = {p.field: e for e in earlier if e not in skip and effect(e).kind == "plant"
-              for p in effect(e).on(spec.name).parameters}
-    worst = None
-    for a, b, rho in res.correlated_pairs:
-        for x, y in ((a, b), (b, a)):
-            if x in own and y in fields:
-                winner.reasons.append(f"{x} correlated with {y} of {fields[y]} (rho {rho:+.3f}) in the joint fit")
-                if abs(rho) > AMBIGUOUS_CORRELATION and (worst is None or abs(rho) > abs(worst[1])):
-                    worst = (fields[y], rho)
-    if worst is None:
-        return decision, sep
-    return f"ambiguous: {winner.name} vs {worst[0]}", f"{_describe(winner.name)} | {_describe(worst[0])}"
-
-
-def _describe(name: str) -> str:
-    if name == SENSOR_OFFSETS:
-        return f"{SENSOR_OFFSETS}: {_OFFSET_EXPERIMENT}"
-    e = effect(name)
-    return f"{e.name}: {e.separating_experiment}"
-
-
-def _implausible_best_notes(results: Sequence[Candidate], decision: str, accept_gain: float,
-                            round_no: int) -> list[str]:
-    """Notes on candidates that explain the held-out data better than the round's decision but
-    were not named because a fitted value lies beyond its plausible bound: the value and the
-    bound are reported ("check the rig"), never dropped without a word."""
-    names = set(decision.split(": ", 1)[1].split(" vs ")) if decision.startswith("ambiguous") else {decision}
-    bar = min((c.heldout for c in results if c.name in names), default=math.inf)
-    out = []
-    for c in results:
-        if c.plausible or not c.identifiable or c.gain < accept_gain or c.heldout >= bar:
-            continue
-        why = "; ".join(r for r in c.reasons if "plausib" in r) or "; ".join(c.reasons)
-        out.append(f"round {round_no}: {c.name} explains the held-out data best (gain {c.gain:.1%}) but is not "
-                   f"named: {why} -- check the rig (an effect that large is not expected on a working one), "
-                   "or widen the bound if the rig is known to have it")
-    return out
-
-
-def _decide(spec: DiagnosisPlant, results: Sequence[Candidate], accept_gain: float, margin: float) -> tuple[str, str]:
-    ok = [c for c in results if c.plausible and c.identifiable and c.gain >= accept_gain]
-    if not ok:
-        return "none", ""
-    best = min(ok, key=lambda c: c.heldout)
-    rivals = [c for c in ok if c is not best]
-    if rivals:
-        runner = min(rivals, key=lambda c: c.heldout)
-        if runner.heldout < (1 + margin) * best.heldout:
-            sep = f"{_describe(best.name)} | {_describe(runner.name)}"
-            return f"ambiguous: {best.name} vs {runner.name}", sep
-    return best.name, ""
