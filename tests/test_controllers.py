@@ -57,9 +57,9 @@ def test_tuning_uses_the_table_1_linearisation():
     omega_h = np.sqrt(689e6 * 6.63e-4**2 * 2 / v_half / 12.3)
     assert t["k_q"] == pytest.approx(k_q, rel=1e-3)  # 0.669 m/s per unit action
     assert t["omega_h"] == pytest.approx(omega_h, rel=1e-3)  # 664 rad/s
-    # the loop crossover K_q K_p at 0.03 omega_h (20 1/s), with the load-pressure loop of 0.12
+    # the loop crossover K_q K_p at 0.03 omega_h (20 1/s), with the load-pressure loop of 0.09
     assert t["kp"] * k_q == pytest.approx(0.03 * omega_h, rel=1e-6)
-    assert t["k_dp"] == 0.12
+    assert t["k_dp"] == 0.09
 
 
 def test_step_zero_steady_state_error_and_antiwindup(env):
@@ -90,8 +90,8 @@ def test_pid_beats_p_on_slow_sine(env, freq):
 
 def test_pid_removes_the_steady_error_a_load_leaves_the_p_loop():
     """2 kN on the rod: the P loop with load-pressure feedback settles ``k_dp p_L / (p_s K_p)``
-    off (0.87 mm); the PID's integral removes it."""
-    from agents.controllers.servo_cylinder import K_DP
+    off (0.44 mm with k_dp = 0.06); the PID's integral removes it."""
+    from agents.controllers.servo_cylinder import P_K_DP
 
     e = gym.make("hydro_envs/ServoCylinderPosition-v0", randomize=False)
     ref = np.full(N + 60, 0.5 * L)
@@ -103,7 +103,7 @@ def test_pid_removes_the_steady_error_a_load_leaves_the_p_loop():
             obs, _, _, _, info = e.step(a)
         out[name] = 0.5 * L - info["state"]["x"]
     p_l = 2000.0 / P.piston_area
-    expected = K_DP * p_l / P.supply_pressure / ProportionalPositionController().kp
+    expected = P_K_DP * p_l / P.supply_pressure / ProportionalPositionController().kp
     assert out["p"] == pytest.approx(expected, rel=0.1)  # F_L > 0 pushes the piston towards x = 0
     assert abs(out["pid"]) < 0.05 * abs(out["p"])
 

@@ -411,6 +411,46 @@ def _orifice_modes_surely_stable(y0, x, p, h):
 NOTCH_EDGE_WIDTHS = 3.0
 
 
+#: most fine steps per sub-step :func:`notch_substeps` asks for
+NOTCH_MAX_SUBSTEPS = 64
+
+
+@nb.njit(cache=True, error_model="numpy", inline="always")
+def notch_substeps(y0, x, p):
+    """Fine steps per sub-step that keep RK4 accurate (``h |lambda| <=``
+    :data:`~.bounds.ACCURATE_H_LAMBDA`) while the load pressure ``P_L = P_a - P_b`` sweeps an
+    edge of the modified-IFAS notch (eq (19), ``+-P_Lt`` within :data:`NOTCH_EDGE_WIDTHS` ``/ mu``),
+    0 where its path from ``y0`` to the Euler prediction ``x`` meets neither edge.
+
+    Both moduli carry the factor ``h(P_L)`` (eqs (15)-(16)): ``P_a' = h f_a``, ``P_b' = h f_b``
+    with ``f = E_i F / V``. Their Jacobian gains the rank-one block ``h' [f_a, f_b]^T [1, -1]``,
+    whose eigenvalue is ``lambda = h' (f_a - f_b) = (h'/h) dP_L/dt``: the load pressure is a mode
+    of its own, as fast as it sweeps the notch times the notch's relative slope. Bounds over the
+    sub-step's path: ``|h'| = lambda_2 mu |sech^2(a + k) - sech^2(a - k)| <= lambda_2 mu
+    sech^2(|a| - k)`` (eq (19), ``a = mu P_L``, ``k = mu |P_Lt|``; ``|a - k| <= a + k`` for
+    ``a >= 0``), largest at the path's point nearest an edge, and ``h`` rises with ``|P_L|`` (the bracket is
+    ``2 sinh(2k) / (cosh(2a) + cosh(2k))``, falling in ``|a|``), so it is smallest at the path's
+    point nearest ``P_L = 0``. So ``h |lambda| <= lambda_2 mu sech^2(d_edge) |x_L - y0_L| / h(P_L,near)``
+    (``d_edge`` the path's least distance from an edge in units of ``1/mu``).
+    At most :data:`NOTCH_MAX_SUBSTEPS`, at least 1 on an edge."""
+    l0 = y0[PA] - y0[PB]
+    l1 = x[PA] - x[PB]
+    lo = min(l0, l1)
+    hi = max(l0, l1)
+    w = NOTCH_EDGE_WIDTHS / p[I_MU]
+    c = abs(p[I_PLT])
+    if not ((hi > c - w and lo < c + w) or (hi > -c - w and lo < -c + w)):
+        return 0
+    near = 0.0 if lo < 0.0 < hi else min(abs(lo), abs(hi))  # |P_L| on the path spans [near, far]
+    far = max(abs(lo), abs(hi))
+    edge = 0.0 if near <= c <= far else p[I_MU] * min(abs(near - c), abs(far - c))
+    r = exp(-2.0 * edge)
+    h_near = modified_ifas_shape_fast(near, 0.0, p[I_L1], p[I_MU], p[I_PLT], p[D_NOTCH_AMP], p[D_NOTCH_C2],
+                                      p[D_NOTCH_ONE_C2], p[D_NOTCH_FAR])
+    g = abs(p[I_L2]) * p[I_MU] * 4.0 * r / ((1.0 + r) * (1.0 + r)) * (hi - lo) / h_near  # sech^2(edge) = 4r/(1+r)^2
+    return min(NOTCH_MAX_SUBSTEPS, max(1, int(math.ceil(g / ACCURATE_H_LAMBDA))))
+
+
 @njit_noalloc
 def local_mode_substeps(y0, x, p, h, m):
     """RK4 steps of ``h / n`` that take a sub-step of ``h`` from ``y0`` (Euler prediction of its
@@ -420,17 +460,22 @@ def local_mode_substeps(y0, x, p, h, m):
     :func:`air_band_substeps` gives for its emptying or refilling), ``m`` where a chamber
     pressure crosses the supply or the tank pressure (an orifice's zero drop) or a relief's kink, the spool crosses
     a kink of the metering openings (eq (3) at ``x_v = +-U``, the stroke limit at ``+-1``: the
-    flow's slope jumps there, and RK4 across such a point loses its order), or the load pressure
-    meets an edge of the modified-IFAS notch (eq (19), ``+-P_Lt`` within
-    :data:`NOTCH_EDGE_WIDTHS` ``/ mu``) or the table reverses (the LuGre seals' rate
+    flow's slope jumps there, and RK4 across such a point loses its order), at least ``m`` and as
+    many as :func:`notch_substeps` gives for the load pressure's own mode where it meets an edge
+    of the modified-IFAS notch (eq (19), ``+-P_Lt`` within :data:`NOTCH_EDGE_WIDTHS` ``/ mu``; with
+    ``m`` alone, a table at 0.3 m/s sweeping a 0.69 bar edge, ``h |lambda|`` up to 4, missed
+    Radau by 1.6e-3 of the stroke used), or the table reverses (the LuGre seals' rate
     ``v - sigma0 |v| z / g`` has a kink at v = 0, across which RK4 loses its order); else the count for the larger :func:`local_mode_rate`
     of the two (:func:`hydro_envs.sim.rk4.local_substeps`), 1 without the rates where
     :func:`_orifice_modes_surely_stable` says so."""
     ps = p[I_PS]
     pt = p[I_PT]
     a0, a1, b0, b1 = y0[PA], x[PA], y0[PB], x[PB]
+    n_notch = notch_substeps(y0, x, p) if p[I_MODEL] > 1.5 else 0  # the load pressure meets a notch edge
     if min(min(a0, b0), min(a1, b1)) < p[D_PAIR]:
-        return max(m, air_band_substeps(y0, x, p))
+        return max(max(m, n_notch), air_band_substeps(y0, x, p))
+    if n_notch > 0:
+        return max(m, n_notch)
     if _crossed(a0, a1, ps) or _crossed(b0, b1, ps) or _crossed(a0, a1, pt) or _crossed(b0, b1, pt):
         return m
     prv = p[I_PRV]
@@ -445,13 +490,6 @@ def local_mode_substeps(y0, x, p, h, m):
         return m
     if _crossed(y0[V], x[V], 0.0) and p[I_FS] > 0.0:  # a reversal: the seals' |v| kink (LuGre)
         return m
-    if p[I_MODEL] > 1.5:  # does the load pressure's path meet a notch edge +-P_Lt (+- w)?
-        lo = min(a0 - b0, a1 - b1)
-        hi = max(a0 - b0, a1 - b1)
-        w = NOTCH_EDGE_WIDTHS / p[I_MU]
-        c = p[I_PLT]
-        if (hi > c - w and lo < c + w) or (hi > -c - w and lo < -c + w):
-            return m
     if _orifice_modes_surely_stable(y0, x, p, h):  # short cut, same answer as the rates
         return 1
     return local_substeps(h * max(local_mode_rate(y0, p), local_mode_rate(x, p)), STABLE_H_LAMBDA, m)
