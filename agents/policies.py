@@ -315,7 +315,7 @@ def load_trained(run_dir: str | Path, which: str = "final", device: str = "cpu",
 
 def _load_zoo(run: Path, which: str, device: str, trust_pickle: bool) -> TrainedPolicy | ResidualPolicy:
     """An rl_zoo3 run folder (:mod:`agents.zoo`): its models and normaliser are pickles."""
-    from agents.zoo import load_zoo_run
+    from agents.zoo import zoo_run_info
 
     if not trust_pickle:
         raise UntrustedPickleError(
@@ -323,7 +323,14 @@ def _load_zoo(run: Path, which: str, device: str, trust_pickle: bool) -> Trained
             "arbitrary code from whoever wrote them, so they are not read by default. If you trust the folder, "
             "pass --trust-pickle (trust_pickle=True), or convert it once with "
             "agents.policies.export_compact(run, dest, trust_pickle=True)")
-    model, normalizer, env_id, algo, config = load_zoo_run(run, which, device)
+    model_file, vn_file, env_id, algo, config = zoo_run_info(run, which)
+    if algo not in ALGOS:
+        raise ValueError(f"{run}: algo = {algo!r}; allowed {', '.join(ALGOS)}")
+    model = algo_class(algo).load(model_file, device=device)  # trusted: cloudpickle inside
+    normalizer = None
+    if vn_file is not None:
+        with open(vn_file, "rb") as fh:
+            normalizer = pickle.load(fh)  # trusted: SB3 VecNormalize state
     return _with_residual(TrainedPolicy(model, normalizer, env_id=env_id, algo=algo, config=config, run_dir=run))
 
 

@@ -14,8 +14,8 @@ steps the same kernel as ``python -m agents.train`` (``bench/zoo_step_rate.py`` 
 
 **Reading a zoo run.** A zoo run folder (``logs/<algo>/<env>_<n>/``) holds ``<env>.zip``,
 optionally ``best_model.zip``, and ``<env>/{args.yml, config.yml, vecnormalize.pkl}``.
-:func:`is_zoo_run` recognises it and :func:`load_zoo_run` reads it for
-:func:`agents.policies.load_trained`. The zoo writes its YAML with Python ``OrderedDict`` tags;
+:func:`is_zoo_run` recognises it and :func:`zoo_run_info` reads its files' names and YAML for
+:func:`agents.policies.load_trained`, which loads the model. The zoo writes its YAML with Python ``OrderedDict`` tags;
 they are read by a safe loader that knows that one tag (nothing is constructed from any other
 tag). The models and normalisers are pickles, so a zoo run loads only with ``trust_pickle``.
 """
@@ -28,7 +28,7 @@ from typing import Any
 
 import yaml
 
-__all__ = ["native_vec_env", "is_zoo_run", "zoo_run_files", "load_zoo_run", "read_zoo_yaml"]
+__all__ = ["native_vec_env", "is_zoo_run", "zoo_run_files", "zoo_run_info", "read_zoo_yaml"]
 
 #: gymnasium's and SB3's own per-env wrappers, which the native batch env applies itself
 _STANDARD_WRAPPERS = ("Monitor", "TimeLimit", "OrderEnforcing", "PassiveEnvChecker", "EnvCompatibility")
@@ -133,16 +133,10 @@ def is_zoo_run(run: str | Path) -> bool:
     return zoo_run_files(Path(run)) is not None
 
 
-def load_zoo_run(run_dir: str | Path, which: str = "final", device: str = "cpu") -> tuple[Any, Any, str, str,
-                                                                                         dict[str, Any]]:
-    """``(model, normaliser or None, env id, algo, config)`` of a zoo run folder (trusted pickles).
-
-    ``which="best"`` reads ``best_model.zip`` (the zoo's evaluation callback keeps one normaliser,
-    ``vecnormalize.pkl``, for both)."""
-    import pickle
-
-    from agents.policies import ALGOS, algo_class
-
+def zoo_run_info(run_dir: str | Path, which: str = "final") -> tuple[Path, Path | None, str, str, dict[str, Any]]:
+    """``(model zip, vecnormalize.pkl or None, env id, algo, config)`` of a zoo run folder; nothing
+    is unpickled here (:func:`agents.policies.load_trained` loads the files). ``which="best"``
+    names ``best_model.zip`` (the zoo's evaluation callback keeps one normaliser for both)."""
     run = Path(run_dir)
     found = zoo_run_files(run)
     if found is None:
@@ -150,16 +144,10 @@ def load_zoo_run(run_dir: str | Path, which: str = "final", device: str = "cpu")
     params, final = found
     args = read_zoo_yaml(params / "args.yml")
     env_id, algo = args.get("env"), args.get("algo")
-    if not isinstance(env_id, str) or algo not in ALGOS:
-        raise ValueError(f"{params / 'args.yml'}: needs env (an env id) and algo (one of {', '.join(ALGOS)}); "
-                         f"got env={env_id!r}, algo={algo!r}")
+    if not isinstance(env_id, str) or not isinstance(algo, str):
+        raise ValueError(f"{params / 'args.yml'}: needs env (an env id) and algo; got env={env_id!r}, algo={algo!r}")
     model_file = final if which == "final" else run / "best_model.zip"
     if not model_file.is_file():
         raise FileNotFoundError(f"{model_file} not found (which = {which!r})")
-    config = read_zoo_yaml(params / "config.yml")
-    model = algo_class(algo).load(model_file, device=device)  # trusted by the caller: cloudpickle inside
-    normalizer = None
-    if (params / "vecnormalize.pkl").is_file():
-        with open(params / "vecnormalize.pkl", "rb") as fh:
-            normalizer = pickle.load(fh)  # trusted by the caller: SB3 VecNormalize state
-    return model, normalizer, env_id, algo, config
+    vecnorm = params / "vecnormalize.pkl"
+    return model_file, vecnorm if vecnorm.is_file() else None, env_id, algo, read_zoo_yaml(params / "config.yml")
