@@ -4,7 +4,7 @@ Every committed benchmark result (``docs/benchmarks/*.json``, made by the printe
 ``docs/benchmarks/README.md``) that scores a trivial controller (``zero`` action, or the load-
 sensing pump's own ``passive`` regulation) must show each learned family (PPO, SAC, TD3 rows)
 at least ``MARGIN`` below that controller's mean RMSE on every parameter set. A baseline that
-is not is retrained or not shipped (``agents.pretrain.PLAIN_PPO_NOT_SHIPPED``).
+is not is retrained or not shipped (``agents.pretrain.NOT_SHIPPED``).
 """
 
 from __future__ import annotations
@@ -37,9 +37,10 @@ def test_learned_baseline_beats_the_trivial_controller(table, name, rmse, trivia
                                      f"controller's {trivial:.4g}: retrain it or do not ship it")
 
 
-def test_plants_without_a_plain_ppo_ship_none():
-    from agents.pretrain import PLAIN_PPO_NOT_SHIPPED, PRETRAINED_ROOT
+def test_baselines_named_not_shipped_are_not_shipped():
+    from agents.pretrain import NOT_SHIPPED, PRETRAINED_ROOT
 
-    for plant in PLAIN_PPO_NOT_SHIPPED:
-        assert not list((PRETRAINED_ROOT / plant).glob("ppo_s*")), plant
-        assert not list((PRETRAINED_ROOT / plant).glob("ppo_nominal_s*")), plant
+    for plant, tag in NOT_SHIPPED:
+        assert not list((PRETRAINED_ROOT / plant).glob(f"{tag}_s*")), (plant, tag)
+        assert not list((PRETRAINED_ROOT / plant).glob(f"{tag}_nominal_s*")), (plant, tag)
+        assert not (PRETRAINED_ROOT / plant / f"{tag}_selected").exists(), (plant, tag)
