@@ -304,13 +304,19 @@ def load_trained(run_dir: str | Path, which: str = "final", device: str = "cpu",
             raise FileNotFoundError(f"{run / f} not found: not a finished run folder of agents.train")
     env_id, algo = _run_args(run)
     config_all = _run_config(run, env_id, whole=True)
-    model = algo_class(algo).load(run / model_file, device=device)  # trusted: cloudpickle inside
-    normalizer = None
-    if (run / vn_file).is_file():
-        with open(run / vn_file, "rb") as fh:
-            normalizer = pickle.load(fh)  # trusted: SB3 VecNormalize state (venv excluded)
+    model, normalizer = _load_pickled(algo, run / model_file, run / vn_file, device)
     return _with_residual(TrainedPolicy(model, normalizer, env_id=env_id, algo=algo,
                                         config=config_all.get(env_id, {}), run_dir=run))
+
+
+def _load_pickled(algo: str, model_file: Path, vn_file: Path | None, device: str) -> tuple[Any, Any]:
+    """The trusted SB3 model zip and, when the file exists, its ``VecNormalize`` state."""
+    model = algo_class(algo).load(model_file, device=device)  # trusted: cloudpickle inside
+    normalizer = None
+    if vn_file is not None and vn_file.is_file():
+        with open(vn_file, "rb") as fh:
+            normalizer = pickle.load(fh)  # trusted: SB3 VecNormalize state (venv excluded)
+    return model, normalizer
 
 
 def _load_zoo(run: Path, which: str, device: str, trust_pickle: bool) -> TrainedPolicy | ResidualPolicy:
@@ -326,11 +332,7 @@ def _load_zoo(run: Path, which: str, device: str, trust_pickle: bool) -> Trained
     model_file, vn_file, env_id, algo, config = zoo_run_info(run, which)
     if algo not in ALGOS:
         raise ValueError(f"{run}: algo = {algo!r}; allowed {', '.join(ALGOS)}")
-    model = algo_class(algo).load(model_file, device=device)  # trusted: cloudpickle inside
-    normalizer = None
-    if vn_file is not None:
-        with open(vn_file, "rb") as fh:
-            normalizer = pickle.load(fh)  # trusted: SB3 VecNormalize state
+    model, normalizer = _load_pickled(algo, model_file, vn_file, device)
     return _with_residual(TrainedPolicy(model, normalizer, env_id=env_id, algo=algo, config=config, run_dir=run))
 
 
