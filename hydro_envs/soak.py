@@ -45,14 +45,14 @@ replaced by an in-range corner). Draws are passed as the benchmark passes frozen
     ``max_pressure``).
 ``temperature``
     steps (per copy) with a pneumatic chamber (the model's ``soak_temperatures(Y, P)``) colder
-    than the physics allows: its ``soak_temperature_floor(P)``, an isentropic expansion from the
-    wall temperature and the highest pressure to the exhaust (heat from the walls only warms
-    the gas). Reported, not a breach: the coldest temperature (``min_temperature``) and the
-    steps colder than ``MIN_TEMPERATURE`` = 250 K (``cold_steps``). With the walls' convective
-    coefficient of the literature (tens of W/(m^2 K)) a chamber vented from a high supply in a
-    few ms still cools to 162-175 K at the widened (beyond) supply pressures of 8-9.5 bar
-    (measured; 169 K at h = 50 W/(m^2 K) venting from 9.5 bar); about 1000 W/(m^2 K) would hold
-    250 K.
+    than ``MIN_TEMPERATURE`` = 250 K or than the physics allows (its
+    ``soak_temperature_floor(P)``, an isentropic expansion from the wall temperature and the
+    highest pressure to the exhaust: heat from the walls only warms the gas). Also reported: the
+    coldest temperature (``min_temperature``) and the steps below 250 K (``cold_steps``). The
+    cylinder walls alone (h = 50 W/(m^2 K)) let a chamber vented from the widened (beyond) supply
+    pressures of 8-9.5 bar cool to 162-175 K; with the tube to the valve in the heat exchange (its
+    inner wall at the tube-flow coefficient of the chamber's mass flow, the rodless model's
+    ``chamber_wall_heat_flow``) the coldest was 265 K (measured, bench/soak.py).
 ``guard_clamps``
     how often a guard clamped the state (pressure floor, friction bound): reported, not a
     breach -- clamping at the cavitation floor is the guard doing its job under bang-bang
@@ -247,8 +247,8 @@ class _LimitTracker:
     """The physical bounds of a plant's chambers, checked after every env step: pressures below
     their relief valves' full-flow pressure (the contract's ``relief_bounds(P) -> (state indices,
     (n, k) bounds [Pa])``), pneumatic temperatures (the model's ``soak_temperatures(Y, P) ->
-    (n, k) [K]``) above its ``soak_temperature_floor(P)`` (the steps below
-    :data:`MIN_TEMPERATURE` counted apart); a plant without them has no such breach."""
+    (n, k) [K]``) above :data:`MIN_TEMPERATURE` and its ``soak_temperature_floor(P)`` (the steps
+    below MIN_TEMPERATURE also counted apart); a plant without them has no such breach."""
 
     def __init__(self, model: PlantModel) -> None:
         self.relief = model.relief_bounds
@@ -270,7 +270,8 @@ class _LimitTracker:
                 self.max_pressure = float(np.fmax(self.max_pressure, np.nanmax(pr)))
         if self.temperatures is not None and self.floor is not None:
             t = self.temperatures(Y, P)
-            out["temperature"] = np.any(~(t >= self.floor(P)[:, None]), axis=1)
+            bound = np.maximum(self.floor(P), MIN_TEMPERATURE)
+            out["temperature"] = np.any(~(t >= bound[:, None]), axis=1)
             self.cold_steps += int(np.any(t < MIN_TEMPERATURE, axis=1).sum())
             if np.isfinite(t).any():
                 self.min_temperature = float(np.fmin(self.min_temperature, np.nanmin(t)))

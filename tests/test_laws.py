@@ -720,3 +720,17 @@ def test_lugre_rate_bound_covers_the_velocity_bristle_block():
         assert lam <= bound * (1 + 1e-6), (lam, bound)
         tight = max(tight, lam / bound)
     assert tight > 0.5  # not uselessly loose
+
+
+def test_tube_convection_coefficient_is_dittus_boelter_with_the_laminar_floor():
+    """Against the correlations written out by hand (Incropera and DeWitt eqs 8.55, 8.60; air at
+    20 C, Table A.4): 2 g/s through a 2.5 mm tube is turbulent (Re = 5.6e4), no flow laminar."""
+    d, mu, k, pr = 2.5e-3, 1.81e-5, 0.0257, 0.71
+    for mdot in (2e-3, -2e-3, 5e-4):
+        re = 4.0 * abs(mdot) / (math.pi * d * mu)
+        want = 0.023 * re**0.8 * pr**0.4 * k / d
+        assert laws.tube_convection_coefficient(mdot, d) == pytest.approx(want, rel=1e-12)
+    assert 4.0 * 2e-3 / (math.pi * d * mu) == pytest.approx(5.63e4, rel=1e-3)
+    assert laws.tube_convection_coefficient(2e-3, d) == pytest.approx(1.30e3, rel=0.01)  # Nu = 127
+    assert laws.tube_convection_coefficient(0.0, d) == pytest.approx(3.66 * k / d)  # 37.6 W/(m^2 K)
+    assert laws.tube_convection_coefficient(1e-6, d) == pytest.approx(3.66 * k / d)

@@ -27,8 +27,8 @@ SHORT_STEPS = 48_000
 @pytest.mark.parametrize("env_id", soak.SOAK_ENVS)
 def test_short_soak_has_no_breach(env_id):
     """No breach of any kind, the physical bounds included: every hydraulic chamber below its
-    relief's full-flow pressure (+ RELIEF_TOL), every pneumatic chamber above its isentropic
-    floor (the steps below 250 K are reported: ``cold_steps``)."""
+    relief's full-flow pressure (+ RELIEF_TOL), every pneumatic chamber above 250 K
+    (MIN_TEMPERATURE) and its isentropic floor."""
     r = soak.soak_env(env_id, SHORT_STEPS, num_envs=24, seed=11, episode_steps=250)
     assert r.steps >= SHORT_STEPS
     assert r.draws["corner"] > 0 and r.draws["beyond"] > 0  # both kinds of extreme draws ran
@@ -37,7 +37,7 @@ def test_short_soak_has_no_breach(env_id):
     if model.relief_bounds is not None:  # the bound was checked and met
         assert 0.3 < r.max_pressure_ratio <= 1.0 + soak.RELIEF_TOL, r.max_pressure_ratio
     if model.soak_temperatures is not None:
-        assert 100.0 < r.min_temperature < 300.0, r.min_temperature
+        assert soak.MIN_TEMPERATURE <= r.min_temperature < 300.0 and r.cold_steps == 0, r.min_temperature
 
 
 @pytest.mark.slow
@@ -234,8 +234,9 @@ def test_limit_checks_fail_on_a_chamber_above_its_relief_and_a_cold_chamber():
     cold = soak._LimitTracker(rc.CONTRACT)
     floor = float(rc.soak_temperature_floor(q.to_array()[None, :])[0])  # 293.15 (1.01/10.5)^(2/7): 150 K
     assert floor == pytest.approx(q.supply_temperature * (q.exhaust_pressure / (1.5 * q.supply_pressure)) ** (0.4 / 1.4))
-    for t, breach in ((0.98 * floor, True), (1.02 * floor, False), (240.0, False)):
+    for t, breach in ((0.98 * floor, True), (1.02 * floor, True), (240.0, True), (251.0, False)):
         y = rc.rest_state(q, 0.5 * q.stroke, ta=t)[None, :]
         assert bool(cold.breaches(y, q.to_array()[None, :])["temperature"][0]) is breach
     assert cold.min_temperature == pytest.approx(0.98 * floor) and cold.cold_steps == 3
+    assert floor < soak.MIN_TEMPERATURE  # the 250 K bound is the binding one
     assert not soak._LimitTracker(fa.CONTRACT).breaches(ok[:, :0], P)["relief"].any()  # no chambers: no bound

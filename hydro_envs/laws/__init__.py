@@ -74,6 +74,8 @@ pneumatic_chamber (:mod:`hydro_envs.laws.pneumatic_chamber`)
     chamber_temperature(p, vol, mass, r_gas)          ideal gas (004 before eq (10))
     wall_heat_flow(h, wall_area, t_wall, t_gas)       Q = h A_wall (T_wall - T) (Newton cooling)
     cylinder_chamber_wall_area(vol, piston_area, bore)  2 A + 4 V / D
+    tube_convection_coefficient(mass_flow, bore)      h of air in a tube (Dittus-Boelter, laminar floor)
+    tube_convection_slope_bound(bore)                 its largest dh/d|mdot|
     gas_internal_energy(p, vol, kappa)                U = p V / (kappa - 1)
 
 stribeck_lugre (:mod:`hydro_envs.laws.stribeck_lugre`)
@@ -170,6 +172,8 @@ from hydro_envs.laws.pneumatic_chamber import (
     chamber_temperature,
     cylinder_chamber_wall_area,
     gas_internal_energy,
+    tube_convection_coefficient,
+    tube_convection_slope_bound,
     wall_heat_flow,
 )
 from hydro_envs.laws.nozzle_fast import nozzle_flow_constants, nozzle_mass_flow_fast
@@ -257,6 +261,8 @@ __all__ = [
     "gas_internal_energy",
     "wall_heat_flow",
     "cylinder_chamber_wall_area",
+    "tube_convection_coefficient",
+    "tube_convection_slope_bound",
     # exponential Stribeck / LuGre
     "stribeck_exponential_curve",
     "lugre_exponential_rate",

@@ -26,10 +26,14 @@ from __future__ import annotations
 
 import numba
 
+from hydro_envs.libm import exp, log
+
 __all__ = [
     "chamber_pressure_rate",
     "wall_heat_flow",
     "cylinder_chamber_wall_area",
+    "tube_convection_coefficient",
+    "tube_convection_slope_bound",
     "chamber_temperature",
     "gas_internal_energy",
 ]
@@ -72,6 +76,46 @@ def cylinder_chamber_wall_area(vol, piston_area, bore):
     Units: vol [m^3], piston_area [m^2], bore [m] -> [m^2].
     """
     return 2.0 * piston_area + 4.0 * vol / bore
+
+
+#: air at 20 C and 1 bar (Incropera and DeWitt, Fundamentals of Heat and Mass Transfer, 6th ed.,
+#: Table A.4): dynamic viscosity [Pa s], thermal conductivity [W/(m K)], Prandtl number
+AIR_VISCOSITY = 1.81e-5
+AIR_CONDUCTIVITY = 0.0257
+AIR_PRANDTL = 0.71
+#: Nusselt number of fully developed laminar flow in a tube at constant wall temperature (ibid. eq 8.55)
+NU_LAMINAR = 3.66
+_DITTUS_BOELTER = 0.023 * AIR_PRANDTL**0.4
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def tube_convection_coefficient(mass_flow, bore):
+    """Convective coefficient h [W/(m^2 K)] of air flowing through a tube of inner diameter
+    ``bore`` [m] at mass flow ``mass_flow`` [kg/s] (either sign) to its wall.
+
+    ``h = Nu k / d`` with ``Nu = max(3.66, 0.023 Re^0.8 Pr^0.4)``, ``Re = 4 |mdot| / (pi d mu)``:
+    the Dittus-Boelter correlation of turbulent tube flow (Incropera and DeWitt eq 8.60, heating of
+    the gas: exponent 0.4) and the fully developed laminar floor (eq 8.55); the larger of the two,
+    so the transition (Re 700-1e4, where Gnielinski's correlation lies between them) takes the
+    turbulent branch. Air properties at 20 C (Table A.4).
+    """
+    re = 4.0 * abs(mass_flow) / (3.141592653589793 * bore * AIR_VISCOSITY)
+    nu = NU_LAMINAR
+    if re > 600.0:
+        nu_t = _DITTUS_BOELTER * exp(0.8 * log(re))
+        if nu_t > nu:
+            nu = nu_t
+    return nu * AIR_CONDUCTIVITY / bore
+
+
+@numba.njit(cache=True, error_model="numpy")
+def tube_convection_slope_bound(bore):
+    """Largest slope ``dh/d|mdot|`` [W/(m^2 K) per kg/s] of :func:`tube_convection_coefficient`:
+    on the Dittus-Boelter branch ``0.8 h / |mdot|``, largest where it meets the laminar floor
+    (``Re_c = (3.66 / (0.023 Pr^0.4))^(1/0.8)``, about 670); 0 below."""
+    re_c = exp(log(NU_LAMINAR / _DITTUS_BOELTER) / 0.8)
+    mdot_c = re_c * 3.141592653589793 * bore * AIR_VISCOSITY / 4.0
+    return 0.8 * NU_LAMINAR * AIR_CONDUCTIVITY / bore / mdot_c
 
 
 @numba.njit(cache=True, error_model="numpy")

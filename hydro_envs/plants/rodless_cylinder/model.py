@@ -40,12 +40,18 @@ Equations (numbers of 004)::
 
 ``H = sum mdot_i T_i`` is the enthalpy flow (mass flow into the chamber times the upstream
 temperature: T_s from the supply, the chamber's own T for outflow, T_s for air drawn back
-from the exhaust). Heat flow from the wall ``Q = h A_wall (T_s - T)``,
-``A_wall = 2 A + 4 V / D`` (:func:`hydro_envs.laws.pneumatic_chamber.wall_heat_flow`,
-:func:`~hydro_envs.laws.pneumatic_chamber.cylinder_chamber_wall_area`; h =
-``wall_heat_transfer_coefficient``, 0: adiabatic, the seed's eq (11); the default, a
-convective coefficient of the literature, puts the chambers between isothermal and adiabatic:
-a random-action soak without it cooled chambers to 175 K).
+from the exhaust). Heat flow from the walls (:func:`chamber_wall_heat_flow`)
+``Q = h A_cyl (T_s - T) + h_line(mdot) pi d L (T_s - T)``: the cylinder's wall
+``A_cyl = 2 A + 4 (V - V_line) / D`` with the convective coefficient h =
+``wall_heat_transfer_coefficient`` (:func:`hydro_envs.laws.pneumatic_chamber.wall_heat_flow`,
+:func:`~hydro_envs.laws.pneumatic_chamber.cylinder_chamber_wall_area`), and the inner wall of
+the tube to the valve (``line_length`` L, ``line_bore`` d, the part ``V_line = pi d^2 L / 4`` of
+the dead volume) with the tube-flow coefficient of the chamber's net mass flow mdot
+(:func:`~hydro_envs.laws.pneumatic_chamber.tube_convection_coefficient`, Dittus-Boelter with a
+laminar floor): all the gas that fills or vents a chamber passes the tube, whose wall per
+volume is ten times the cylinder's. h = 0: adiabatic, the seed's eq (11), the line's exchange
+off too. A random-action soak cooled adiabatic chambers to 150-175 K, the cylinder wall alone
+(h = 50 W/(m^2 K)) to 166 K (beyond draws: h 6.3 W/(m^2 K), supply 9.5 bar).
 
 Decisions on the extracted text (see ``docs/references.md`` and the law docstrings):
 
@@ -100,7 +106,8 @@ from hydro_envs.laws.friction import stribeck_exponential, stribeck_exponential_
 from hydro_envs.laws.nozzle_fast import nozzle_mass_flow_fast, nozzle_mass_flow_slope_fast
 from hydro_envs.laws.orifice import circular_orifice_area, iso6358_mass_flow_laminar
 from hydro_envs.laws.pneumatic_chamber import (
-    chamber_pressure_rate, cylinder_chamber_wall_area, gas_internal_energy, wall_heat_flow,
+    chamber_pressure_rate, cylinder_chamber_wall_area, gas_internal_energy, tube_convection_coefficient,
+    wall_heat_flow,
 )
 from hydro_envs.laws.seal_friction import bristle_block_rate_bound, seal_friction, stribeck_curve_exponential
 from hydro_envs.laws.valve import second_order_valve_acceleration
@@ -111,7 +118,7 @@ from hydro_envs.plants.rodless_cylinder.bounds import (
     local_mode_rates as _local_mode_rates, piston_area, smallest_chamber_volume, speed_bound,
 )
 from hydro_envs.plants.rodless_cylinder.params import (  # noqa: F401  (re-exported)
-    D_AREA, D_COEF, D_CRIT, D_FADE, D_WALL, D_INVK, D_KV, D_LOCAL, D_ORIFICE, D_PSIC, D_PSIL, D_SFULL, D_SQRTRTS,
+    D_ALINE, D_AREA, D_COEF, D_CRIT, D_FADE, D_VLINE, D_WALL, D_INVK, I_DLINE, D_KV, D_LOCAL, D_ORIFICE, D_PSIC, D_PSIL, D_SFULL, D_SQRTRTS,
     ATM, I_ASTOP, I_BISO, I_CD, I_CISO, I_D, I_FC, I_FL, I_FLOW, I_FS, I_HW, I_K, I_KSTOP, I_L,
     I_M, I_MFLOOR, I_PE, I_PFLOOR, I_PS, I_R, I_RLAM, I_RP, I_SIG0, I_SIG1, I_SIG2, I_TS, I_UC,
     I_RSUP, I_ULAP, I_UMAX, I_VDA, I_VDB, I_VEPS, I_VMIN, I_VS, I_WV, I_XVM, I_ZV, N_FIELDS, N_PARAMS,
@@ -333,6 +340,23 @@ def fixed_supply_flows(p, s_plus, s_minus, pa, ta, pb, tb):
 
 
 @njit_noalloc
+def chamber_wall_heat_flow(p, vol, mdot, t):
+    """Heat flow [W] from the walls into a chamber's gas at temperature ``t`` [K], volume ``vol``
+    [m^3] and net mass flow ``mdot`` [kg/s] (module doc): the cylinder's wall ``2 A + 4 (V -
+    V_line) / D`` at the convective coefficient ``wall_heat_transfer_coefficient``, plus the
+    line's inner wall ``pi d L`` at the tube-flow coefficient of ``mdot``; 0 when that
+    coefficient is 0 (the seed's adiabatic chamber, 004 eq (11))."""
+    hw = p[I_HW]
+    if hw <= 0.0:
+        return 0.0
+    ts = p[I_TS]
+    q = wall_heat_flow(hw, 2.0 * p[D_AREA] + p[D_WALL] * max(vol - p[D_VLINE], 0.0), ts, t)
+    if p[D_ALINE] > 0.0:
+        q += wall_heat_flow(tube_convection_coefficient(mdot, p[I_DLINE]), p[D_ALINE], ts, t)
+    return q
+
+
+@njit_noalloc
 def rodless_cylinder_rhs(y, u, p, dy):
     """Time derivative ``dy`` of state ``y`` under valve command ``u[0]`` [V] (004 model)."""
     _rhs(supply_port_flows, y, u, p, dy)
@@ -373,9 +397,8 @@ def _rhs(supply, y, u, p, dy):
     mdot_b, h_b = _vented_chamber_flows(p, m_pb, s_plus, pb, tb)
 
     # energy balance of each chamber (10)-(13); dV_a/dt = A v, dV_b/dt = -A v
-    hw = p[I_HW]  # convective coefficient h; A_wall = 2 A + 4 V / D (D_WALL = 4 / D)
-    q_a = wall_heat_flow(hw, 2.0 * area + p[D_WALL] * vol_a, ts, ta)
-    q_b = wall_heat_flow(hw, 2.0 * area + p[D_WALL] * vol_b, ts, tb)
+    q_a = chamber_wall_heat_flow(p, vol_a, mdot_a, ta)
+    q_b = chamber_wall_heat_flow(p, vol_b, mdot_b, tb)
     dpa = chamber_pressure_rate(pa, vol_a, area * v, h_a, kappa, r_gas, q_a)
     dpb = chamber_pressure_rate(pb, vol_b, -area * v, h_b, kappa, r_gas, q_b)
     dma = mdot_a  # (8)-(9)
@@ -729,7 +752,9 @@ def stiffness_modes(params: RodlessCylinderParams) -> dict[str, float]:
       act on the slider with them, ``(2 sigma1 + sigma)/M``; ``friction`` (static curve): the
       viscous ``sigma/M``.
     * ``heat``: wall exchange ``(kappa - 1) h A_wall/V T_max / (p_e/2)`` with the largest wall
-      area per volume ``A_wall/V = 2 A / V_min + 4 / D``.
+      area per volume ``A_wall/V = 2 A / V_min + 4 / D``, plus the line's
+      ``(kappa - 1) h_line pi d L / V_min T_max / p_e`` at the largest mass flow
+      (:func:`largest_mass_flow`, into a chamber at the exhaust pressure).
 
     Stiff only in part of the state space, and left out here (:mod:`.bounds`,
     :func:`local_mode_rates`): the flow law's laminar tail, LuGre's bristle relaxation at speed
@@ -756,9 +781,24 @@ def stiffness_modes(params: RodlessCylinderParams) -> dict[str, float]:
         modes["friction"] = params.viscous_friction / m
     if params.wall_heat_transfer_coefficient > 0.0:
         per_volume = 2.0 * a / v_min + 4.0 / params.bore  # laws.pneumatic_chamber.cylinder_chamber_wall_area / V
-        modes["heat"] = ((kappa - 1.0) * params.wall_heat_transfer_coefficient * per_volume * t_max
-                         / (0.5 * params.exhaust_pressure))
+        # the line's wall at the largest flow (the choked full opening from p_s) into a chamber at
+        # the exhaust pressure: a chamber below it draws air back at a small subsonic flow
+        h_line = tube_convection_coefficient.py_func(largest_mass_flow(params), params.line_bore)
+        line = h_line * math.pi * params.line_bore * params.line_length / v_min
+        modes["heat"] = (kappa - 1.0) * t_max * (params.wall_heat_transfer_coefficient * per_volume
+                                                 / (0.5 * params.exhaust_pressure) + line / params.exhaust_pressure)
     return modes
+
+
+def largest_mass_flow(params: RodlessCylinderParams) -> float:
+    """Mass flow [kg/s] of the fully open edge choked from p_s at T_s (``C S p_s sqrt(kappa / (R
+    T_s)) (2 / (kappa + 1))^((kappa + 1) / (2 (kappa - 1)))``, the nozzle law of 004 eq (3) at its
+    critical ratio): the largest flow into a chamber."""
+    kappa = params.heat_capacity_ratio
+    s_full = float(params.to_array()[D_SFULL])
+    psi = (2.0 / (kappa + 1.0)) ** ((kappa + 1.0) / (2.0 * (kappa - 1.0)))
+    return (params.discharge_coefficient * s_full * params.supply_pressure
+            * math.sqrt(kappa / (params.gas_constant * params.supply_temperature)) * psi)
 
 
 def local_mode_rates(params: RodlessCylinderParams) -> dict[str, float]:
@@ -872,8 +912,13 @@ def linearize_mid_stroke(params: RodlessCylinderParams) -> MidStrokeLinearizatio
     # wall heat exchange: each chamber's gas spring relaxes from adiabatic towards isothermal with
     # tau = m c_v / (h A_wall) = p0 V0 / ((kappa - 1) T_s h A_wall); its loss factor at omega_n,
     # (1 - 1/kappa) w tau / (1 + (w tau)^2) (a standard linear solid), adds half of it to zeta
-    h_wall = params.wall_heat_transfer_coefficient * cylinder_chamber_wall_area.py_func(v0, a, params.bore)
+    # (the cylinder's wall and, at the centre's zero net flow, the line's at its laminar coefficient)
+    v_line = 0.25 * math.pi * params.line_bore**2 * params.line_length
+    h_wall = params.wall_heat_transfer_coefficient * cylinder_chamber_wall_area.py_func(
+        max(v0 - v_line, 0.0), a, params.bore)
     if h_wall > 0.0:
+        h_wall += (tube_convection_coefficient.py_func(0.0, params.line_bore)
+                   * math.pi * params.line_bore * params.line_length)
         wt = omega_n * p0 * v0 / ((kappa - 1.0) * params.supply_temperature * h_wall)
         zeta_energy += 0.5 * (1.0 - 1.0 / kappa) * wt / (1.0 + wt * wt)
     return MidStrokeLinearization(p0, c1, c2, v0, a, m, rt, kappa, k_t, zeta, omega_n, k_v, zeta_energy)

@@ -15,6 +15,7 @@ from typing import ClassVar
 
 from hydro_envs.laws.nozzle_fast import nozzle_flow_constants, nozzle_mass_flow_fast
 from hydro_envs.laws.orifice import circular_orifice_area, iso6358_mass_flow_laminar
+from hydro_envs.laws.pneumatic_chamber import tube_convection_slope_bound
 from hydro_envs.laws.seal_friction import dissipative_fade_velocity
 from hydro_envs.plants.rodless_cylinder.bounds import local_mode_rates
 from hydro_envs.contract import param_columns
@@ -67,7 +68,8 @@ class RodlessCylinderParams(PhysicalParams):
     stroke: float = physical(0.110, "m", (0.0, 10.0), "004 Table 1: stroke 110 mm", open_low=True)
     dead_volume_a: float = physical(
         5e-6, "m^3", (0.0, 1e-2),
-        "assumed: end-cover/cushion volume (~2.5 cm^3) + 0.5 m of 2.5 mm-bore tube to the M5 valve",
+        "assumed: end-cover/cushion volume (~2.5 cm^3) + 0.5 m of 2.5 mm-bore tube to the M5 valve "
+        "(line_length, line_bore: 2.45 cm^3)",
         open_low=True,
     )
     dead_volume_b: float = physical(
@@ -146,8 +148,12 @@ class RodlessCylinderParams(PhysicalParams):
     )
     wall_heat_transfer_coefficient: float = physical(
         50.0, "W/(m^2 K)", (0.0, 1e4),
-        "assumed (004 eq (11) takes the chambers adiabatic, 0): convective coefficient h of the chamber "
-        "gas to the wall at T_s, Q = h A_wall (T_s - T), A_wall = 2 A + 4 V / D; forced convection of "
+        "assumed (004 eq (11) takes the chambers adiabatic, 0; the default differs because an adiabatic "
+        "chamber vented by bang-bang commands cools far below any temperature measured in pneumatic "
+        "cylinders, 004's eq (11) being its linearisation's assumption, not a measurement): convective "
+        "coefficient h of the chamber gas to the cylinder wall at T_s, Q = h A_wall (T_s - T), A_wall = "
+        "2 A + 4 (V - V_line) / D (the line's own wall: line_bore); 0 also switches the line's exchange "
+        "off (the seed's adiabatic chamber); forced convection of "
         "gases is 25-250 W/(m^2 K) (Incropera and DeWitt, Fundamentals of Heat and Mass Transfer, "
         "Table 1.1), and values of this order are identified for industrial pneumatic cylinders "
         "(Carneiro and de Almeida 2006, Proc. IMechE I 221); the chambers then lie between isothermal "
@@ -170,8 +176,27 @@ class RodlessCylinderParams(PhysicalParams):
         "hose; model.supply_port_pressure)",
     )
 
+    line_length: float = physical(
+        0.5, "m", (0.0, 20.0),
+        "assumed: tube from the MPYE-5-M5 valve (004 Table 1: M5 ports) to each cylinder port, part "
+        "of the dead volumes (dead_volume_a/_b); its inner wall pi d L exchanges heat with the gas "
+        "flowing through it (the chamber's lumped wall, model.chamber_wall_heat_flow)",
+    )
+    line_bore: float = physical(
+        2.5e-3, "m", (1e-4, 0.05),
+        "assumed: inner diameter of the 4 mm OD polyurethane tube that push-in fittings on M5 ports "
+        "take (2.5-2.6 mm bore); 4/d = 1600 m^2/m^3 of wall per volume against the chamber's 4/D = 160",
+    )
+
     def _check_relations(self) -> None:
         name = type(self).__name__
+        v_line = 0.25 * math.pi * self.line_bore**2 * self.line_length
+        if v_line > min(self.dead_volume_a, self.dead_volume_b):
+            raise ParameterError(
+                f"{name}: the line volume pi/4 line_bore^2 line_length = {v_line} m^3 (line_bore = "
+                f"{self.line_bore} m, line_length = {self.line_length} m) must fit in the dead volumes "
+                f"dead_volume_a, dead_volume_b = ({self.dead_volume_a}, {self.dead_volume_b}) m^3"
+            )
         if self.static_friction < self.coulomb_friction:
             raise ParameterError(
                 f"{name}.static_friction = {self.static_friction} must be >= coulomb_friction = "
@@ -210,12 +235,12 @@ class RodlessCylinderParams(PhysicalParams):
     # them would add about 0.8 s to an env's cold first step.
     derived_names: ClassVar[tuple[str, ...]] = (
         "piston_area", "crit", "psi_c", "psi_lam", "inv_k", "coef", "sqrt_rts", "k_v", "s_full", "orifice_rate",
-        "local_rate", "micro_damping_velocity", "wall_area_per_volume")
+        "local_rate", "micro_damping_velocity", "wall_area_per_volume", "line_volume", "line_wall_area")
 
     def derived_columns(self) -> list[float]:
         constants = nozzle_flow_constants.py_func(self.heat_capacity_ratio, self.laminar_pressure_ratio)
         s_full = float(circular_orifice_area.py_func(self.spool_stroke + self.valve_underlap, self.port_radius))
-        orifice = self._orifice_rate_volume(s_full, constants)
+        orifice = self._orifice_rate_volume(s_full, constants) * (1.0 + self._line_heat_coupling())
         extra = [
             0.25 * math.pi * self.bore**2,  # piston area A
             *constants,  # crit, psi_c, psi_lam, inv_k, coef
@@ -226,8 +251,22 @@ class RodlessCylinderParams(PhysicalParams):
             max(local_mode_rates(self, orifice).values()),
             dissipative_fade_velocity(self.bristle_damping, self.stribeck_velocity, self.coulomb_friction),
             4.0 / self.bore,  # lateral wall per chamber volume, 4/D (laws.pneumatic_chamber.cylinder_chamber_wall_area)
+            0.25 * math.pi * self.line_bore**2 * self.line_length,  # the line's share of each dead volume
+            math.pi * self.line_bore * self.line_length,  # the line's inner wall pi d L
         ]
         return extra
+
+    def _line_heat_coupling(self) -> float:
+        """The line's heat exchange stiffens the orifice's laminar tail: its coefficient follows the
+        flow, which there follows the chamber pressure steeply; relative to the tail's own rate
+        ``kappa R T_max slope / V`` it adds ``(kappa - 1) pi d L |T_s - T| max(dh/dmdot) slope / V``,
+        with ``|T_s - T| <= T_s / 2`` (the orifice mode's T_max = 1.5 T_s) [-]."""
+        if self.wall_heat_transfer_coefficient <= 0.0 or self.line_length <= 0.0:
+            return 0.0
+        slope = tube_convection_slope_bound.py_func(self.line_bore)
+        t_max = 1.5 * self.supply_temperature
+        return ((self.heat_capacity_ratio - 1.0) * math.pi * self.line_bore * self.line_length
+                * 0.5 * self.supply_temperature * slope / (self.heat_capacity_ratio * self.gas_constant * t_max))
 
     def _orifice_rate_volume(self, s_full: float, constants: tuple) -> float:
         """``kappa R T_max`` [J/kg] times the laminar-tail slope [kg/(s Pa)] of the fully open
@@ -300,3 +339,7 @@ D_ORIFICE = _COL["orifice_rate"]
 D_LOCAL = _COL["local_rate"]
 D_FADE = _COL["micro_damping_velocity"]
 D_WALL = _COL["wall_area_per_volume"]
+D_VLINE = _COL["line_volume"]
+D_ALINE = _COL["line_wall_area"]
+I_DLINE = _COL["line_bore"]
+I_LLINE = _COL["line_length"]
