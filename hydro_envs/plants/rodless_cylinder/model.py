@@ -378,7 +378,6 @@ def _rhs(supply, y, u, p, dy):
     pb = y[PB]
     r_gas = p[I_R]
     kappa = p[I_K]
-    ts = p[I_TS]
     area = p[D_AREA]  # pi D^2 / 4
 
     # chamber volumes with dead volumes (15), guarded
