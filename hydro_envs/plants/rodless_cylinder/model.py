@@ -94,7 +94,7 @@ import numba as nb
 import numpy as np
 
 from hydro_envs.contract import PlantModel
-from hydro_envs.jit import njit_noalloc
+from hydro_envs.jit import as_python, njit_noalloc
 from hydro_envs.laws.contact import end_stop_force
 from hydro_envs.laws.friction import stribeck_exponential, stribeck_exponential_slope_bound
 from hydro_envs.laws.nozzle_fast import nozzle_mass_flow_fast, nozzle_mass_flow_slope_fast
@@ -872,7 +872,7 @@ def linearize_mid_stroke(params: RodlessCylinderParams) -> MidStrokeLinearizatio
     # wall heat exchange: each chamber's gas spring relaxes from adiabatic towards isothermal with
     # tau = m c_v / (h A_wall) = p0 V0 / ((kappa - 1) T_s h A_wall); its loss factor at omega_n,
     # (1 - 1/kappa) w tau / (1 + (w tau)^2) (a standard linear solid), adds half of it to zeta
-    h_wall = params.wall_heat_transfer_coefficient * cylinder_chamber_wall_area.py_func(v0, a, params.bore)
+    h_wall = params.wall_heat_transfer_coefficient * as_python(cylinder_chamber_wall_area)(v0, a, params.bore)
     if h_wall > 0.0:
         wt = omega_n * p0 * v0 / ((kappa - 1.0) * params.supply_temperature * h_wall)
         zeta_energy += 0.5 * (1.0 - 1.0 / kappa) * wt / (1.0 + wt * wt)
