@@ -52,7 +52,7 @@ from gymnasium.vector.utils import batch_space
 
 from hydro_envs._numba_cache import ensure_fresh_cache
 from hydro_envs._openmp import set_spin_time
-from hydro_envs.jit import njit_noalloc
+from hydro_envs.jit import as_python, njit_noalloc
 from hydro_envs.params import PhysicalParams
 from hydro_envs.randomization import RandomizationSpec, load_randomization
 from hydro_envs.sim.stiffness import DEFAULT_SAFETY, substeps_from_stiffness
@@ -382,7 +382,7 @@ class PlantBatch:
                 f"mode {mode!r}); allowed at most {MAX_SUBSTEPS}: stiffer than the plant is built for")
         bound = self.refinement_bound
         if bound is not None:
-            m = int(getattr(bound, "py_func", bound)(p.to_array() if row is None else row, h))
+            m = int(as_python(bound)(p.to_array() if row is None else row, h))
             if n * m > MAX_SUBSTEPS:
                 raise SubstepLimitError(
                     f"{self.plant_spec.name}: {params_off_nominal(p)} need up to {n * m} RK4 sub-steps per env step "

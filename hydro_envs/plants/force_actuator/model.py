@@ -127,7 +127,7 @@ import numba as nb
 import numpy as np
 
 from hydro_envs.contract import PlantModel
-from hydro_envs.jit import njit_noalloc
+from hydro_envs.jit import as_python, njit_noalloc
 from hydro_envs.laws.contact import end_stop_force
 from hydro_envs.laws.elementary import tanh_one_exp
 from hydro_envs.laws.filters import lfilter_from_rest
@@ -494,7 +494,7 @@ LOCKED_VELOCITY_BOUND = 0.3
 
 def velocity_bound(params: ForceActuatorParams) -> float:
     """Relative-velocity bound [m/s] the friction's fine sub-steps are sized for."""
-    return _velocity_bound_row.py_func(params.to_array())
+    return as_python(_velocity_bound_row)(params.to_array())
 
 
 @nb.njit(cache=True, error_model="numpy", inline="always")
@@ -581,7 +581,7 @@ def friction_rest_bound(params: ForceActuatorParams) -> float:
         m = m * mp / (m + mp)
     ratio = stribeck_slope_ratio_bound(params.coulomb_friction, g_max, "gaussian")
     s0 = params.friction_stiffness
-    return bristle_block_rate_bound.py_func(0.0, g_max / s0, params.coulomb_friction, ratio, s0, 0.0, 0.0,
+    return as_python(bristle_block_rate_bound)(0.0, g_max / s0, params.coulomb_friction, ratio, s0, 0.0, 0.0,
                                             params.sensor_damping, m, 2, 0.0)
 
 

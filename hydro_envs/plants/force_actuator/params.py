@@ -14,6 +14,7 @@ import math
 from typing import ClassVar
 
 
+from hydro_envs.jit import as_python
 from hydro_envs.laws.elementary import tanh_one_exp
 from hydro_envs.laws.hysteresis import pi_threshold_scale
 from hydro_envs.contract import param_columns
@@ -249,8 +250,8 @@ class ForceActuatorParams(PhysicalParams):
     def derived_columns(self) -> list[float]:
         """The ``D_*`` columns, by the kernels' own arithmetic (bit-identical to computing them
         in every right-hand side)."""
-        big_r = pi_threshold_scale.py_func(self.hysteresis_width, self.hysteresis_reversal_slope, N_PLAY)
-        derived = [tanh_one_exp.py_func(self.damping_sharpness), (1.0 - self.hysteresis_reversal_slope) / N_PLAY]
+        big_r = as_python(pi_threshold_scale)(self.hysteresis_width, self.hysteresis_reversal_slope, N_PLAY)
+        derived = [as_python(tanh_one_exp)(self.damping_sharpness), (1.0 - self.hysteresis_reversal_slope) / N_PLAY]
         return derived + [big_r * (k + 1) / N_PLAY for k in range(N_PLAY)]
 
     # convenience

@@ -11,6 +11,7 @@ from __future__ import annotations
 import dataclasses
 import math
 
+from hydro_envs.jit import as_python
 from hydro_envs.laws.seal_friction import dissipative_fade_velocity
 from typing import ClassVar
 
@@ -340,19 +341,19 @@ def derived(params: LoadSensingParams) -> dict[str, float]:
     bound in the smallest drop, :func:`.bounds.orifice_rate_coefficients`)."""
     p = params
     # the laws' Python bodies (the same libm calls, bit-identical): making a parameter set compiles nothing
-    nu = iso_vg_kinematic_viscosity.py_func(p.oil_grade, p.oil_temperature)
-    nu40 = iso_vg_kinematic_viscosity.py_func(p.oil_grade, 40.0)
+    nu = as_python(iso_vg_kinematic_viscosity)(p.oil_grade, p.oil_temperature)
+    nu40 = as_python(iso_vg_kinematic_viscosity)(p.oil_grade, 40.0)
     d = {
         "spool_area": 0.25 * math.pi * p.spool_diameter**2,
         "viscous": p.viscous_friction_40c * nu / nu40,
-        "ls_inductance": pipe_inductance.py_func(p.oil_density, p.ls_line_length, p.ls_line_diameter),
-        "ls_resistance": pipe_laminar_resistance.py_func(nu * p.oil_density, p.ls_line_length, p.ls_line_diameter),
+        "ls_inductance": as_python(pipe_inductance)(p.oil_density, p.ls_line_length, p.ls_line_diameter),
+        "ls_resistance": as_python(pipe_laminar_resistance)(nu * p.oil_density, p.ls_line_length, p.ls_line_diameter),
         "ls_line_volume": 0.25 * math.pi * p.ls_line_diameter**2 * p.ls_line_length,
         "k_meter": p.discharge_coefficient * math.sqrt(2.0 / p.oil_density),
         "k_flow_force": 2.0 * p.discharge_coefficient * math.cos(p.jet_angle) * p.metering_width,
     }
     #: the load line's port relief at its steepest (hydro_envs.laws.relief, the law's Python body)
-    d["load_relief_conductance"] = pressure_relief_conductance_bound.py_func(
+    d["load_relief_conductance"] = as_python(pressure_relief_conductance_bound)(
         p.load_relief_pressure - p.tank_pressure, p.load_relief_override, p.load_relief_flow)
     d["local_rate"] = max(local_mode_rates(p, d).values())
     d["drop_rate"], d["leak_rate"] = orifice_rate_coefficients(p, d)

@@ -23,6 +23,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
+from hydro_envs.jit import as_python
 from hydro_envs.laws.seal_friction import (
     bristle_block_rate_bound, dissipative_fade_velocity, stribeck_slope_ratio_bound,
 )
@@ -91,7 +92,7 @@ def local_mode_rates(params: Any, orifice_rate_volume: float) -> dict[str, float
     if s0 > 0.0:
         v_d = dissipative_fade_velocity(params.bristle_damping, params.stribeck_velocity, params.coulomb_friction)
         ratio = stribeck_slope_ratio_bound(params.coulomb_friction, params.static_friction, "exponential")
-        rates["friction_slip"] = bristle_block_rate_bound.py_func(
+        rates["friction_slip"] = as_python(bristle_block_rate_bound)(
             speed_bound(params), params.static_friction / s0, params.coulomb_friction, ratio, s0,
             params.bristle_damping, v_d, damping, m, 1, 0.0)
         damping += 2.0 * params.bristle_damping

@@ -100,7 +100,7 @@ import numba as nb
 import numpy as np
 
 from hydro_envs.contract import PlantModel
-from hydro_envs.jit import njit_noalloc
+from hydro_envs.jit import as_python, njit_noalloc
 from hydro_envs.laws.contact import end_stop_force
 from hydro_envs.laws.friction import stribeck_exponential, stribeck_exponential_slope_bound
 from hydro_envs.laws.nozzle_fast import nozzle_mass_flow_fast, nozzle_mass_flow_slope_fast
@@ -782,7 +782,7 @@ def stiffness_modes(params: RodlessCylinderParams) -> dict[str, float]:
         per_volume = 2.0 * a / v_min + 4.0 / params.bore  # laws.pneumatic_chamber.cylinder_chamber_wall_area / V
         # the line's wall at the largest flow (the choked full opening from p_s) into a chamber at
         # the exhaust pressure: a chamber below it draws air back at a small subsonic flow
-        h_line = tube_convection_coefficient.py_func(largest_mass_flow(params), params.line_bore)
+        h_line = as_python(tube_convection_coefficient)(largest_mass_flow(params), params.line_bore)
         line = h_line * math.pi * params.line_bore * params.line_length / v_min
         modes["heat"] = (kappa - 1.0) * t_max * (params.wall_heat_transfer_coefficient * per_volume
                                                  / (0.5 * params.exhaust_pressure) + line / params.exhaust_pressure)
@@ -913,10 +913,10 @@ def linearize_mid_stroke(params: RodlessCylinderParams) -> MidStrokeLinearizatio
     # (1 - 1/kappa) w tau / (1 + (w tau)^2) (a standard linear solid), adds half of it to zeta
     # (the cylinder's wall and, at the centre's zero net flow, the line's at its laminar coefficient)
     v_line = 0.25 * math.pi * params.line_bore**2 * params.line_length
-    h_wall = params.wall_heat_transfer_coefficient * cylinder_chamber_wall_area.py_func(
+    h_wall = params.wall_heat_transfer_coefficient * as_python(cylinder_chamber_wall_area)(
         max(v0 - v_line, 0.0), a, params.bore)
     if h_wall > 0.0:
-        h_wall += (tube_convection_coefficient.py_func(0.0, params.line_bore)
+        h_wall += (as_python(tube_convection_coefficient)(0.0, params.line_bore)
                    * math.pi * params.line_bore * params.line_length)
         wt = omega_n * p0 * v0 / ((kappa - 1.0) * params.supply_temperature * h_wall)
         zeta_energy += 0.5 * (1.0 - 1.0 / kappa) * wt / (1.0 + wt * wt)

@@ -13,6 +13,7 @@ import math
 from typing import ClassVar
 
 
+from hydro_envs.jit import as_python
 from hydro_envs.laws.nozzle_fast import nozzle_flow_constants, nozzle_mass_flow_fast
 from hydro_envs.laws.orifice import circular_orifice_area, iso6358_mass_flow_laminar
 from hydro_envs.laws.pneumatic_chamber import tube_convection_slope_bound
@@ -238,8 +239,8 @@ class RodlessCylinderParams(PhysicalParams):
         "local_rate", "micro_damping_velocity", "wall_area_per_volume", "line_volume", "line_wall_area")
 
     def derived_columns(self) -> list[float]:
-        constants = nozzle_flow_constants.py_func(self.heat_capacity_ratio, self.laminar_pressure_ratio)
-        s_full = float(circular_orifice_area.py_func(self.spool_stroke + self.valve_underlap, self.port_radius))
+        constants = as_python(nozzle_flow_constants)(self.heat_capacity_ratio, self.laminar_pressure_ratio)
+        s_full = float(as_python(circular_orifice_area)(self.spool_stroke + self.valve_underlap, self.port_radius))
         orifice = self._orifice_rate_volume(s_full, constants) * (1.0 + self._line_heat_coupling())
         extra = [
             0.25 * math.pi * self.bore**2,  # piston area A
@@ -263,7 +264,7 @@ class RodlessCylinderParams(PhysicalParams):
         with ``|T_s - T| <= T_s / 2`` (the orifice mode's T_max = 1.5 T_s) [-]."""
         if self.wall_heat_transfer_coefficient <= 0.0 or self.line_length <= 0.0:
             return 0.0
-        slope = tube_convection_slope_bound.py_func(self.line_bore)
+        slope = as_python(tube_convection_slope_bound)(self.line_bore)
         t_max = 1.5 * self.supply_temperature
         return ((self.heat_capacity_ratio - 1.0) * math.pi * self.line_bore * self.line_length
                 * 0.5 * self.supply_temperature * slope / (self.heat_capacity_ratio * self.gas_constant * t_max))
@@ -276,10 +277,10 @@ class RodlessCylinderParams(PhysicalParams):
         rl = self.laminar_pressure_ratio
         t_max = 1.5 * self.supply_temperature
         if self.flow_model < 0.5:
-            flow = nozzle_mass_flow_fast.py_func(self.discharge_coefficient * s_full, ps, rl * ps,
+            flow = as_python(nozzle_mass_flow_fast)(self.discharge_coefficient * s_full, ps, rl * ps,
                                                  math.sqrt(self.gas_constant * t_max), rl, *constants)
         else:
-            flow = iso6358_mass_flow_laminar.py_func(self.sonic_conductance, self.critical_pressure_ratio, ps,
+            flow = as_python(iso6358_mass_flow_laminar)(self.sonic_conductance, self.critical_pressure_ratio, ps,
                                                      rl * ps, t_max, T_REF_ISO, RHO_REF_ISO, rl)
         return self.heat_capacity_ratio * self.gas_constant * t_max * flow / (ps * (1.0 - rl))
 

@@ -84,7 +84,7 @@ import math
 import numpy as np
 
 from hydro_envs.contract import PlantModel
-from hydro_envs.jit import njit_noalloc
+from hydro_envs.jit import as_python, njit_noalloc
 from hydro_envs.laws.contact import end_stop_force
 from hydro_envs.laws.seal_friction import (
     FADE_CUTOFF,
@@ -324,7 +324,7 @@ def stiffness_modes(params: ServoCylinderParams) -> dict[str, float]:
     # port reliefs no longer do
     f_max = a * (params.supply_pressure - params.pressure_floor) + abs(params.load_force)
     drop = max(params.relief_pressure - params.supply_pressure, 0.0)
-    g_relief = float(pressure_relief_conductance_bound.py_func(
+    g_relief = float(as_python(pressure_relief_conductance_bound)(
         params.relief_pressure - params.tank_pressure, params.relief_override, params.relief_flow))
     g_edge = g_lam * math.sqrt(params.orifice_transition_pressure) / math.sqrt(
         math.sqrt(drop * drop + params.orifice_transition_pressure**2))

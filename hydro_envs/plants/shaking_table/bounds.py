@@ -35,6 +35,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
+from hydro_envs.jit import as_python
 from hydro_envs.laws.bulk_modulus import ifas_bulk_modulus
 from hydro_envs.laws.relief import pressure_relief_conductance_bound
 from hydro_envs.laws.seal_friction import bristle_stiffness_bound, dissipative_fade_velocity, stribeck_slope_ratio_bound
@@ -59,7 +60,7 @@ AIR_COMPLIANCE_SHARE = 0.01
 def relief_conductance(p: Any) -> float:
     """Largest slope [m^3/(s Pa)] of a chamber's port relief over all pressures
     (:func:`~hydro_envs.laws.relief.pressure_relief_conductance_bound`; the law's Python body)."""
-    return float(pressure_relief_conductance_bound.py_func(p.relief_pressure - p.tank_pressure, p.relief_override,
+    return float(as_python(pressure_relief_conductance_bound)(p.relief_pressure - p.tank_pressure, p.relief_override,
                                                            p.relief_flow))
 
 
@@ -71,7 +72,7 @@ def modulus_upper_bound(p: Any, p_hi: float | None = None) -> float:
     if p.bulk_modulus_model == 0.0:
         return p.e0
     # the law's Python body: the same arithmetic without compiling it when a parameter set is made
-    e = float(ifas_bulk_modulus.py_func(p_hi, p.e0, p.p0, p.oil_exponent, p.air_content, p.polytropic_exponent,
+    e = float(as_python(ifas_bulk_modulus)(p_hi, p.e0, p.p0, p.oil_exponent, p.air_content, p.polytropic_exponent,
                                         p.pressure_floor))
     if p.bulk_modulus_model == 2.0:
         h_notch = p.lambda_1 - 2.0 * p.lambda_2 * math.tanh(p.mu * p.threshold_pressure)

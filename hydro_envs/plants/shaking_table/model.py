@@ -97,7 +97,7 @@ import numba as nb
 import numpy as np
 
 from hydro_envs.contract import PlantModel
-from hydro_envs.jit import NOALLOC_OPTIONS, njit_noalloc
+from hydro_envs.jit import NOALLOC_OPTIONS, as_python, njit_noalloc
 from hydro_envs.laws.bulk_modulus_fast import ifas_bulk_modulus_scaled, modified_ifas_shape_fast
 from hydro_envs.laws.contact import end_stop_force
 from hydro_envs.laws.seal_friction import seal_friction
@@ -531,7 +531,7 @@ def null_pressure(params: ShakingTableParams) -> float:
     """
     p = params.to_array()
 
-    flows = valve_flows.py_func  # the same arithmetic; a compiled copy would cost an env's reset 0.3 s
+    flows = as_python(valve_flows)  # the same arithmetic; a compiled copy would cost an env's reset 0.3 s
 
     def residual(pr: float) -> float:
         qa, _ = flows(0.0, pr, pr, p)

@@ -11,6 +11,7 @@ import dataclasses
 import math
 from typing import Any, ClassVar
 
+from hydro_envs.jit import as_python
 from hydro_envs.laws.bulk_modulus import modified_ifas_shape_is_valid
 from hydro_envs.laws.bulk_modulus_fast import ifas_constants, modified_ifas_shape_constants
 from hydro_envs.contract import param_columns
@@ -212,7 +213,7 @@ class ShakingTableParams(PhysicalParams):
                 "1 (IFAS) or 2 (modified IFAS)"
             )
         # the law's Python body: checking a parameter set compiles nothing
-        if not modified_ifas_shape_is_valid.py_func(self.lambda_1, self.lambda_2, self.mu, self.threshold_pressure):
+        if not as_python(modified_ifas_shape_is_valid)(self.lambda_1, self.lambda_2, self.mu, self.threshold_pressure):
             h0 = self.lambda_1 - 2.0 * self.lambda_2 * math.tanh(self.mu * self.threshold_pressure)
             raise ParameterError(
                 f"{name}: modified-IFAS shape (lambda_1, lambda_2, mu, threshold_pressure) = "
@@ -258,8 +259,8 @@ class ShakingTableParams(PhysicalParams):
         bodies, so that making a parameter set compiles nothing."""
         from hydro_envs.laws.seal_friction import dissipative_fade_velocity
 
-        ifas = ifas_constants.py_func(self.e0, self.p0, self.oil_exponent, self.air_content, self.polytropic_exponent)
-        notch = modified_ifas_shape_constants.py_func(self.lambda_1, self.lambda_2, self.mu, self.threshold_pressure)
+        ifas = as_python(ifas_constants)(self.e0, self.p0, self.oil_exponent, self.air_content, self.polytropic_exponent)
+        notch = as_python(modified_ifas_shape_constants)(self.lambda_1, self.lambda_2, self.mu, self.threshold_pressure)
         return [modulus_upper_bound(self), max(local_mode_rates(self).values()), air_release_pressure(self),
                 1.0 / self.mass, *ifas, *notch,
                 dissipative_fade_velocity(self.bristle_damping, self.stribeck_velocity, self.coulomb_friction),
