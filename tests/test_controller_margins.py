@@ -239,7 +239,7 @@ def test_force_actuator_pid_is_stable_without_dry_friction():
 
 def test_force_actuator_pid_is_stable_on_the_small_force_rig_without_dry_friction():
     """The same PID on the small-force task's rig (free piston against the environment spring,
-    hydro_envs.envs.force_actuator.SMALL_FORCE_RIG): nominal 10.2 dB / 73 deg, >= 7 dB over 22
+    hydro_envs.envs.force_actuator.SMALL_FORCE_RIG): nominal 11.5 dB / 72 deg, >= 7 dB over 22
     corners. With the seals' pre-sliding spring the stuck piston takes the valve's force in its
     seals: the loop's crossover falls from 21 Hz to ~3 Hz (why friction decides that task)."""
     import dataclasses
@@ -252,7 +252,7 @@ def test_force_actuator_pid_is_stable_on_the_small_force_rig_without_dry_frictio
     t = force_tuning(ForceActuatorParams())
     pid = pid_state_space(t["kp"], t["ti"], t["td"], t["tf"], FA_DT)
     m = loop_margins(*_force_plant(p), pid, FA_DT)
-    assert m.stable and m.gain_margin_db == pytest.approx(10.2, abs=0.3) and m.phase_margin_deg == pytest.approx(73.0, abs=2.0)
+    assert m.stable and m.gain_margin_db == pytest.approx(11.5, abs=0.3) and m.phase_margin_deg == pytest.approx(72.0, abs=2.0)
     stuck = loop_margins(*_force_plant(p, True), pid, FA_DT)
     assert stuck.crossover_hz < 0.25 * m.crossover_hz
     spec = load_randomization("force_actuator", ForceActuatorParams)

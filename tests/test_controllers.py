@@ -303,8 +303,12 @@ def test_controllers_batch_equals_rows(env_id):
     # F_s comes out at 844 N of 1254 N (test_identified_table_static_level_is_low_from_stick_slip)
     # and F_v at 408 of 429 N s/m (5 %, trading off with the low F_s); F_c within 1 %
     ("shaking_table", {"F_c": st.ShakingTableParams().coulomb_friction}),
+    # the rodless test's slowest plateau is 8.2 mm/s = 2.5 v_s, where the Stribeck excess is
+    # e^-6.3 of F_s - F_c (0.04 N): the points do not determine F_s (the fit's comes from the
+    # slow plateaus' +1.6 N stick-slip excess, test_identified_rodless_static_level_is_a_bound),
+    # so only F_c and F_v are checked here
     ("rodless_cylinder", {"F_c": RodlessCylinderParams().coulomb_friction,
-                          "F_s": RodlessCylinderParams().static_friction}),
+                          "F_v": RodlessCylinderParams().viscous_friction}),
 ])
 def test_identified_friction_recovers_the_plant_law(plant, truth):
     fit = identified_friction(plant, "stribeck")
@@ -316,6 +320,15 @@ def test_identified_friction_recovers_the_plant_law(plant, truth):
     for kind in ("neural", "rbf"):  # 002 sec. 5's two nets, trained on the same points
         net = identified_friction(plant, kind)
         np.testing.assert_allclose(net.predict(vv), fit.predict(vv), rtol=0.05, atol=2.0, err_msg=kind)
+
+
+def test_identified_rodless_static_level_is_a_bound():
+    """Reported, not hidden: the rodless open-loop test holds no plateau below 2.5 v_s, so its
+    static level is not identified; the fit lands above F_c and below F_c plus twice the truth's
+    excess (a loose bound, not a recovery)."""
+    fit = identified_friction("rodless_cylinder", "stribeck")
+    p = RodlessCylinderParams()
+    assert p.coulomb_friction < fit.parameters["F_s"] < p.coulomb_friction + 2.0 * (p.static_friction - p.coulomb_friction)
 
 
 def test_identified_table_static_level_is_low_from_stick_slip():
@@ -348,11 +361,11 @@ def test_table_velocity_gain_of_the_tuning_rule_is_the_plant_s():
 def test_force_pid_gain_is_below_the_limit_cycle_onset():
     """The PID's proportional gain K_u / 2.2 (K_u of the loop without dry friction,
     tests/test_controller_margins.py) sits well below the nominal plant's limit-cycle onset
-    (K_f = 3.9, with the controller's loop lag and the seals), and K_u below that onset: the
+    (K_f = 4.05, with the controller's loop lag, eq (5)'s damping and the seals), and K_u below that onset: the
     seals' pre-sliding spring raises it."""
     from agents.controllers.force_actuator import K_ULTIMATE, force_tuning
     from hydro_envs.plants.force_actuator.closed_loop import limit_cycle_sweep
 
     t = force_tuning()
-    pp, _ = limit_cycle_sweep(fa.ForceActuatorParams(), [t["kf"], K_ULTIMATE, 3.8, 3.9])
+    pp, _ = limit_cycle_sweep(fa.ForceActuatorParams(), [t["kf"], K_ULTIMATE, 3.9, 4.1])
     assert pp[0] < 20.0 and pp[1] < 20.0 and pp[2] < 20.0 < pp[3]

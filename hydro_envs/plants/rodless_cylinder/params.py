@@ -232,7 +232,7 @@ class RodlessCylinderParams(PhysicalParams):
 
     # kernel array: the fields, then derived columns computed once per parameter set so the
     # right-hand side needs no pow calls (see hydro_envs.laws.nozzle_fast). The two laws run as
-    # plain Python here (``py_func``: the same libm calls, bit-identical results): compiling
+    # plain Python here (``jit.as_python``: the same libm calls, bit-identical results): compiling
     # them would add about 0.8 s to an env's cold first step.
     derived_names: ClassVar[tuple[str, ...]] = (
         "piston_area", "crit", "psi_c", "psi_lam", "inv_k", "coef", "sqrt_rts", "k_v", "s_full", "orifice_rate",
