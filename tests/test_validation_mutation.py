@@ -13,18 +13,15 @@ MUTATIONS = {
     "force_actuator": ("ForceActuatorParams", "sensor_stiffness", 1.2),  # 001 Table 1 k_s: ring-down rows
     "ls_compensator": ("LSCompensatorParams", "spool_mass", 1.2),  # 000 Table 1 m: Table 1 and rig rows
     "load_sensing": ("LoadSensingParams", "spring_preload", 1.2),  # the 20 bar margin
-    "rodless_cylinder": ("RodlessCylinderParams", "mass", 1.2),
-    "shaking_table": ("ShakingTableParams", "platform_mass", 1.2),
+    # eq (2)'s port radius: the valve's nominal-flow row against the MPYE-5-M5 data sheet
+    "rodless_cylinder": ("RodlessCylinderParams", "port_radius", 1.2),
+    # 003 Table 1 R: the valve's full-opening flow row against the 20 l/min catalogue
+    "shaking_table": ("ShakingTableParams", "flow_coefficient", 0.8),
 }
-#: plants none of whose rows a 20 % change of the parameter above can fail: every row compares
-#: the model with its own linearisation or closed form, or (eq (32)) brackets a wide range
-NOT_DETECTED = {
-    "rodless_cylinder": "its rows are the linearisation against the nonlinear plant, the Table 2 curve "
-                        "against itself, the integrator pole and the wide eq (32) bracket",
-    "shaking_table": "its rows are the linearisation and the closed-form modulus against the plant, the "
-                     "stroke position of the slowest ringing (fixed by the symmetric geometry) and the valve's "
-                     "full-opening flow (Table 1's R against the 20 l/min catalogue): none depends on the mass",
-}
+# No row can check the moving masses of 003 and 004 (platform_mass, mass): no number the seeds
+# print depends on them through a route the model does not take as input (003 prints the
+# platform's 650 kg and Table 3's errors against records not shipped; 004 neither the slide's
+# mass nor eq (32)'s sample time, so eq (32)'s pole angle cannot be compared).
 
 
 def _failing_rows(plant, monkeypatch):
@@ -47,9 +44,6 @@ def _failing_rows(plant, monkeypatch):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("plant", [
-    pytest.param(name, marks=pytest.mark.xfail(strict=True, reason=NOT_DETECTED[name])) if name in NOT_DETECTED
-    else name for name in sorted(MUTATIONS)
-])
+@pytest.mark.parametrize("plant", sorted(MUTATIONS))
 def test_a_twenty_percent_change_fails_a_row(plant, monkeypatch):
     assert _failing_rows(plant, monkeypatch), f"{plant}: no row fails with {MUTATIONS[plant]}"
