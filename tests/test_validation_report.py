@@ -31,9 +31,8 @@ MIN_INDEPENDENT = 12
 #: seed of each plant's rows (seeds/README.md)
 SEEDS = {"ls_compensator": "000", "load_sensing": "000", "force_actuator": "001", "servo_cylinder": "002",
          "shaking_table": "003", "rodless_cylinder": "004"}
-#: seeds with independent rows today; 003 has none: its printed valve data (20 l/min nominal flow,
-#: ~150 Hz) disagree with Table 1's identified valve (docs/validation.md), an open deviation
-SEEDS_WITH_INDEPENDENT_ROWS = {"000", "001", "002", "004"}
+#: every seed has independent rows (003: where the simulated table rings slowest over its stroke)
+SEEDS_WITH_INDEPENDENT_ROWS = {"000", "001", "002", "003", "004"}
 
 
 def test_independent_rows_simulate_and_are_counted(rows):
