@@ -161,6 +161,7 @@ class KernelSet:
       outputs, linearisation);
     * ``rhs(y, u, p, dy)`` / ``guard(y, p)``: the plant's compiled right-hand side and guard
       (reference integrations, tests);
+    * ``name``: the set's name (an env's step-and-observe kernel for it is chosen by name);
     * ``for_params(P) -> KernelSet``: optional, for a plant with step kernels specialised to
       its parameter rows (the envs call it after the rows change); ``None``: one set serves
       every row.
@@ -173,9 +174,13 @@ class KernelSet:
     rhs: Callable[..., Any]
     guard: Callable[..., Any]
     for_params: Callable[[Any], KernelSet] | None = None
+    #: the set's name (``bind_rk4``'s): an env picks its step-and-observe kernel by it
+    name: str = ""
 
     def __post_init__(self) -> None:
         for f in dataclasses.fields(self):
+            if f.name == "name":
+                continue
             v = getattr(self, f.name)
             if not (callable(v) or (v is None and f.name == "for_params")):
                 raise TypeError(f"KernelSet.{f.name} must be callable, got {type(v).__name__}")

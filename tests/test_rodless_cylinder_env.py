@@ -255,7 +255,7 @@ def test_env_step_kernels_follow_the_supply_droop_and_agree_bit_for_bit():
             b.step_kernel = K.step_parallel
             b.step_and_observe = lambda: PlantBatch.step_then_observe(b)
         else:
-            fused = b.step_observe_kernels.get(b.step_serial, b.step_observe_general)
+            fused = b.step_observe
             assert fused.py_func.__name__ == ("_step_observe_parallel_default" if not params
                                               else "_step_observe_parallel")
         for a in acts[1:]:

@@ -52,6 +52,7 @@ from gymnasium.vector.utils import batch_space
 
 from hydro_envs._numba_cache import ensure_fresh_cache
 from hydro_envs._openmp import set_spin_time
+from hydro_envs.envs.kernel_args import KernelArgs
 from hydro_envs.jit import as_python, njit_noalloc
 from hydro_envs.params import PhysicalParams
 from hydro_envs.randomization import RandomizationSpec, load_randomization
@@ -325,6 +326,7 @@ class PlantBatch:
         self.rngs: list[np.random.Generator | None] = [None] * n
         self._reset_params: PhysicalParams = self.base_params
         self._steps_unchecked = 0
+        self._kargs: KernelArgs | None = None
         self.select_step_kernel()
 
     def select_step_kernel(self) -> None:
@@ -335,6 +337,7 @@ class PlantBatch:
         kernels = self.plant_spec.kernels.pick(self.P)
         self.step_kernel = kernels.step_parallel if self.parallel else kernels.step_serial
         self.step_serial = kernels.step_serial
+        self.step_observe = self.step_observe_kernels.get(kernels.name, self.step_observe_general)
         self._kernel_stale = False
 
     # ------------------------------------------------------------------ task hooks
@@ -576,6 +579,7 @@ class PlantBatch:
         self.params[:] = snap["params"]
         self.rngs[:] = snap["rngs"]
         self._kernel_stale = True
+        self._kargs = None
         for r, st in zip(self.rngs, snap["rng_states"]):
             if r is not None:
                 r.bit_generator.state = st
@@ -604,6 +608,7 @@ class PlantBatch:
         self.W[i] = 0.0
         self.rngs[i] = rng
         self._kernel_stale = True
+        self._kargs = None
 
     def advance(self) -> None:
         """One env step of every copy under the checked, clipped actions in ``last_a`` (``prev_a``
@@ -625,34 +630,47 @@ class PlantBatch:
         self.K += 1
         self.observe()
 
-    #: the env's step-and-observe kernels by the plant's serial step they run on each block, and
-    #: the one for any other serial step (a ``staticmethod`` of one that runs the plant's general
-    #: step, bit-identical to its variants); see :meth:`step_and_observe`
-    step_observe_kernels: ClassVar[dict[Any, Any]] = {}
+    #: the env's step-and-observe kernels by the name of the plant's kernel set
+    #: (:attr:`hydro_envs.contract.KernelSet.name`) whose serial step they run on each block, and
+    #: the one for any other set (a ``staticmethod`` of one that runs the plant's general step,
+    #: bit-identical to its variants); see :meth:`step_and_observe`
+    step_observe_kernels: ClassVar[dict[str, Any]] = {}
     step_observe_general: ClassVar[Any] = None
     #: whether those kernels fill the plant inputs ``U`` from ``last_a`` themselves, each block's
     #: before stepping it (the arithmetic of :meth:`apply_actions`, which then does not run)
     step_observe_applies_actions: ClassVar[bool] = False
+    #: the unit of arguments of the env's observation and step-and-observe kernels
+    #: (:mod:`hydro_envs.envs.kernel_args`)
+    kernel_args_cls: ClassVar[type[KernelArgs]]
 
-    def observe_args(self) -> tuple[Any, ...]:
-        """The arguments of the env's observation kernels (``Y``, ``P``, references, ..., ``obs``,
-        ``reward``, ``meas``): :meth:`observe` and the step-and-observe kernel take them."""
-        raise NotImplementedError
+    def kernel_constants(self) -> dict[str, Any]:
+        """Fields of the kernel unit that are not batch attributes of the same name (indices,
+        module constants); the others are read from the batch by name."""
+        return {}
+
+    def observe_args(self) -> KernelArgs:
+        """The kernel unit (:attr:`kernel_args_cls`) over the batch's current arrays, built again
+        after a reset or a restore: :meth:`observe` and the step-and-observe kernel take it."""
+        if self._kargs is None:
+            extra = self.kernel_constants()
+            self._kargs = self.kernel_args_cls.make(
+                {f: extra[f] if f in extra else getattr(self, f) for f in self.kernel_args_cls.fields})
+        return self._kargs
 
     def step_and_observe(self) -> None:
         """The parallel batch's step: one kernel that steps and observes each block of copies in
         a single parallel region (:func:`hydro_envs.sim.rk4.step_block`), called as
-        ``kernel(U, dt, NSUB, W, clamps, *observe_args())``, so that the observation runs on every
-        thread and the threads are woken once per env step, after :meth:`apply_actions` unless
-        the kernel fills the inputs itself (:attr:`step_observe_applies_actions`);
-        :meth:`step_then_observe` for a serial step without one (:attr:`step_observe_kernels`)."""
-        kernel = self.step_observe_kernels.get(self.step_serial, self.step_observe_general)
+        ``kernel(observe_args())``, so that the observation runs on every thread and the threads
+        are woken once per env step, after :meth:`apply_actions` unless the kernel fills the
+        inputs itself (:attr:`step_observe_applies_actions`); :meth:`step_then_observe` for a
+        plant kernel set without one (:attr:`step_observe_kernels`)."""
+        kernel = self.step_observe
         if kernel is None:
             self.step_then_observe()
             return
         if not self.step_observe_applies_actions:
             self.apply_actions()
-        kernel(self.U, self.dt, self.NSUB, self.W, self.clamps, *self.observe_args())
+        kernel(self.observe_args())
 
     def state_dict(self, i: int) -> dict[str, float]:
         return dict(zip(self.plant.STATE_NAMES, self.Y[i].tolist()))

@@ -28,10 +28,11 @@ from typing import Any, ClassVar
 import numba as nb
 import numpy as np
 from gymnasium import spaces
+from numba.experimental import structref
 
 from hydro_envs.envs.base import PlantBatch, check_nonnegative, fill_reference
+from hydro_envs.envs.kernel_args import BATCH_FIELDS, KernelArgs, KernelArgsType, define_kernel_args
 from hydro_envs.envs.render import render_cylinder
-from hydro_envs.jit import njit_noalloc
 from hydro_envs.sim.rk4 import n_blocks, step_block
 
 __all__ = ["PREVIEW_STEPS", "OBS_DIM", "CylinderTrackingBatch", "observation_space", "check_reference_array",
@@ -41,14 +42,35 @@ PREVIEW_STEPS = (10, 20, 30, 40, 50)
 OBS_DIM = 6 + len(PREVIEW_STEPS)
 
 
-@nb.njit(cache=True, error_model="numpy", inline="always")
-def _observe_copy(i, Y, P, REF, K, NOISE, last_a, prev_a, quant, e_scale, rate_pen, preview,
-                  obs_low, obs_high, ix, ip1, ip2, i_stroke, i_supply, obs, reward, meas):
-    """Sensor outputs, observation and reward of copy ``i`` after a step (or a reset).
+@structref.register
+class CylinderTrackingArgsType(KernelArgsType):
+    """Numba type of :class:`CylinderTrackingArgs`."""
 
-    ``ix, ip1, ip2`` are the state indices of position and the two chamber pressures,
-    ``i_stroke, i_supply`` the parameter indices of the stroke and the supply pressure.
-    """
+
+class CylinderTrackingArgs(KernelArgs):
+    """The kernel unit of the cylinder-tracking envs: the batch's arrays, the reference and
+    pre-drawn noise, the encoder's quantisation, the error scale, the action-rate penalty, the
+    preview offsets, the observation bounds, the sensors ``meas``; ``ix, ip1, ip2`` the state
+    indices of position and the two chamber pressures, ``i_stroke, i_supply`` the parameter
+    indices of the stroke and the supply pressure."""
+
+    fields = BATCH_FIELDS + ("REF", "NOISE", "meas", "quant", "error_scale", "rate_pen", "preview", "obs_low",
+                             "obs_high", "ix", "ip1", "ip2", "i_stroke", "i_supply")
+
+
+define_kernel_args(CylinderTrackingArgs, CylinderTrackingArgsType)
+
+
+# a call, not inlined: the parallel kernels' loop bodies then keep its writes through the
+# unit's arrays, which numba's parfor passes would treat as loop-local once inlined
+@nb.njit(cache=True, error_model="numpy")
+def _observe_copy(i, a):
+    """Sensor outputs, observation and reward of copy ``i`` after a step (or a reset); ``a`` the
+    batch's :class:`CylinderTrackingArgs`."""
+    Y, P, REF, K, NOISE, last_a, prev_a = a.Y, a.P, a.REF, a.K, a.NOISE, a.last_a, a.prev_a
+    quant, e_scale, rate_pen, preview, obs_low, obs_high = a.quant, a.error_scale, a.rate_pen, a.preview, a.obs_low, a.obs_high
+    ix, ip1, ip2, i_stroke, i_supply = a.ix, a.ip1, a.ip2, a.i_stroke, a.i_supply
+    obs, reward, meas = a.obs, a.reward, a.meas
     n_ref = REF.shape[1]
     n_noise = NOISE.shape[1]
     k = K[i]
@@ -81,27 +103,24 @@ def _observe_copy(i, Y, P, REF, K, NOISE, last_a, prev_a, quant, e_scale, rate_p
     reward[i] = -(e * e) - rate_pen * da * da
 
 
-@njit_noalloc
-def _observe(Y, P, REF, K, NOISE, last_a, prev_a, quant, e_scale, rate_pen, preview,
-                    obs_low, obs_high, ix, ip1, ip2, i_stroke, i_supply, obs, reward, meas):
-    for i in range(Y.shape[0]):
-        _observe_copy(i, Y, P, REF, K, NOISE, last_a, prev_a, quant, e_scale, rate_pen, preview,
-                      obs_low, obs_high, ix, ip1, ip2, i_stroke, i_supply, obs, reward, meas)
+@nb.njit(cache=True, error_model="numpy")
+def _observe(a):
+    for i in range(a.Y.shape[0]):
+        _observe_copy(i, a)
 
 
 @nb.njit(cache=True, error_model="numpy", inline="always")
-def step_observe_blocks(step, U, dt, NSUB, W, clamps, Y, P, REF, K, NOISE, last_a, prev_a, quant, e_scale, rate_pen,
-                        preview, obs_low, obs_high, ix, ip1, ip2, i_stroke, i_supply, obs, reward, meas):
+def step_observe_blocks(step, a):
     """One env step of every copy: each block of copies (:func:`hydro_envs.sim.rk4.step_block`)
     is stepped by the plant's serial step ``step``, its step counts advanced, and observed. Inline
     it into a ``parallel=True`` kernel that names the step (an env's ``_step_observe_parallel``);
-    the arguments after ``clamps`` are :meth:`CylinderTrackingBatch.observe_args`."""
+    ``a`` is the batch's :class:`CylinderTrackingArgs`."""
+    Y, U, P, dt, NSUB, W, clamps, K = a.Y, a.U, a.P, a.dt, a.NSUB, a.W, a.clamps, a.K
     for c in nb.prange(n_blocks(Y.shape[0])):
         lo, hi = step_block(step, c, Y, U, P, dt, NSUB, W, clamps)
         for i in range(lo, hi):
             K[i] += 1
-            _observe_copy(i, Y, P, REF, K, NOISE, last_a, prev_a, quant, e_scale, rate_pen, preview,
-                          obs_low, obs_high, ix, ip1, ip2, i_stroke, i_supply, obs, reward, meas)
+            _observe_copy(i, a)
 
 
 def observation_space(stroke: float, error_scale: float) -> spaces.Box:
@@ -205,14 +224,15 @@ class CylinderTrackingBatch(PlantBatch):
         if self.NOISE.shape[1] > 1:
             self.NOISE[i] = rng.standard_normal((self.NOISE.shape[1], 3)) * self.noise_std
 
-    def observe_args(self) -> tuple[Any, ...]:
+    kernel_args_cls = CylinderTrackingArgs
+
+    def kernel_constants(self) -> dict[str, Any]:
         ip1, ip2 = self.pressure_indices
-        return (self.Y, self.P, self.REF, self.K, self.NOISE, self.last_a, self.prev_a, self.quant, self.error_scale,
-                self.rate_pen, self.preview, self.obs_low, self.obs_high, self.position_index, ip1, ip2,
-                self.stroke_index, self.supply_index, self.obs, self.reward, self.meas)
+        return {"ix": self.position_index, "ip1": ip1, "ip2": ip2, "i_stroke": self.stroke_index,
+                "i_supply": self.supply_index}
 
     def observe(self) -> None:
-        _observe(*self.observe_args())
+        _observe(self.observe_args())
 
     def channel_values(self, i: int) -> dict[str, float]:
         u, x, p1, p2 = self.channel_names

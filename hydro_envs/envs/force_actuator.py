@@ -61,16 +61,18 @@ from typing import Any, Mapping
 import numba as nb
 import numpy as np
 from gymnasium import spaces
+from numba.experimental import structref
 
 from hydro_envs.envs.base import BatchedEnv, BatchedVectorEnv, PlantBatch, check_nonnegative, fill_reference
 from hydro_envs.envs.friction_tasks import (
     SMALL_FORCE_KINDS, SMALL_FORCE_STEPS, SmallForceReference, generate_small_force_reference,
 )
+from hydro_envs.envs.kernel_args import BATCH_FIELDS, KernelArgs, KernelArgsType, define_kernel_args
 from hydro_envs.envs.render import render_cylinder
 from hydro_envs.jit import njit_noalloc
 from hydro_envs.params import ParameterError
 from hydro_envs.plants.force_actuator import model as plant
-from hydro_envs.plants.force_actuator.kernels import step_serial
+from hydro_envs.plants.force_actuator.kernels import KERNELS, step_serial
 from hydro_envs.plants.force_actuator.params import ForceActuatorParams
 from hydro_envs.plants.force_actuator.spec import SPEC
 from hydro_envs.sim.rk4 import n_blocks, step_block
@@ -141,8 +143,29 @@ def generate_force_reference(kind: str, rng: np.random.Generator, n: int, dt: fl
     raise ValueError(f"unknown reference kind {kind!r}; allowed: {FORCE_REFERENCE_KINDS + ('mixed',)}")
 
 
-@nb.njit(cache=True, error_model="numpy", inline="always")
-def _observe_copy(i, Y, P, REF, K, NOISE, last_a, prev_a, e_scale, rate_pen, preview, obs, reward, meas):
+@structref.register
+class ForceTrackingArgsType(KernelArgsType):
+    """Numba type of :class:`ForceTrackingArgs`."""
+
+
+class ForceTrackingArgs(KernelArgs):
+    """The kernel unit of the force-tracking envs: the batch's arrays, the reference and
+    pre-drawn force-sensor noise, the error scale, the action-rate penalty, the preview offsets
+    and the sensed force ``meas``."""
+
+    fields = BATCH_FIELDS + ("REF", "NOISE", "meas", "error_scale", "rate_pen", "preview")
+
+
+define_kernel_args(ForceTrackingArgs, ForceTrackingArgsType)
+
+
+# a call, not inlined: the parallel kernels' loop bodies then keep its writes through the
+# unit's arrays, which numba's parfor passes would treat as loop-local once inlined
+@nb.njit(cache=True, error_model="numpy")
+def _observe_copy(i, a):
+    """Sensed force, observation and reward of copy ``i``; ``a`` the batch's :class:`ForceTrackingArgs`."""
+    Y, P, REF, K, NOISE, last_a, prev_a = a.Y, a.P, a.REF, a.K, a.NOISE, a.last_a, a.prev_a
+    e_scale, rate_pen, preview, obs, reward, meas = a.error_scale, a.rate_pen, a.preview, a.obs, a.reward, a.meas
     n_ref = REF.shape[1]
     k = K[i]
     fmax = P[i, plant.I_A1] * P[i, plant.I_PS]
@@ -160,22 +183,22 @@ def _observe_copy(i, Y, P, REF, K, NOISE, last_a, prev_a, e_scale, rate_pen, pre
     reward[i] = -(e * e) - rate_pen * da * da
 
 
-@njit_noalloc
-def _observe(Y, P, REF, K, NOISE, last_a, prev_a, e_scale, rate_pen, preview, obs, reward, meas):
-    for i in range(Y.shape[0]):
-        _observe_copy(i, Y, P, REF, K, NOISE, last_a, prev_a, e_scale, rate_pen, preview, obs, reward, meas)
+@nb.njit(cache=True, error_model="numpy")
+def _observe(a):
+    for i in range(a.Y.shape[0]):
+        _observe_copy(i, a)
 
 
 @nb.njit(cache=True, error_model="numpy", parallel=True)
-def _step_observe_parallel(U, dt, NSUB, W, clamps, Y, P, REF, K, NOISE, last_a, prev_a, e_scale, rate_pen, preview, obs,
-                           reward, meas):
+def _step_observe_parallel(a):
     """One env step of every copy in one parallel region: each block of copies is stepped by the
     plant's serial step, its step counts advanced, and observed."""
+    Y, U, P, dt, NSUB, W, clamps, K = a.Y, a.U, a.P, a.dt, a.NSUB, a.W, a.clamps, a.K
     for c in nb.prange(n_blocks(Y.shape[0])):
         lo, hi = step_block(step_serial, c, Y, U, P, dt, NSUB, W, clamps)
         for i in range(lo, hi):
             K[i] += 1
-            _observe_copy(i, Y, P, REF, K, NOISE, last_a, prev_a, e_scale, rate_pen, preview, obs, reward, meas)
+            _observe_copy(i, a)
 
 
 @njit_noalloc
@@ -294,14 +317,12 @@ class ForceActuatorBatch(PlantBatch):
         self.head = (self.head + 1) % self.pending.shape[1]
         _apply_delayed(self.last_a, self.P, self.pending, self.head, self.n_delay, self.U)
 
-    step_observe_kernels = {step_serial: _step_observe_parallel}
+    step_observe_kernels = {KERNELS.name: _step_observe_parallel}
 
-    def observe_args(self) -> tuple[Any, ...]:
-        return (self.Y, self.P, self.REF, self.K, self.NOISE, self.last_a, self.prev_a, self.error_scale, self.rate_pen,
-                self.preview, self.obs, self.reward, self.meas)
+    kernel_args_cls = ForceTrackingArgs
 
     def observe(self) -> None:
-        _observe(*self.observe_args())
+        _observe(self.observe_args())
 
     def channel_values(self, i: int) -> dict[str, float]:
         return {"i": float(self.U[i, 0]), "f": float(self.meas[i])}

@@ -68,11 +68,13 @@ from typing import Any, Mapping
 import numba as nb
 import numpy as np
 from gymnasium import spaces
+from numba.experimental import structref
 
 from hydro_envs.envs.base import VELOCITY_FACTOR, BatchedEnv, BatchedVectorEnv, PlantBatch, check_nonnegative, fill_reference
+from hydro_envs.envs.kernel_args import BATCH_FIELDS, KernelArgs, KernelArgsType, define_kernel_args
 from hydro_envs.jit import njit_noalloc
 from hydro_envs.plants.load_sensing import model as plant
-from hydro_envs.plants.load_sensing.kernels import step_serial
+from hydro_envs.plants.load_sensing.kernels import KERNELS, step_serial
 from hydro_envs.plants.load_sensing.params import LoadSensingParams
 from hydro_envs.plants.load_sensing.spec import SPEC
 from hydro_envs.sim.rk4 import n_blocks, step_block
@@ -116,8 +118,32 @@ def generate_demand(kind: str, rng: np.random.Generator, n: int, dt: float) -> n
     return out
 
 
-@nb.njit(cache=True, error_model="numpy", inline="always")
-def _observe_copy(i, Y, P, REF, FF, K, NOISE, last_a, prev_a, dpm, m_weight, rate_pen, preview, obs_low, obs_high, obs, reward, meas):
+@structref.register
+class LoadSensingArgsType(KernelArgsType):
+    """Numba type of :class:`LoadSensingArgs`."""
+
+
+class LoadSensingArgs(KernelArgs):
+    """The kernel unit of the load-sensing env: the batch's arrays, the velocity demand ``REF``
+    and its feed-forward ``FF``, the pre-drawn sensor noise, the margin ``dpm`` and the reward's
+    margin and action-rate weights, the preview offsets, the observation bounds and the sensors
+    ``meas``."""
+
+    fields = BATCH_FIELDS + ("REF", "FF", "NOISE", "meas", "dpm", "margin_weight", "rate_pen", "preview", "obs_low",
+                             "obs_high")
+
+
+define_kernel_args(LoadSensingArgs, LoadSensingArgsType)
+
+
+# a call, not inlined: the parallel kernels' loop bodies then keep its writes through the
+# unit's arrays, which numba's parfor passes would treat as loop-local once inlined
+@nb.njit(cache=True, error_model="numpy")
+def _observe_copy(i, a):
+    """Sensors, observation and reward of copy ``i``; ``a`` the batch's :class:`LoadSensingArgs`."""
+    Y, P, REF, FF, K, NOISE, last_a, prev_a = a.Y, a.P, a.REF, a.FF, a.K, a.NOISE, a.last_a, a.prev_a
+    dpm, m_weight, rate_pen, preview, obs_low, obs_high = a.dpm, a.margin_weight, a.rate_pen, a.preview, a.obs_low, a.obs_high
+    obs, reward, meas = a.obs, a.reward, a.meas
     n_ref = REF.shape[1]
     k = min(K[i], n_ref - 1)
     j = K[i] % NOISE.shape[1]
@@ -151,23 +177,22 @@ def _observe_copy(i, Y, P, REF, FF, K, NOISE, last_a, prev_a, dpm, m_weight, rat
     reward[i] = -(e * e) - m_weight * me * me - rate_pen * (d0 * d0 + d1 * d1)
 
 
-@njit_noalloc
-def _observe(Y, P, REF, FF, K, NOISE, last_a, prev_a, dpm, m_weight, rate_pen, preview, obs_low, obs_high, obs, reward, meas):
-    for i in range(Y.shape[0]):
-        _observe_copy(i, Y, P, REF, FF, K, NOISE, last_a, prev_a, dpm, m_weight, rate_pen, preview, obs_low, obs_high, obs, reward, meas)
+@nb.njit(cache=True, error_model="numpy")
+def _observe(a):
+    for i in range(a.Y.shape[0]):
+        _observe_copy(i, a)
 
 
 @nb.njit(cache=True, error_model="numpy", parallel=True)
-def _step_observe_parallel(U, dt, NSUB, W, clamps, Y, P, REF, FF, K, NOISE, last_a, prev_a, dpm, m_weight, rate_pen,
-                           preview, obs_low, obs_high, obs, reward, meas):
+def _step_observe_parallel(a):
     """One env step of every copy in one parallel region: each block of copies is stepped by the
     plant's serial step, its step counts advanced, and observed."""
+    Y, U, P, dt, NSUB, W, clamps, K = a.Y, a.U, a.P, a.dt, a.NSUB, a.W, a.clamps, a.K
     for c in nb.prange(n_blocks(Y.shape[0])):
         lo, hi = step_block(step_serial, c, Y, U, P, dt, NSUB, W, clamps)
         for i in range(lo, hi):
             K[i] += 1
-            _observe_copy(i, Y, P, REF, FF, K, NOISE, last_a, prev_a, dpm, m_weight, rate_pen, preview, obs_low,
-                          obs_high, obs, reward, meas)
+            _observe_copy(i, a)
 
 
 @njit_noalloc
@@ -290,15 +315,12 @@ class LoadSensingBatch(PlantBatch):
     def apply_actions(self) -> None:
         _apply(self.last_a, self.FF, self.K, self.P, self.U)
 
-    step_observe_kernels = {step_serial: _step_observe_parallel}
+    step_observe_kernels = {KERNELS.name: _step_observe_parallel}
 
-    def observe_args(self) -> tuple[Any, ...]:
-        return (self.Y, self.P, self.REF, self.FF, self.K, self.NOISE, self.last_a, self.prev_a, self.dpm,
-                self.margin_weight, self.rate_pen, self.preview, self.obs_low, self.obs_high, self.obs, self.reward,
-                self.meas)
+    kernel_args_cls = LoadSensingArgs
 
     def observe(self) -> None:
-        _observe(*self.observe_args())
+        _observe(self.observe_args())
 
     def channel_values(self, i: int) -> dict[str, float]:
         return {

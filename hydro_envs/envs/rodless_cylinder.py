@@ -106,28 +106,20 @@ def _apply_actions(last_a, P, U):
 
 
 @nb.njit(cache=True, error_model="numpy", parallel=True)
-def _step_observe_parallel(U, dt, NSUB, W, clamps, Y, P, REF, K, NOISE, last_a, prev_a, quant, e_scale,
-                           rate_pen, preview, obs_low, obs_high, ix, ip1, ip2, i_stroke, i_supply, obs, reward,
-                           meas):
+def _step_observe_parallel(a):
     """One env step of every copy in one parallel region, stepped by the plant's
     general :func:`~hydro_envs.plants.rodless_cylinder.kernels.step_serial`
     (:func:`~hydro_envs.envs.cylinder_tracking.step_observe_blocks`)."""
-    step_observe_blocks(kernels.step_serial, U, dt, NSUB, W, clamps, Y, P, REF, K, NOISE, last_a, prev_a,
-                        quant, e_scale, rate_pen, preview, obs_low, obs_high, ix, ip1, ip2, i_stroke,
-                        i_supply, obs, reward, meas)
+    step_observe_blocks(kernels.step_serial, a)
 
 
 @nb.njit(cache=True, error_model="numpy", parallel=True)
-def _step_observe_parallel_default(U, dt, NSUB, W, clamps, Y, P, REF, K, NOISE, last_a, prev_a, quant, e_scale,
-                                   rate_pen, preview, obs_low, obs_high, ix, ip1, ip2, i_stroke, i_supply, obs, reward,
-                                   meas):
+def _step_observe_parallel_default(a):
     """One env step of every copy in one parallel region, stepped by the plant's
     step for a stiff supply and LuGre bristles in every row (every default set,
     :func:`~hydro_envs.plants.rodless_cylinder.kernels.step_serial_stiff_supply_lugre`)
     (:func:`~hydro_envs.envs.cylinder_tracking.step_observe_blocks`)."""
-    step_observe_blocks(kernels.step_serial_stiff_supply_lugre, U, dt, NSUB, W, clamps, Y, P, REF, K, NOISE,
-                        last_a, prev_a, quant, e_scale, rate_pen, preview, obs_low, obs_high, ix, ip1, ip2,
-                        i_stroke, i_supply, obs, reward, meas)
+    step_observe_blocks(kernels.step_serial_stiff_supply_lugre, a)
 
 
 class RodlessCylinderBatch(CylinderTrackingBatch):
@@ -139,7 +131,7 @@ class RodlessCylinderBatch(CylinderTrackingBatch):
     params_cls = RodlessCylinderParams
     dt = DT
     episode_steps_default = EPISODE_STEPS
-    step_observe_kernels = {kernels.step_serial_stiff_supply_lugre: _step_observe_parallel_default}
+    step_observe_kernels = {kernels.STIFF_SUPPLY_LUGRE.name: _step_observe_parallel_default}
     step_observe_general = staticmethod(_step_observe_parallel)
     position_index = plant.Y
     pressure_indices = (plant.PA, plant.PB)

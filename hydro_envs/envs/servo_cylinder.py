@@ -74,15 +74,11 @@ REF_RATE_FRACTION = 0.6
 
 
 @nb.njit(cache=True, error_model="numpy", parallel=True)
-def _step_observe_parallel(U, dt, NSUB, W, clamps, Y, P, REF, K, NOISE, last_a, prev_a, quant, e_scale,
-                           rate_pen, preview, obs_low, obs_high, ix, ip1, ip2, i_stroke, i_supply, obs, reward,
-                           meas):
+def _step_observe_parallel(a):
     """One env step of every copy in one parallel region, stepped by the plant's
     :func:`~hydro_envs.plants.servo_cylinder.kernels.step_serial`
     (:func:`~hydro_envs.envs.cylinder_tracking.step_observe_blocks`)."""
-    step_observe_blocks(kernels.step_serial, U, dt, NSUB, W, clamps, Y, P, REF, K, NOISE, last_a, prev_a,
-                        quant, e_scale, rate_pen, preview, obs_low, obs_high, ix, ip1, ip2, i_stroke,
-                        i_supply, obs, reward, meas)
+    step_observe_blocks(kernels.step_serial, a)
 
 
 class ServoCylinderBatch(CylinderTrackingBatch):
@@ -93,7 +89,7 @@ class ServoCylinderBatch(CylinderTrackingBatch):
     params_cls = ServoCylinderParams
     dt = DT
     episode_steps_default = EPISODE_STEPS
-    step_observe_kernels = {kernels.step_serial: _step_observe_parallel}
+    step_observe_kernels = {kernels.KERNELS.name: _step_observe_parallel}
     position_index = plant.X
     pressure_indices = (plant.P1, plant.P2)
     stroke_index = plant.I_L

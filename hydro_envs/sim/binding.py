@@ -117,5 +117,5 @@ def bind_rk4(name: str, rhs: Any, guard: Any, lookahead: tuple[Any, Any] | None 
         trajectories=_njit(**_PARALLEL)(
             _instance(_trajectories if lookahead is None else _trajectories_lookahead, name, "trajectories", ns)),
         derivatives=_njit(**_PARALLEL)(_instance(_derivatives, name, "derivatives", ns)),
-        rhs=rhs, guard=guard, for_params=for_params,
+        rhs=rhs, guard=guard, for_params=for_params, name=name,
     )

@@ -77,8 +77,10 @@ from typing import Any, Mapping
 import numba as nb
 import numpy as np
 from gymnasium import spaces
+from numba.experimental import structref
 
 from hydro_envs.envs.base import VELOCITY_FACTOR, BatchedEnv, BatchedVectorEnv, PlantBatch, check_nonnegative, fill_reference
+from hydro_envs.envs.kernel_args import BATCH_FIELDS, KernelArgs, KernelArgsType, define_kernel_args
 from hydro_envs.envs.render import render_cylinder
 from hydro_envs.envs.shaking_table.references import (
     TABLE_REFERENCE_KINDS,
@@ -87,10 +89,9 @@ from hydro_envs.envs.shaking_table.references import (
     reference_limits,
 )
 from hydro_envs.intrinsics import prefetch_row_element
-from hydro_envs.jit import njit_noalloc
 from hydro_envs.laws.filters import butterworth_lowpass_sos, sos_filter_step
 from hydro_envs.plants.shaking_table import model as plant
-from hydro_envs.plants.shaking_table.kernels import step_serial
+from hydro_envs.plants.shaking_table.kernels import KERNELS, step_serial
 from hydro_envs.plants.shaking_table.model import table_acceleration
 from hydro_envs.plants.shaking_table.params import SPECIMENS, ShakingTableParams
 from hydro_envs.plants.shaking_table.spec import SPEC
@@ -126,11 +127,33 @@ INITIAL_POSITION_BAND = 0.1  # fraction of the half stroke
 PREFETCH_SAMPLES = 8
 
 
-@nb.njit(cache=True, error_model="numpy", inline="always")
-def _observe_copy(i, Y, P, REF, REFI, K, NOISE, last_a, prev_a, sos, ZI, XPREV, VF, KOBS, quant, dt,
-                  e_scale, a_scale, v_scale, a_range, v_range, rate_pen, pos_pen, preview, obs_low,
-                  obs_high, obs, reward, meas):
-    """Sensors, observation and reward of copy ``i`` after a step (or a reset).
+@structref.register
+class ShakingTableArgsType(KernelArgsType):
+    """Numba type of :class:`ShakingTableArgs`."""
+
+
+class ShakingTableArgs(KernelArgs):
+    """The kernel unit of the shaking-table envs: the batch's arrays, the acceleration reference
+    ``REF`` and its integrals ``REFI``, the pre-drawn sensor noise, the velocity filter (``sos``,
+    its states ``ZI``, the last position ``XPREV``, its output ``VF``, the step ``KOBS`` it last
+    advanced at), the encoder's quantisation, the observation scales, the sensors' ranges
+    ``a_range`` and ``v_range``, the reward's weights, the preview offsets, the observation bounds
+    and the sensors ``meas``."""
+
+    fields = BATCH_FIELDS + ("REF", "REFI", "NOISE", "sos", "ZI", "XPREV", "VF", "KOBS", "quant", "error_scale",
+                             "accel_scale", "velocity_scale", "a_range", "v_range", "rate_pen", "pos_pen", "preview",
+                             "obs_low", "obs_high", "meas")
+
+
+define_kernel_args(ShakingTableArgs, ShakingTableArgsType)
+
+
+# a call, not inlined: the parallel kernels' loop bodies then keep its writes through the
+# unit's arrays, which numba's parfor passes would treat as loop-local once inlined
+@nb.njit(cache=True, error_model="numpy")
+def _observe_copy(i, a):
+    """Sensors, observation and reward of copy ``i`` after a step (or a reset); ``a`` the batch's
+    :class:`ShakingTableArgs` (``dt``: the differentiation step of the velocity filter).
 
     The velocity filter and the reference's integrals ``REFI[i]`` (``v_r``, ``x_r - x_r(0)``,
     ``x_r(0)``) advance once per env step: a repeated call at the same step count (the vector
@@ -138,6 +161,11 @@ def _observe_copy(i, Y, P, REF, REFI, K, NOISE, last_a, prev_a, sos, ZI, XPREV, 
     running sums over the reference samples passed, ``v_r(k) = dt sum_{j<k} r_j`` and
     ``x_r(k) = x_r(0) + dt sum_{j<k} v_r(j)``, held from the reference's last sample on.
     """
+    Y, P, REF, REFI, K, NOISE, last_a, prev_a = a.Y, a.P, a.REF, a.REFI, a.K, a.NOISE, a.last_a, a.prev_a
+    sos, ZI, XPREV, VF, KOBS, quant, dt = a.sos, a.ZI, a.XPREV, a.VF, a.KOBS, a.quant, a.dt
+    e_scale, a_scale, v_scale, a_range, v_range = a.error_scale, a.accel_scale, a.velocity_scale, a.a_range, a.v_range
+    rate_pen, pos_pen, preview, obs_low, obs_high = a.rate_pen, a.pos_pen, a.preview, a.obs_low, a.obs_high
+    obs, reward, meas = a.obs, a.reward, a.meas
     n_ref = REF.shape[1]
     n_noise = NOISE.shape[1]
     k = K[i]
@@ -189,44 +217,32 @@ def _observe_copy(i, Y, P, REF, REFI, K, NOISE, last_a, prev_a, sos, ZI, XPREV, 
     reward[i] = -(e * e) - rate_pen * da * da - pos_pen * xr * xr
 
 
-@njit_noalloc
-def _observe_serial(Y, P, REF, REFI, K, NOISE, last_a, prev_a, sos, ZI, XPREV, VF, KOBS, quant, dt, e_scale,
-                    a_scale, v_scale, a_range, v_range, rate_pen, pos_pen, preview, obs_low, obs_high,
-                    obs, reward, meas):
-    for i in range(Y.shape[0]):
-        _observe_copy(i, Y, P, REF, REFI, K, NOISE, last_a, prev_a, sos, ZI, XPREV, VF, KOBS, quant, dt,
-                      e_scale, a_scale, v_scale, a_range, v_range, rate_pen, pos_pen, preview, obs_low,
-                      obs_high, obs, reward, meas)
+@nb.njit(cache=True, error_model="numpy")
+def _observe_serial(a):
+    for i in range(a.Y.shape[0]):
+        _observe_copy(i, a)
 
 
 @nb.njit(cache=True, error_model="numpy", parallel=True)
-def _observe_parallel(Y, P, REF, REFI, K, NOISE, last_a, prev_a, sos, ZI, XPREV, VF, KOBS, quant, dt, e_scale,
-                      a_scale, v_scale, a_range, v_range, rate_pen, pos_pen, preview, obs_low, obs_high,
-                      obs, reward, meas):
-    for i in nb.prange(Y.shape[0]):
-        _observe_copy(i, Y, P, REF, REFI, K, NOISE, last_a, prev_a, sos, ZI, XPREV, VF, KOBS, quant, dt,
-                      e_scale, a_scale, v_scale, a_range, v_range, rate_pen, pos_pen, preview, obs_low,
-                      obs_high, obs, reward, meas)
+def _observe_parallel(a):
+    for i in nb.prange(a.Y.shape[0]):
+        _observe_copy(i, a)
 
 
 @nb.njit(cache=True, error_model="numpy", parallel=True)
-def _step_observe_parallel(U, step_dt, NSUB, W, clamps, Y, P, REF, REFI, K, NOISE, last_a, prev_a, sos, ZI, XPREV,
-                           VF, KOBS, quant, dt, e_scale, a_scale, v_scale, a_range, v_range, rate_pen, pos_pen, preview,
-                           obs_low, obs_high, obs, reward, meas):
-    """One env step of ``step_dt`` seconds of every copy in one parallel region: each block of
-    copies is stepped by the plant's serial step, its step counts advanced, and observed (``dt``:
-    the observation's differentiation step). Each block's valve commands ``U`` come from
-    ``last_a`` first (:meth:`ShakingTableBatch.apply_actions`'s arithmetic)."""
+def _step_observe_parallel(a):
+    """One env step of every copy in one parallel region: each block of copies is stepped by the
+    plant's serial step, its step counts advanced, and observed. Each block's valve commands
+    ``U`` come from ``last_a`` first (:meth:`ShakingTableBatch.apply_actions`'s arithmetic)."""
+    Y, U, P, dt, NSUB, W, clamps, K, last_a = a.Y, a.U, a.P, a.dt, a.NSUB, a.W, a.clamps, a.K, a.last_a
     for c in nb.prange(n_blocks(Y.shape[0])):
         lo, hi = block_bounds(c, Y.shape[0])
         for i in range(lo, hi):
             U[i, 0] = last_a[i, 0] * P[i, plant.I_UMAX]
-        step_block(step_serial, c, Y, U, P, step_dt, NSUB, W, clamps)
+        step_block(step_serial, c, Y, U, P, dt, NSUB, W, clamps)
         for i in range(lo, hi):
             K[i] += 1
-            _observe_copy(i, Y, P, REF, REFI, K, NOISE, last_a, prev_a, sos, ZI, XPREV, VF, KOBS, quant, dt,
-                          e_scale, a_scale, v_scale, a_range, v_range, rate_pen, pos_pen, preview, obs_low,
-                          obs_high, obs, reward, meas)
+            _observe_copy(i, a)
 
 
 def observation_space(error_scale: float, accel_scale: float, velocity_scale: float) -> spaces.Box:
@@ -395,17 +411,16 @@ class ShakingTableBatch(PlantBatch):
     def apply_actions(self) -> None:
         np.multiply(self.last_a[:, 0], self.P[:, plant.I_UMAX], out=self.U[:, 0])  # action -> valve command [V]
 
-    step_observe_kernels = {step_serial: _step_observe_parallel}
+    step_observe_kernels = {KERNELS.name: _step_observe_parallel}
     step_observe_applies_actions = True
 
-    def observe_args(self) -> tuple[Any, ...]:
-        return (self.Y, self.P, self.REF, self.REFI, self.K, self.NOISE, self.last_a, self.prev_a, self.sos,
-                self.ZI, self.XPREV, self.VF, self.KOBS, self.quant, DT, self.error_scale, self.accel_scale,
-                self.velocity_scale, ACCELEROMETER_RANGE, VELOCITY_RANGE, self.rate_pen, self.pos_pen, self.preview,
-                self.obs_low, self.obs_high, self.obs, self.reward, self.meas)
+    kernel_args_cls = ShakingTableArgs
+
+    def kernel_constants(self) -> dict[str, Any]:
+        return {"a_range": ACCELEROMETER_RANGE, "v_range": VELOCITY_RANGE}
 
     def observe(self) -> None:
-        (_observe_parallel if self.parallel else _observe_serial)(*self.observe_args())
+        (_observe_parallel if self.parallel else _observe_serial)(self.observe_args())
 
     def channel_values(self, i: int) -> dict[str, float]:
         return {"u": float(self.U[i, 0]), "x": float(self.meas[i, 0]), "a": float(self.meas[i, 1])}

@@ -31,7 +31,7 @@ from hydro_envs.plants.rodless_cylinder.model import local_mode_refinement, loca
 from hydro_envs.sim.binding import bind_rk4
 
 __all__ = ["KERNELS", "step_serial", "step_parallel", "trajectories", "derivatives", "rhs", "guard", "for_params",
-           "step_serial_stiff_supply_lugre"]
+           "step_serial_stiff_supply_lugre", "STIFF_SUPPLY_LUGRE"]
 
 
 def for_params(P: np.ndarray) -> KernelSet:
@@ -56,5 +56,6 @@ _KERNELS = {
     (False, False): bind_rk4("rodless_cylinder.stiff_supply_lugre", rhs_stiff, guard,
                              lookahead=(lugre_local_substeps, local_mode_refinement)),
 }
-#: ``step_serial`` for rows without supply droop that all have a bristle state (every default set)
-step_serial_stiff_supply_lugre = _KERNELS[False, False].step_serial
+#: the kernels for rows without supply droop that all have a bristle state (every default set)
+STIFF_SUPPLY_LUGRE = _KERNELS[False, False]
+step_serial_stiff_supply_lugre = STIFF_SUPPLY_LUGRE.step_serial
