@@ -643,6 +643,13 @@ class PlantBatch:
     #: (:mod:`hydro_envs.envs.kernel_args`)
     kernel_args_cls: ClassVar[type[KernelArgs]]
 
+    def __getstate__(self) -> dict[str, Any]:
+        """Pickle and deepcopy state: everything but the kernel unit (a compiled struct that
+        holds references, not data), which the copy builds again over its own arrays."""
+        state = dict(self.__dict__)
+        state["_kargs"] = None
+        return state
+
     def kernel_constants(self) -> dict[str, Any]:
         """Fields of the kernel unit that are not batch attributes of the same name (indices,
         module constants); the others are read from the batch by name."""
