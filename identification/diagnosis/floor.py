@@ -18,7 +18,17 @@ Both are estimated from the data, per output channel, in the channel's unit::
     input    = fitting.input_noise_floor   (0 when every input is commanded, i.e. exact; the
                                            input's level by the same robust estimate)
     floor    = sqrt(sensor^2 + input^2)
-    threshold = unexplained_factor * floor (the verdict's bar, reported per channel)
+
+The verdict's bar is per channel and adapts to the record (:func:`noise_floor` reports every part)::
+
+    start_state = start_state_part         the prediction's change when the channels that set the
+                                           windows' start states carry fresh noise and mains lines
+    lines       = line_part(mains_lines)   mains pickup (50/60 Hz and harmonics) found in the base
+                                           model's residual, its RMS inside the score band
+    expected    = sqrt(1 + (start_state/floor)^2 + (lines/floor)^2)   floors a correct model leaves
+    spread      = 1 + 3 / sqrt(2 N_eff)    pure-noise RMS spread over N_eff independent scored samples
+    factor      = max(unexplained_factor, 2 * expected * spread)       [noise floors]
+    threshold   = factor * floor           (in the channel's unit)
 
 The median, not the standard deviation, separates the noise from the deterministic excitation:
 a step of the reference and the controller's reaction to it leave large smoother residuals at a
@@ -48,7 +58,8 @@ from identification.diagnosis.models import Model, _scored
 from identification.diagnosis.plants import DiagnosisPlant
 from identification.diagnosis.records import Record, noise_estimate, velocity_estimate
 
-__all__ = ["UNEXPLAINED_FACTOR", "BANDS", "noise_floor", "heldout_rms", "where_mismatch"]
+__all__ = ["UNEXPLAINED_FACTOR", "THRESHOLD_MARGIN", "BANDS", "noise_floor", "heldout_rms", "where_mismatch",
+           "threshold_factor", "spread_factor", "over_threshold", "factors", "mains_lines", "start_state_part"]
 
 # Minimum of the threshold of verdict ``unexplained`` [noise floors]: the plant's
 # ``unexplained_factor``. Set between the ratios correct models reach and those off-catalogue
@@ -327,7 +338,7 @@ def ratios(rms: dict[str, float], floor: dict[str, dict[str, Any]]) -> dict[str,
 def where_mismatch(spec: DiagnosisPlant, model: Model, records: Sequence[Record],
                    floor: dict[str, dict[str, Any]]) -> dict[str, Any]:
     """Where ``model``'s held-out residual stays above the floor: the channel with the largest
-    residual/floor ratio, that channel's RMS residual [unit and floors] per operating region
+    residual/floor ratio relative to its threshold factor, that channel's RMS residual [unit and floors] per operating region
     (direction of motion x speed below/above the median speed, from the measured position), the
     region with the largest RMS, and the share of the residual power above the white-noise floor
     in each of :data:`BANDS` with the band holding most of it."""
@@ -342,7 +353,8 @@ def where_mismatch(spec: DiagnosisPlant, model: Model, records: Sequence[Record]
     rat = ratios(rms, floor)
     if not rat:
         return {}
-    ch = max(rat, key=rat.get)
+    over = over_threshold(rat, floor, spec.unexplained_factor)
+    ch = max(over, key=over.get)
     fl = floor[ch]["floor"]
     err, vel = [], []
     for e, w in zip(exps, wins):
@@ -382,4 +394,5 @@ def where_mismatch(spec: DiagnosisPlant, model: Model, records: Sequence[Record]
     band = max(bands, key=bands.get) if bands else ""
     pos_unit = spec.units.get(spec.position_channel, "")
     return {"channel": ch, "unit": floor[ch]["unit"], "ratio": rat[ch], "rms": rms[ch], "floor": fl,
+            "factor": rat[ch] / over[ch],
             "median_speed": vm, "speed_unit": f"{pos_unit}/s" if pos_unit else "", "regions": regions, "worst_region": worst, "bands": bands, "worst_band": band}
