@@ -216,14 +216,15 @@ def _perturbed(records: Sequence[Record], levels: Sequence[dict[str, float]],
 
 def start_state_part(spec: DiagnosisPlant, model: Model, records: Sequence[Record], levels: Sequence[dict[str, float]],
                      lines: dict[str, list[tuple[float, float]]], clean_outs: Sequence[dict[str, np.ndarray]],
-                     seed: int = 1) -> dict[str, float]:
+                     tracked: dict[str, set[int]] | None = None, seed: int = 1) -> dict[str, float]:
     """Per output channel: the band-limited RMS change of ``model``'s free-run prediction over the
     scored samples when the measured channels that set every window's start state (and the hidden
     states the record implies) carry a fresh realisation of their white noise (``levels`` per
     record) and of the mains ``lines`` (random phases): what estimating the start states from
     these records costs a correct model (the estimate is linear in the noise, so the change has
     the distribution of the estimate's own error). ``clean_outs``: the predictions on the windows
-    of ``records``; ``START_REALISATIONS`` realisations in one batched run."""
+    of ``records``; ``START_REALISATIONS`` realisations in one batched run. ``tracked``: per
+    channel, the windows (indices) counted (None: all)."""
     rng = np.random.default_rng(seed)
     copies = [c for _ in range(START_REALISATIONS) for c in _perturbed(records, levels, lines, rng)]
     ((exps, outs),) = _simulate(spec, [model], copies)
@@ -233,6 +234,8 @@ def start_state_part(spec: DiagnosisPlant, model: Model, records: Sequence[Recor
         sel = _scored(e)
         clean = clean_outs[i % len(clean_outs)]
         for k, v in o.items():
+            if tracked is not None and i % len(clean_outs) not in tracked.get(k, set()):
+                continue
             d = _band_limited(v[sel] - clean[k][sel], e.dt, spec.score_bandwidth)
             num[k] = num.get(k, 0.0) + float(np.sum(d**2))
             cnt[k] = cnt.get(k, 0) + d.size
@@ -254,12 +257,18 @@ def line_part(lines: Sequence[tuple[float, float]], dt: float, band: float) -> f
     return float(np.sqrt(np.sum(0.5 * (a * g) ** 2)))
 
 
+def _band_rms(x: np.ndarray, dt: float, band: float) -> float:
+    """RMS of ``x`` after the score's low-pass (its mean removed)."""
+    return float(np.sqrt(np.mean(_band_limited(x - x.mean(), dt, band) ** 2)))
+
+
 def noise_floor(spec: DiagnosisPlant, model: Model, records: Sequence[Record]) -> dict[str, dict[str, Any]]:
     """Per measured output channel of ``records``, in the channel's ``unit``: ``sensor_noise``
     (white-noise level sigma_y), ``sensor`` (its part inside the score band), ``input`` (spread
     from the noise of measured inputs through ``model``), ``floor`` (their root sum of squares),
     the ``estimator`` of the noise levels, and the verdict's threshold with what it used:
-    ``start_state`` (:func:`start_state_part`), ``lines_hz`` / ``lines`` (mains lines found in
+    ``start_state`` (:func:`start_state_part` over the ``tracked_windows`` of ``windows``: those
+    where ``model`` leaves at most the plant's minimum factor of floors), ``lines_hz`` / ``lines`` (mains lines found in
     ``model``'s residual, :func:`mains_lines`, and their in-band RMS), ``n_eff`` (independent
     scored samples), ``expected`` (floors a correct model leaves: sqrt(1 + start_state^2 +
     lines^2) in floors), ``spread`` (:func:`spread_factor`), ``minimum_factor`` (the plant's
@@ -273,14 +282,22 @@ def noise_floor(spec: DiagnosisPlant, model: Model, records: Sequence[Record]) -
     levels = [{k: noise_estimate(v) for k, v in r.channels.items()} for r in records]
     exps, clean, res = _window_residuals(spec, model, records)
     lines = {k: mains_lines([w[k] for w in res if k in w], dt) for k in chans}
-    start = start_state_part(spec, model, records, levels, lines, clean)
-    corr = correlation_length(n_win, dt, spec.score_bandwidth)
-    out = {}
+    floors = {}
     for k in chans:
         parts = [(lv[k], r.n) for r, lv in zip(records, levels) if k in r.channels]
         s = math.sqrt(sum(v * v * n for v, n in parts) / sum(n for _, n in parts))
         i = float(inp.get(k, 0.0))
-        fl = math.sqrt((s * g) ** 2 + i * i)
+        floors[k] = (s, i, math.sqrt((s * g) ** 2 + i * i))
+    # the start-state cost is measured on the windows the model tracks (at most the plant's
+    # minimum factor of floors of band-limited residual): a window the model misses is evidence
+    # of a mismatch, and a mismatched model's sensitivity to its start state is no noise
+    tracked = {k: {j for j, w in enumerate(res) if k in w and _band_rms(w[k][0], dt, spec.score_bandwidth)
+                   <= spec.unexplained_factor * floors[k][2]} for k in chans}
+    start = start_state_part(spec, model, records, levels, lines, clean, tracked)
+    corr = correlation_length(n_win, dt, spec.score_bandwidth)
+    out = {}
+    for k in chans:
+        s, i, fl = floors[k]
         st, ln = float(start.get(k, 0.0)), line_part(lines[k], dt, spec.score_bandwidth)
         n_sc = sum(int(np.count_nonzero(e.weights > 0)) if e.weights is not None else e.outputs[k].size
                    for e in exps if k in e.outputs)
@@ -290,6 +307,7 @@ def noise_floor(spec: DiagnosisPlant, model: Model, records: Sequence[Record]) -
         factor = threshold_factor(spec.unexplained_factor, expected, spread)
         out[k] = {"unit": spec.units.get(k, ""), "sensor_noise": s, "sensor": s * g, "input": i,
                   "floor": fl, "estimator": ESTIMATOR, "start_state": st, "lines": ln,
+                  "tracked_windows": len(tracked[k]), "windows": sum(1 for w in res if k in w),
                   "lines_hz": [f for f, _ in lines[k]], "n_eff": n_eff, "expected": expected, "spread": spread,
                   "minimum_factor": spec.unexplained_factor, "factor": factor, "threshold": factor * fl,
                   "rule": THRESHOLD_RULE}
