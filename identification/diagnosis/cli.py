@@ -143,6 +143,20 @@ def _fmt(values: dict, floor: dict) -> str:
     return ", ".join(f"{k} {v:.3g} {floor.get(k, {}).get('unit', '')}".rstrip() for k, v in values.items())
 
 
+def threshold_words(channel: str, fl: dict, minimum: float) -> str:
+    """One channel's threshold of ``unexplained`` and what it used (its factor in floors, the
+    residual a correct model is expected to leave and its parts, the noise spread)."""
+    fac = fl.get("factor", minimum)
+    out = f"{channel} {fl.get('threshold', fac * fl['floor']):.3g} {fl.get('unit', '')}".rstrip() + f" = {fac:.3g} floors"
+    if "expected" in fl:
+        out += (f" [{'plant minimum' if fac <= fl['minimum_factor'] else '2 x expected x spread'}; expected "
+                f"{fl['expected']:.3g} floors (start state {fl['start_state'] / fl['floor'] if fl['floor'] else 0:.2g}, "
+                f"mains lines {fl['lines'] / fl['floor'] if fl['floor'] else 0:.2g}"
+                + (f" at {', '.join(f'{f:g}' for f in fl['lines_hz'])} Hz" if fl.get("lines_hz") else "")
+                + f"), spread {fl['spread']:.3g} over N_eff {fl['n_eff']:.0f}]")
+    return out
+
+
 def summary_text(res) -> str:
     """The verdict, its reason, the noise floor, the held-out residual after each step (channel
     units and noise floors), the effects found and the final model."""
@@ -152,9 +166,8 @@ def summary_text(res) -> str:
     if res.noise_floor:
         lines.append("  noise floor (held-out, in the score band): " + _fmt(
             {k: v["floor"] for k, v in res.noise_floor.items()}, res.noise_floor))
-        lines.append(f"  threshold of 'unexplained' ({res.unexplained_factor:g} floors): " + _fmt(
-            {k: v.get("threshold", res.unexplained_factor * v["floor"]) for k, v in res.noise_floor.items()},
-            res.noise_floor))
+        lines.append(f"  threshold of 'unexplained' (per channel, at least {res.unexplained_factor:g} floors): " + ", ".join(
+            threshold_words(k, v, res.unexplained_factor) for k, v in res.noise_floor.items()))
         est = next((v["estimator"] for v in res.noise_floor.values() if v.get("estimator")), "")
         if est:
             lines.append(f"  noise levels: {est}")

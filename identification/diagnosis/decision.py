@@ -19,7 +19,7 @@ from identification import greybox as gb
 from identification.diagnosis.candidates import Candidate
 from identification.diagnosis.catalogue import effect
 from identification.diagnosis.fitting import DISTINCT_MIN, FitOutcome, _distinctness, _mean, fit_model, heldout_nrmse
-from identification.diagnosis.floor import UNEXPLAINED_FACTOR
+from identification.diagnosis.floor import UNEXPLAINED_FACTOR, over_threshold
 from identification.diagnosis.models import OFFSET_ESTIMATE_FLAG, SENSOR_OFFSETS, Model, prerequisites
 from identification.diagnosis.plants import DiagnosisPlant
 from identification.diagnosis.records import Record
@@ -48,14 +48,21 @@ def named_entry(spec: DiagnosisPlant, name: str, best: Candidate, h_cur: float, 
         out["pair"] = pair
     return out
 
-def verdict_reason(accepted: Sequence[dict[str, Any]], ambiguous: str, worst: float, mismatch: dict[str, Any],
-             last: str, factor: float = UNEXPLAINED_FACTOR) -> tuple[str, str]:
+def verdict_reason(accepted: Sequence[dict[str, Any]], ambiguous: str, left: dict[str, float],
+                   floor: dict[str, dict[str, Any]], mismatch: dict[str, Any], last: str,
+                   factor: float = UNEXPLAINED_FACTOR) -> tuple[str, str]:
     """The one verdict of a run and its reason: ``unexplained`` when the last model's held-out
-    residual stays above ``factor`` (the plant's ``unexplained_factor``) noise floors in some channel (whatever was named
-    or left ambiguous before: the catalogue does not explain the data); else ``ambiguous`` when
-    any round was; else ``named`` or ``none``."""
+    residual (``left``, noise floors per channel) stays above its channel's threshold factor
+    (``floor[channel]["factor"]``, :func:`~identification.diagnosis.floor.noise_floor`; ``factor``,
+    the plant's ``unexplained_factor``, where the floor carries none) in some channel (whatever was
+    named or left ambiguous before: the catalogue does not explain the data); else ``ambiguous``
+    when any round was; else ``named`` or ``none``."""
     names = ", ".join(e["name"] for e in accepted)
-    if worst > factor:
+    over = over_threshold(left, floor, factor)
+    ch = max(over, key=over.get, default="")
+    worst, fac = (left[ch], left[ch] / over[ch]) if ch else (0.0, factor)
+    why = _threshold_words(floor.get(ch, {}), fac)
+    if ch and over[ch] > 1:
         where = (f"channel {mismatch['channel']!r}: {mismatch['rms']:.3g} {mismatch['unit']} RMS = "
                  f"{mismatch['ratio']:.1f} noise floors of {mismatch['floor']:.3g} {mismatch['unit']}")
         if mismatch.get("worst_region"):
@@ -65,7 +72,7 @@ def verdict_reason(accepted: Sequence[dict[str, Any]], ambiguous: str, worst: fl
             where += (f"; {mismatch['bands'][mismatch['worst_band']]:.0%} of the excess residual power in "
                       f"{mismatch['worst_band']}")
         after = f"after {last}" if accepted or ambiguous else "with no catalogue effect accepted"
-        return "unexplained", (f"the held-out residual {after} stays above {factor:g} noise floors "
+        return "unexplained", (f"the held-out residual {after} stays above {fac:.3g} noise floors{why} "
                                f"({where}): an effect outside the catalogue, or a base model that does not match the "
                                "rig" + (f"; named so far: {names}" if names else "")
                                + (f"; {ambiguous}" if ambiguous else ""))
@@ -75,9 +82,21 @@ def verdict_reason(accepted: Sequence[dict[str, Any]], ambiguous: str, worst: fl
                                                                                   else ""))
     if accepted:
         return "named", (f"{names} lowered the held-out error and the residual left is {worst:.1f} noise floors "
-                         f"(<= {factor:g})")
+                         f"(<= {fac:.3g}{why})")
     return "none", (f"no catalogue effect clearly lowers the held-out error and the base model's residual is "
-                    f"{worst:.1f} noise floors (<= {factor:g})")
+                    f"{worst:.1f} noise floors (<= {fac:.3g}{why})")
+
+
+def _threshold_words(fl: dict[str, Any], factor: float) -> str:
+    """What a channel's threshold ``factor`` used: the plant's minimum, or the record's expected
+    residual of a correct model (empty without the parts)."""
+    if "expected" not in fl:
+        return ""
+    if factor <= fl["minimum_factor"]:
+        return (f", the plant's minimum; a correct model is expected to leave {fl['expected']:.2g} floors on this "
+                "record")
+    return (f", twice the {fl['expected']:.2g} floors a correct model is expected to leave on this record x its noise "
+            f"spread {fl['spread']:.3g}")
 
 
 def check_distinct(spec: DiagnosisPlant, current: Model, results: Sequence[Candidate], holdout: Sequence[Record],

@@ -143,15 +143,22 @@ def _floor_section(res: DiagnosisResult) -> list[str]:
     lines: list[str] = []
     lines += ["## Noise floor and held-out residual", "",
               "Noise floor per channel (estimated from the held-out data: white sensor noise inside the score "
-              f"band, plus the spread the noise of measured inputs causes); verdict `unexplained` above "
-              f"{res.unexplained_factor:g} floors (the threshold column)."
+              "band, plus the spread the noise of measured inputs causes); verdict `unexplained` above the "
+              "threshold column: factor x floor, the factor twice the residual a correct model is expected to "
+              "leave on this record (noise, start-state error from noise and mains lines, the lines' in-band "
+              f"part) x its noise spread, at least the plant's {res.unexplained_factor:g} floors."
               + "".join(f" Noise levels: {v['estimator']}." for v in list(res.noise_floor.values())[:1]
                         if v.get("estimator")), "",
-              "| channel | unit | sensor noise | in score band | from input noise | floor | threshold |",
-              "|---|---|---|---|---|---|---|"]
+              "| channel | unit | sensor noise | in score band | from input noise | floor | start state | "
+              "mains lines | expected [floors] | spread | factor [floors] | threshold |",
+              "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for k, v in res.noise_floor.items():
+        fac = v.get("factor", res.unexplained_factor)
+        hz = f" ({', '.join(f'{f:g}' for f in v['lines_hz'])} Hz)" if v.get("lines_hz") else ""
         lines.append(f"| {k} | {v['unit']} | {v['sensor_noise']:.3g} | {v['sensor']:.3g} | {v['input']:.3g} "
-                     f"| {v['floor']:.3g} | {v.get('threshold', res.unexplained_factor * v['floor']):.3g} |")
+                     f"| {v['floor']:.3g} | {v.get('start_state', float('nan')):.3g} | {v.get('lines', float('nan')):.3g}{hz} "
+                     f"| {v.get('expected', float('nan')):.3g} | {v.get('spread', float('nan')):.3g} | {fac:.3g} "
+                     f"| {v.get('threshold', fac * v['floor']):.3g} |")
     lines += ["", "| step | " + " | ".join(f"{k} RMS [{v['unit']}] (floors)" for k, v in res.noise_floor.items())
               + " |", "|---|" + "---|" * len(res.noise_floor)]
     for r in res.residual:

@@ -49,8 +49,10 @@ One round::
     channel: what is left is noise, and a further gain would fit it).
     Several named effects are listed in order of the held-out residual each explains in the final
     model (:func:`.pairs.explained_in_final_model`), not in the order the rounds found them.
-    One verdict for the run: ``unexplained`` when the last model leaves more than the plant's
-    ``unexplained_factor`` noise floors of held-out residual in some channel (:mod:`.floor`), else
+    One verdict for the run: ``unexplained`` when the last model leaves more held-out residual in
+    some channel than that channel's threshold (:func:`.floor.noise_floor`: twice what a correct
+    model is expected to leave on the record, at least the plant's ``unexplained_factor`` noise
+    floors), else
     ``ambiguous`` when any round was, else ``named`` or ``none``.
     The gap shrink reported for a named effect is the fall of the held-out score over the
     channels it acts on (:func:`effect_channels`); the base-fit parameters are refined within
@@ -120,7 +122,14 @@ from identification.diagnosis.fitting import (
     input_noise_floor,
     noise_cost_tol,
 )
-from identification.diagnosis.floor import UNEXPLAINED_FACTOR, heldout_rms, noise_floor, ratios, where_mismatch
+from identification.diagnosis.floor import (
+    UNEXPLAINED_FACTOR,
+    heldout_rms,
+    noise_floor,
+    over_threshold,
+    ratios,
+    where_mismatch,
+)
 from identification.diagnosis.models import (
     ACCEPT_GAIN,
     AT_NOISE_FLOOR,
@@ -190,7 +199,7 @@ class DiagnosisResult:
     residual: list[dict[str, Any]] = dataclasses.field(default_factory=list)
     mismatch: dict[str, Any] = dataclasses.field(default_factory=dict)  # where it remains (unexplained)
     reason: str = ""  # why this verdict
-    unexplained_factor: float = UNEXPLAINED_FACTOR  # the plant's threshold of the verdict, in noise floors
+    unexplained_factor: float = UNEXPLAINED_FACTOR  # the plant's minimum threshold of the verdict [noise floors]
     # every parameter of the final model with its standard error, unit, bounds, on-bound flag
     final_model_table: list[dict[str, Any]] = dataclasses.field(default_factory=list)
 
@@ -317,7 +326,7 @@ class _HeldoutScores:
 
     def settles(self, m: Model) -> bool:
         """Whether ``m`` leaves a correct model's residual (:func:`_settled_by`)."""
-        return _settled_by(self.spec, self(m)[1])
+        return _settled_by(self.spec, self(m)[1], self.floor)
 
 
 # ======================================================================================
@@ -544,13 +553,16 @@ def _with_pairs(data: Prepared, bf: BaseFit, run: Run, where: Located, out: Scor
     why, single = None, None
     if decision == "none":
         left = where.left if where.left is not None else _floors_left(spec, cur.model, data.holdout, bf.floor)
-        if max(left.values(), default=0.0) > spec.unexplained_factor:
+        if max(over_threshold(left, bf.floor, spec.unexplained_factor).values(), default=0.0) > 1:
             why = "no single effect wins and the residual stays above the noise floor"
     elif decision != SENSOR_OFFSETS and not decision.startswith("ambiguous"):
         single = next(c for c in out.results if c.name == decision)
-        worst = max(scores(single.model)[1].values(), default=0.0)
-        if worst > spec.unexplained_factor:
-            why = f"{decision} wins but leaves {worst:.3g} noise floors (> {spec.unexplained_factor:g}: unexplained)"
+        left = scores(single.model)[1]
+        over = over_threshold(left, bf.floor, spec.unexplained_factor)
+        ch = max(over, key=over.get, default=None)
+        if ch is not None and over[ch] > 1:
+            why = (f"{decision} wins but leaves {left[ch]:.3g} noise floors in {ch} (> its threshold "
+                   f"{left[ch] / over[ch]:.3g}: unexplained)")
     if not why:
         return out
     opts.say(f"  {why}: pairs")
@@ -610,13 +622,14 @@ def verdict(data: Prepared, bf: BaseFit, run: Run, t0: float) -> DiagnosisResult
         steps.append((f"best of the {run.ambiguous} (not added)", run.ambiguous_model))
     rms = heldout_rms(spec, [m for _, m in steps], holdout)
     residual = [{"step": name, "rms": r, "floors": ratios(r, floor)} for (name, _), r in zip(steps, rms)]
-    worst = max(residual[-1]["floors"].values(), default=0.0)
+    over = over_threshold(residual[-1]["floors"], floor, spec.unexplained_factor)
     factor = spec.unexplained_factor
-    mismatch = where_mismatch(spec, steps[-1][1], holdout, floor) if worst > factor else {}
+    mismatch = where_mismatch(spec, steps[-1][1], holdout, floor) if max(over.values(), default=0.0) > 1 else {}
     notes = list(run.notes)
     if len(accepted) > 1:
         notes += _order_named(spec, cur.model, accepted, holdout)
-    name, reason = verdict_reason(accepted, run.ambiguous, worst, mismatch, residual[-1]["step"], factor)
+    name, reason = verdict_reason(accepted, run.ambiguous, residual[-1]["floors"], floor, mismatch,
+                                  residual[-1]["step"], factor)
     if run.beyond:
         reason += (f"; best fit beyond its plausible bound, not named: {', '.join(dict.fromkeys(run.beyond))} "
                    "(value and bound in the notes: check the rig)")
@@ -667,10 +680,11 @@ NOT_REFITTED = ("not refitted: an earlier candidate of the round already leaves 
                 f"one's signature explains < {SETTLED_RIVAL_RATIO:g} times as much of it (or < {HOPELESS_SCORE:.1%})")
 
 
-def _settled_by(spec: DiagnosisPlant, left: dict[str, float]) -> bool:
+def _settled_by(spec: DiagnosisPlant, left: dict[str, float], floor: dict[str, dict[str, Any]]) -> bool:
     """Whether a held-out residual of ``left`` noise floors per channel is a correct model's: at
-    most ``SETTLED_FRACTION`` of the plant's ``unexplained_factor`` in every channel."""
-    return max(left.values(), default=math.inf) <= SETTLED_FRACTION * spec.unexplained_factor
+    most ``SETTLED_FRACTION`` of the channel's threshold factor (``floor``; the plant's
+    ``unexplained_factor`` where it carries none) in every channel."""
+    return max(over_threshold(left, floor, spec.unexplained_factor).values(), default=math.inf) <= SETTLED_FRACTION
 
 
 def _floors_left(spec: DiagnosisPlant, model: Model, holdout: Sequence[Record],
