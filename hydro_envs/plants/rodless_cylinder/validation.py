@@ -25,13 +25,10 @@ from hydro_envs.plants.rodless_cylinder.experiments import (
 )
 from hydro_envs.plants.rodless_cylinder.model import (
     MA,
-    MB,
     N_STATES,
-    PA,
-    PB,
     XV,
-    Y,
     linearize_mid_stroke,
+    rest_state,
     rodless_cylinder_rhs,
     steady_friction,
 )
@@ -151,14 +148,7 @@ def simulated_nominal_flow(params: RodlessCylinderParams, p1_gauge: float = 6e5,
     ``dm_a/dt`` over the ISO 8778 density (1.185 kg/m^3)."""
     p = dataclasses.replace(params, supply_pressure=p1_gauge + params.exhaust_pressure,
                             supply_temperature=T_REF_ISO, supply_line_resistance=0.0)
-    y = np.zeros(N_STATES)
-    y[Y] = 0.5 * p.stroke
-    y[PA] = p.supply_pressure - dp
-    y[PB] = p.exhaust_pressure
-    vol_a = 0.25 * math.pi * p.bore**2 * y[Y] + p.dead_volume_a
-    vol_b = 0.25 * math.pi * p.bore**2 * (p.stroke - y[Y]) + p.dead_volume_b
-    y[MA] = y[PA] * vol_a / (p.gas_constant * T_REF_ISO)
-    y[MB] = y[PB] * vol_b / (p.gas_constant * T_REF_ISO)
+    y = rest_state(p, 0.5 * p.stroke, pa=p.supply_pressure - dp, pb=p.exhaust_pressure, ta=T_REF_ISO, tb=T_REF_ISO)
     y[XV] = p.spool_stroke
     dy = np.zeros(N_STATES)
     rodless_cylinder_rhs(y, np.array([p.command_max]), p.to_array(), dy)
