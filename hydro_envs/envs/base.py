@@ -667,7 +667,7 @@ class PlantBatch:
     def step_and_observe(self) -> None:
         """The parallel batch's step: one kernel that steps and observes each block of copies in
         a single parallel region (:func:`hydro_envs.sim.rk4.step_block`), called as
-        ``kernel(observe_args())``, so that the observation runs on every thread and the threads
+        ``observe_args().run(kernel)``, so that the observation runs on every thread and the threads
         are woken once per env step, after :meth:`apply_actions` unless the kernel fills the
         inputs itself (:attr:`step_observe_applies_actions`); :meth:`step_then_observe` for a
         plant kernel set without one (:attr:`step_observe_kernels`)."""
@@ -677,7 +677,7 @@ class PlantBatch:
             return
         if not self.step_observe_applies_actions:
             self.apply_actions()
-        kernel(self.observe_args())
+        self.observe_args().run(kernel)
 
     def state_dict(self, i: int) -> dict[str, float]:
         return dict(zip(self.plant.STATE_NAMES, self.Y[i].tolist()))

@@ -61,52 +61,53 @@ class CylinderTrackingArgs(KernelArgs):
 define_kernel_args(CylinderTrackingArgs, CylinderTrackingArgsType)
 
 
-# a call, not inlined: the parallel kernels' loop bodies then keep its writes through the
-# unit's arrays, which numba's parfor passes would treat as loop-local once inlined
+# a call per block of copies, not inlined: the parallel kernels' loop bodies then keep its writes
+# through the unit's arrays (numba's parfor passes would treat them as loop-local once inlined),
+# and the unit's fields are read once per block, not once per copy
 @nb.njit(cache=True, error_model="numpy")
-def _observe_copy(i, a):
-    """Sensor outputs, observation and reward of copy ``i`` after a step (or a reset); ``a`` the
+def _observe_block(lo, hi, a):
+    """Sensor outputs, observation and reward of copies ``lo:hi`` after a step (or a reset); ``a`` the
     batch's :class:`CylinderTrackingArgs`."""
     Y, P, REF, K, NOISE, last_a, prev_a = a.Y, a.P, a.REF, a.K, a.NOISE, a.last_a, a.prev_a
     quant, e_scale, rate_pen, preview, obs_low, obs_high = a.quant, a.error_scale, a.rate_pen, a.preview, a.obs_low, a.obs_high
     ix, ip1, ip2, i_stroke, i_supply = a.ix, a.ip1, a.ip2, a.i_stroke, a.i_supply
     obs, reward, meas = a.obs, a.reward, a.meas
-    n_ref = REF.shape[1]
-    n_noise = NOISE.shape[1]
-    k = K[i]
-    half = 0.5 * P[i, i_stroke]
-    ps = P[i, i_supply]
-    r = REF[i, min(k, n_ref - 1)]
-    j = k % n_noise
-    x_m = Y[i, ix] + NOISE[i, j, 0]
-    if quant > 0.0:
-        x_m = quant * math.floor(x_m / quant + 0.5)
-    p1_m = Y[i, ip1] + NOISE[i, j, 1]
-    p2_m = Y[i, ip2] + NOISE[i, j, 2]
-    meas[i, 0] = x_m
-    meas[i, 1] = p1_m
-    meas[i, 2] = p2_m
-    obs[i, 0] = (r - x_m) / e_scale
-    obs[i, 1] = (r - half) / half
-    for m in range(preview.shape[0]):
-        obs[i, 2 + m] = (REF[i, min(k + preview[m], n_ref - 1)] - half) / half
-    c = 2 + preview.shape[0]
-    obs[i, c] = (x_m - half) / half
-    obs[i, c + 1] = p1_m / ps
-    obs[i, c + 2] = p2_m / ps
-    obs[i, c + 3] = last_a[i, 0]
-    # sensors saturate at their range: the observation never leaves observation_space
-    for m in range(obs.shape[1]):
-        obs[i, m] = min(max(obs[i, m], obs_low[m]), obs_high[m])
-    e = (r - Y[i, ix]) / e_scale
-    da = last_a[i, 0] - prev_a[i, 0]
-    reward[i] = -(e * e) - rate_pen * da * da
+    for i in range(lo, hi):
+        n_ref = REF.shape[1]
+        n_noise = NOISE.shape[1]
+        k = K[i]
+        half = 0.5 * P[i, i_stroke]
+        ps = P[i, i_supply]
+        r = REF[i, min(k, n_ref - 1)]
+        j = k % n_noise
+        x_m = Y[i, ix] + NOISE[i, j, 0]
+        if quant > 0.0:
+            x_m = quant * math.floor(x_m / quant + 0.5)
+        p1_m = Y[i, ip1] + NOISE[i, j, 1]
+        p2_m = Y[i, ip2] + NOISE[i, j, 2]
+        meas[i, 0] = x_m
+        meas[i, 1] = p1_m
+        meas[i, 2] = p2_m
+        obs[i, 0] = (r - x_m) / e_scale
+        obs[i, 1] = (r - half) / half
+        for m in range(preview.shape[0]):
+            obs[i, 2 + m] = (REF[i, min(k + preview[m], n_ref - 1)] - half) / half
+        c = 2 + preview.shape[0]
+        obs[i, c] = (x_m - half) / half
+        obs[i, c + 1] = p1_m / ps
+        obs[i, c + 2] = p2_m / ps
+        obs[i, c + 3] = last_a[i, 0]
+        # sensors saturate at their range: the observation never leaves observation_space
+        for m in range(obs.shape[1]):
+            obs[i, m] = min(max(obs[i, m], obs_low[m]), obs_high[m])
+        e = (r - Y[i, ix]) / e_scale
+        da = last_a[i, 0] - prev_a[i, 0]
+        reward[i] = -(e * e) - rate_pen * da * da
 
 
 @nb.njit(cache=True, error_model="numpy")
 def _observe(a):
-    for i in range(a.Y.shape[0]):
-        _observe_copy(i, a)
+    _observe_block(0, a.Y.shape[0], a)
 
 
 @nb.njit(cache=True, error_model="numpy", inline="always")
@@ -120,7 +121,7 @@ def step_observe_blocks(step, a):
         lo, hi = step_block(step, c, Y, U, P, dt, NSUB, W, clamps)
         for i in range(lo, hi):
             K[i] += 1
-            _observe_copy(i, a)
+        _observe_block(lo, hi, a)
 
 
 def observation_space(stroke: float, error_scale: float) -> spaces.Box:
@@ -232,7 +233,7 @@ class CylinderTrackingBatch(PlantBatch):
                 "i_supply": self.supply_index}
 
     def observe(self) -> None:
-        _observe(self.observe_args())
+        self.observe_args().run(_observe)
 
     def channel_values(self, i: int) -> dict[str, float]:
         u, x, p1, p2 = self.channel_names

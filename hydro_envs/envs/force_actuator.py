@@ -159,34 +159,35 @@ class ForceTrackingArgs(KernelArgs):
 define_kernel_args(ForceTrackingArgs, ForceTrackingArgsType)
 
 
-# a call, not inlined: the parallel kernels' loop bodies then keep its writes through the
-# unit's arrays, which numba's parfor passes would treat as loop-local once inlined
+# a call per block of copies, not inlined: the parallel kernels' loop bodies then keep its writes
+# through the unit's arrays (numba's parfor passes would treat them as loop-local once inlined),
+# and the unit's fields are read once per block, not once per copy
 @nb.njit(cache=True, error_model="numpy")
-def _observe_copy(i, a):
-    """Sensed force, observation and reward of copy ``i``; ``a`` the batch's :class:`ForceTrackingArgs`."""
+def _observe_block(lo, hi, a):
+    """Sensed force, observation and reward of copies ``lo:hi``; ``a`` the batch's :class:`ForceTrackingArgs`."""
     Y, P, REF, K, NOISE, last_a, prev_a = a.Y, a.P, a.REF, a.K, a.NOISE, a.last_a, a.prev_a
     e_scale, rate_pen, preview, obs, reward, meas = a.error_scale, a.rate_pen, a.preview, a.obs, a.reward, a.meas
-    n_ref = REF.shape[1]
-    k = K[i]
-    fmax = P[i, plant.I_A1] * P[i, plant.I_PS]
-    f_true = P[i, plant.I_KS] * Y[i, plant.XS]
-    f_m = plant.measured_force(Y[i], P[i]) + NOISE[i, k % NOISE.shape[1]]
-    meas[i] = f_m
-    r = REF[i, min(k, n_ref - 1)]
-    obs[i, 0] = min(max(f_m / fmax, -2.0), 2.0)
-    obs[i, 1] = r / fmax
-    for m in range(preview.shape[0]):
-        obs[i, 2 + m] = REF[i, min(k + preview[m], n_ref - 1)] / fmax
-    obs[i, 2 + preview.shape[0]] = last_a[i, 0]
-    e = (r - f_true) / e_scale
-    da = last_a[i, 0] - prev_a[i, 0]
-    reward[i] = -(e * e) - rate_pen * da * da
+    for i in range(lo, hi):
+        n_ref = REF.shape[1]
+        k = K[i]
+        fmax = P[i, plant.I_A1] * P[i, plant.I_PS]
+        f_true = P[i, plant.I_KS] * Y[i, plant.XS]
+        f_m = plant.measured_force(Y[i], P[i]) + NOISE[i, k % NOISE.shape[1]]
+        meas[i] = f_m
+        r = REF[i, min(k, n_ref - 1)]
+        obs[i, 0] = min(max(f_m / fmax, -2.0), 2.0)
+        obs[i, 1] = r / fmax
+        for m in range(preview.shape[0]):
+            obs[i, 2 + m] = REF[i, min(k + preview[m], n_ref - 1)] / fmax
+        obs[i, 2 + preview.shape[0]] = last_a[i, 0]
+        e = (r - f_true) / e_scale
+        da = last_a[i, 0] - prev_a[i, 0]
+        reward[i] = -(e * e) - rate_pen * da * da
 
 
 @nb.njit(cache=True, error_model="numpy")
 def _observe(a):
-    for i in range(a.Y.shape[0]):
-        _observe_copy(i, a)
+    _observe_block(0, a.Y.shape[0], a)
 
 
 @nb.njit(cache=True, error_model="numpy", parallel=True)
@@ -198,7 +199,7 @@ def _step_observe_parallel(a):
         lo, hi = step_block(step_serial, c, Y, U, P, dt, NSUB, W, clamps)
         for i in range(lo, hi):
             K[i] += 1
-            _observe_copy(i, a)
+        _observe_block(lo, hi, a)
 
 
 @njit_noalloc
@@ -322,7 +323,7 @@ class ForceActuatorBatch(PlantBatch):
     kernel_args_cls = ForceTrackingArgs
 
     def observe(self) -> None:
-        _observe(self.observe_args())
+        self.observe_args().run(_observe)
 
     def channel_values(self, i: int) -> dict[str, float]:
         return {"i": float(self.U[i, 0]), "f": float(self.meas[i])}

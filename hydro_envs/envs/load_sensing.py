@@ -136,51 +136,52 @@ class LoadSensingArgs(KernelArgs):
 define_kernel_args(LoadSensingArgs, LoadSensingArgsType)
 
 
-# a call, not inlined: the parallel kernels' loop bodies then keep its writes through the
-# unit's arrays, which numba's parfor passes would treat as loop-local once inlined
+# a call per block of copies, not inlined: the parallel kernels' loop bodies then keep its writes
+# through the unit's arrays (numba's parfor passes would treat them as loop-local once inlined),
+# and the unit's fields are read once per block, not once per copy
 @nb.njit(cache=True, error_model="numpy")
-def _observe_copy(i, a):
-    """Sensors, observation and reward of copy ``i``; ``a`` the batch's :class:`LoadSensingArgs`."""
+def _observe_block(lo, hi, a):
+    """Sensors, observation and reward of copies ``lo:hi``; ``a`` the batch's :class:`LoadSensingArgs`."""
     Y, P, REF, FF, K, NOISE, last_a, prev_a = a.Y, a.P, a.REF, a.FF, a.K, a.NOISE, a.last_a, a.prev_a
     dpm, m_weight, rate_pen, preview, obs_low, obs_high = a.dpm, a.margin_weight, a.rate_pen, a.preview, a.obs_low, a.obs_high
     obs, reward, meas = a.obs, a.reward, a.meas
-    n_ref = REF.shape[1]
-    k = min(K[i], n_ref - 1)
-    j = K[i] % NOISE.shape[1]
-    vd = REF[i, k]
-    va_m = Y[i, plant.VA] + NOISE[i, j, 0]
-    ps_m = Y[i, plant.PS] + NOISE[i, j, 1]
-    pl_m = Y[i, plant.PL] + NOISE[i, j, 2]
-    pls_m = Y[i, plant.PLS] + NOISE[i, j, 2]
-    meas[i, 0] = va_m
-    meas[i, 1] = ps_m
-    meas[i, 2] = pl_m
-    meas[i, 3] = pls_m
-    obs[i, 0] = vd / V_SCALE
-    obs[i, 1] = REF[i, min(k + preview[0], n_ref - 1)] / V_SCALE
-    obs[i, 2] = REF[i, min(k + preview[1], n_ref - 1)] / V_SCALE
-    obs[i, 3] = va_m / V_SCALE
-    obs[i, 4] = (vd - va_m) / V_SCALE
-    obs[i, 5] = ps_m / P_SCALE
-    obs[i, 6] = pl_m / P_SCALE
-    obs[i, 7] = (ps_m - pl_m - dpm) / dpm
-    obs[i, 8] = FF[i, k] / P[i, plant.I_ACVMAX]
-    obs[i, 9] = last_a[i, 0]
-    obs[i, 10] = last_a[i, 1]
-    obs[i, 11] = Y[i, plant.XA] / P[i, plant.I_STROKE]
-    for m in range(obs.shape[1]):
-        obs[i, m] = min(max(obs[i, m], obs_low[m]), obs_high[m])
-    e = (vd - Y[i, plant.VA]) / V_SCALE
-    me = (Y[i, plant.PS] - Y[i, plant.PLS] - dpm) / dpm
-    d0 = last_a[i, 0] - prev_a[i, 0]
-    d1 = last_a[i, 1] - prev_a[i, 1]
-    reward[i] = -(e * e) - m_weight * me * me - rate_pen * (d0 * d0 + d1 * d1)
+    for i in range(lo, hi):
+        n_ref = REF.shape[1]
+        k = min(K[i], n_ref - 1)
+        j = K[i] % NOISE.shape[1]
+        vd = REF[i, k]
+        va_m = Y[i, plant.VA] + NOISE[i, j, 0]
+        ps_m = Y[i, plant.PS] + NOISE[i, j, 1]
+        pl_m = Y[i, plant.PL] + NOISE[i, j, 2]
+        pls_m = Y[i, plant.PLS] + NOISE[i, j, 2]
+        meas[i, 0] = va_m
+        meas[i, 1] = ps_m
+        meas[i, 2] = pl_m
+        meas[i, 3] = pls_m
+        obs[i, 0] = vd / V_SCALE
+        obs[i, 1] = REF[i, min(k + preview[0], n_ref - 1)] / V_SCALE
+        obs[i, 2] = REF[i, min(k + preview[1], n_ref - 1)] / V_SCALE
+        obs[i, 3] = va_m / V_SCALE
+        obs[i, 4] = (vd - va_m) / V_SCALE
+        obs[i, 5] = ps_m / P_SCALE
+        obs[i, 6] = pl_m / P_SCALE
+        obs[i, 7] = (ps_m - pl_m - dpm) / dpm
+        obs[i, 8] = FF[i, k] / P[i, plant.I_ACVMAX]
+        obs[i, 9] = last_a[i, 0]
+        obs[i, 10] = last_a[i, 1]
+        obs[i, 11] = Y[i, plant.XA] / P[i, plant.I_STROKE]
+        for m in range(obs.shape[1]):
+            obs[i, m] = min(max(obs[i, m], obs_low[m]), obs_high[m])
+        e = (vd - Y[i, plant.VA]) / V_SCALE
+        me = (Y[i, plant.PS] - Y[i, plant.PLS] - dpm) / dpm
+        d0 = last_a[i, 0] - prev_a[i, 0]
+        d1 = last_a[i, 1] - prev_a[i, 1]
+        reward[i] = -(e * e) - m_weight * me * me - rate_pen * (d0 * d0 + d1 * d1)
 
 
 @nb.njit(cache=True, error_model="numpy")
 def _observe(a):
-    for i in range(a.Y.shape[0]):
-        _observe_copy(i, a)
+    _observe_block(0, a.Y.shape[0], a)
 
 
 @nb.njit(cache=True, error_model="numpy", parallel=True)
@@ -192,7 +193,7 @@ def _step_observe_parallel(a):
         lo, hi = step_block(step_serial, c, Y, U, P, dt, NSUB, W, clamps)
         for i in range(lo, hi):
             K[i] += 1
-            _observe_copy(i, a)
+        _observe_block(lo, hi, a)
 
 
 @njit_noalloc
@@ -320,7 +321,7 @@ class LoadSensingBatch(PlantBatch):
     kernel_args_cls = LoadSensingArgs
 
     def observe(self) -> None:
-        _observe(self.observe_args())
+        self.observe_args().run(_observe)
 
     def channel_values(self, i: int) -> dict[str, float]:
         return {

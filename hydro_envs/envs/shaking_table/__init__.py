@@ -148,11 +148,12 @@ class ShakingTableArgs(KernelArgs):
 define_kernel_args(ShakingTableArgs, ShakingTableArgsType)
 
 
-# a call, not inlined: the parallel kernels' loop bodies then keep its writes through the
-# unit's arrays, which numba's parfor passes would treat as loop-local once inlined
+# a call per block of copies, not inlined: the parallel kernels' loop bodies then keep its writes
+# through the unit's arrays (numba's parfor passes would treat them as loop-local once inlined),
+# and the unit's fields are read once per block, not once per copy
 @nb.njit(cache=True, error_model="numpy")
-def _observe_copy(i, a):
-    """Sensors, observation and reward of copy ``i`` after a step (or a reset); ``a`` the batch's
+def _observe_block(lo, hi, a):
+    """Sensors, observation and reward of copies ``lo:hi`` after a step (or a reset); ``a`` the batch's
     :class:`ShakingTableArgs` (``dt``: the differentiation step of the velocity filter).
 
     The velocity filter and the reference's integrals ``REFI[i]`` (``v_r``, ``x_r - x_r(0)``,
@@ -166,67 +167,69 @@ def _observe_copy(i, a):
     e_scale, a_scale, v_scale, a_range, v_range = a.error_scale, a.accel_scale, a.velocity_scale, a.a_range, a.v_range
     rate_pen, pos_pen, preview, obs_low, obs_high = a.rate_pen, a.pos_pen, a.preview, a.obs_low, a.obs_high
     obs, reward, meas = a.obs, a.reward, a.meas
-    n_ref = REF.shape[1]
-    n_noise = NOISE.shape[1]
-    k = K[i]
-    ahead = min(k + PREFETCH_SAMPLES, n_ref - 1)  # load the lines the reference streams enter next
-    prefetch_row_element(REF, i, ahead)
-    for m in range(preview.shape[0]):
-        prefetch_row_element(REF, i, min(ahead + preview[m], n_ref - 1))
-    half = 0.5 * P[i, plant.I_L]
-    r = REF[i, min(k, n_ref - 1)]
-    j = k % n_noise if n_noise > 1 else 0  # (no noise: one row, and no integer division)
-    x_m = Y[i, plant.X] + NOISE[i, j, 0]
-    if quant > 0.0:
-        x_m = quant * math.floor(x_m / quant + 0.5)
-    a_true = table_acceleration(Y[i], P[i])
-    a_m = min(max(a_true + NOISE[i, j, 1], -a_range), a_range)
-    if KOBS[i] != k:
-        if KOBS[i] < 0:  # first observation of an episode: filter at rest
-            for s in range(ZI.shape[1]):
-                ZI[i, s, 0] = 0.0
-                ZI[i, s, 1] = 0.0
-            VF[i] = 0.0
-        else:
-            VF[i] = sos_filter_step(sos, ZI[i], (x_m - XPREV[i]) / dt)
-            for kk in range(KOBS[i], min(k, n_ref - 1)):  # the reference samples passed
-                REFI[i, 1] += REFI[i, 0] * dt
-                REFI[i, 0] += REF[i, kk] * dt
-        XPREV[i] = x_m
-        KOBS[i] = k
-    v_f = min(max(VF[i], -v_range), v_range)
-    meas[i, 0] = x_m
-    meas[i, 1] = a_m
-    meas[i, 2] = v_f
-    obs[i, 0] = (r - a_m) / e_scale
-    obs[i, 1] = r / a_scale
-    for m in range(preview.shape[0]):
-        obs[i, 2 + m] = REF[i, min(k + preview[m], n_ref - 1)] / a_scale
-    c = 2 + preview.shape[0]
-    obs[i, c] = x_m / half
-    obs[i, c + 1] = a_m / a_scale
-    obs[i, c + 2] = v_f / v_scale
-    obs[i, c + 3] = last_a[i, 0]
-    obs[i, c + 4] = REFI[i, 0] / v_scale
-    obs[i, c + 5] = (REFI[i, 1] + REFI[i, 2]) / half
-    for m in range(obs.shape[1]):
-        obs[i, m] = min(max(obs[i, m], obs_low[m]), obs_high[m])
-    e = (r - a_true) / e_scale
-    da = last_a[i, 0] - prev_a[i, 0]
-    xr = Y[i, plant.X] / half
-    reward[i] = -(e * e) - rate_pen * da * da - pos_pen * xr * xr
+    for i in range(lo, hi):
+        n_ref = REF.shape[1]
+        n_noise = NOISE.shape[1]
+        k = K[i]
+        ahead = min(k + PREFETCH_SAMPLES, n_ref - 1)  # load the lines the reference streams enter next
+        prefetch_row_element(REF, i, ahead)
+        for m in range(preview.shape[0]):
+            prefetch_row_element(REF, i, min(ahead + preview[m], n_ref - 1))
+        half = 0.5 * P[i, plant.I_L]
+        r = REF[i, min(k, n_ref - 1)]
+        j = k % n_noise if n_noise > 1 else 0  # (no noise: one row, and no integer division)
+        x_m = Y[i, plant.X] + NOISE[i, j, 0]
+        if quant > 0.0:
+            x_m = quant * math.floor(x_m / quant + 0.5)
+        a_true = table_acceleration(Y[i], P[i])
+        a_m = min(max(a_true + NOISE[i, j, 1], -a_range), a_range)
+        if KOBS[i] != k:
+            if KOBS[i] < 0:  # first observation of an episode: filter at rest
+                for s in range(ZI.shape[1]):
+                    ZI[i, s, 0] = 0.0
+                    ZI[i, s, 1] = 0.0
+                VF[i] = 0.0
+            else:
+                VF[i] = sos_filter_step(sos, ZI[i], (x_m - XPREV[i]) / dt)
+                for kk in range(KOBS[i], min(k, n_ref - 1)):  # the reference samples passed
+                    REFI[i, 1] += REFI[i, 0] * dt
+                    REFI[i, 0] += REF[i, kk] * dt
+            XPREV[i] = x_m
+            KOBS[i] = k
+        v_f = min(max(VF[i], -v_range), v_range)
+        meas[i, 0] = x_m
+        meas[i, 1] = a_m
+        meas[i, 2] = v_f
+        obs[i, 0] = (r - a_m) / e_scale
+        obs[i, 1] = r / a_scale
+        for m in range(preview.shape[0]):
+            obs[i, 2 + m] = REF[i, min(k + preview[m], n_ref - 1)] / a_scale
+        c = 2 + preview.shape[0]
+        obs[i, c] = x_m / half
+        obs[i, c + 1] = a_m / a_scale
+        obs[i, c + 2] = v_f / v_scale
+        obs[i, c + 3] = last_a[i, 0]
+        obs[i, c + 4] = REFI[i, 0] / v_scale
+        obs[i, c + 5] = (REFI[i, 1] + REFI[i, 2]) / half
+        for m in range(obs.shape[1]):
+            obs[i, m] = min(max(obs[i, m], obs_low[m]), obs_high[m])
+        e = (r - a_true) / e_scale
+        da = last_a[i, 0] - prev_a[i, 0]
+        xr = Y[i, plant.X] / half
+        reward[i] = -(e * e) - rate_pen * da * da - pos_pen * xr * xr
 
 
 @nb.njit(cache=True, error_model="numpy")
 def _observe_serial(a):
-    for i in range(a.Y.shape[0]):
-        _observe_copy(i, a)
+    _observe_block(0, a.Y.shape[0], a)
 
 
 @nb.njit(cache=True, error_model="numpy", parallel=True)
 def _observe_parallel(a):
-    for i in nb.prange(a.Y.shape[0]):
-        _observe_copy(i, a)
+    n = a.Y.shape[0]
+    for c in nb.prange(n_blocks(n)):
+        lo, hi = block_bounds(c, n)
+        _observe_block(lo, hi, a)
 
 
 @nb.njit(cache=True, error_model="numpy", parallel=True)
@@ -242,7 +245,7 @@ def _step_observe_parallel(a):
         step_block(step_serial, c, Y, U, P, dt, NSUB, W, clamps)
         for i in range(lo, hi):
             K[i] += 1
-            _observe_copy(i, a)
+        _observe_block(lo, hi, a)
 
 
 def observation_space(error_scale: float, accel_scale: float, velocity_scale: float) -> spaces.Box:
@@ -420,7 +423,7 @@ class ShakingTableBatch(PlantBatch):
         return {"a_range": ACCELEROMETER_RANGE, "v_range": VELOCITY_RANGE}
 
     def observe(self) -> None:
-        (_observe_parallel if self.parallel else _observe_serial)(self.observe_args())
+        self.observe_args().run(_observe_parallel if self.parallel else _observe_serial)
 
     def channel_values(self, i: int) -> dict[str, float]:
         return {"u": float(self.U[i, 0]), "x": float(self.meas[i, 0]), "a": float(self.meas[i, 1])}
