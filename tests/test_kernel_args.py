@@ -71,3 +71,18 @@ def test_a_copied_batch_builds_its_own_unit() -> None:
     assert twin.observe_args() is not unit
     twin.observe()
     np.testing.assert_array_equal(twin.obs, batch.obs)
+
+
+@nb.njit(cache=False)
+def _scaled_block(a, lo, hi):
+    for i in range(lo, hi):
+        a.out[i] = a.scale * a.x[i]
+
+
+def test_run_passes_integer_arguments_after_the_unit() -> None:
+    out = np.zeros(6)
+    unit = _DemoArgs.make({"x": np.arange(6.0), "out": out, "scale": -1.0})
+    unit.run(_scaled_block, 2, 4)
+    unit.run(_scaled_block, 4, 5)  # through the entry point
+    np.testing.assert_array_equal(out, [0.0, 0.0, -2.0, -3.0, -4.0, 0.0])
+    assert unit.__dict__["_entries"][_scaled_block] is not _scaled_block

@@ -65,7 +65,7 @@ define_kernel_args(CylinderTrackingArgs, CylinderTrackingArgsType)
 # through the unit's arrays (numba's parfor passes would treat them as loop-local once inlined),
 # and the unit's fields are read once per block, not once per copy
 @nb.njit(cache=True, error_model="numpy")
-def _observe_block(lo, hi, a):
+def _observe_block(a, lo, hi):
     """Sensor outputs, observation and reward of copies ``lo:hi`` after a step (or a reset); ``a`` the
     batch's :class:`CylinderTrackingArgs`."""
     Y, P, REF, K, NOISE, last_a, prev_a = a.Y, a.P, a.REF, a.K, a.NOISE, a.last_a, a.prev_a
@@ -105,11 +105,6 @@ def _observe_block(lo, hi, a):
         reward[i] = -(e * e) - rate_pen * da * da
 
 
-@nb.njit(cache=True, error_model="numpy")
-def _observe(a):
-    _observe_block(0, a.Y.shape[0], a)
-
-
 @nb.njit(cache=True, error_model="numpy", inline="always")
 def step_observe_blocks(step, a):
     """One env step of every copy: each block of copies (:func:`hydro_envs.sim.rk4.step_block`)
@@ -121,7 +116,7 @@ def step_observe_blocks(step, a):
         lo, hi = step_block(step, c, Y, U, P, dt, NSUB, W, clamps)
         for i in range(lo, hi):
             K[i] += 1
-        _observe_block(lo, hi, a)
+        _observe_block(a, lo, hi)
 
 
 def observation_space(stroke: float, error_scale: float) -> spaces.Box:
@@ -233,7 +228,7 @@ class CylinderTrackingBatch(PlantBatch):
                 "i_supply": self.supply_index}
 
     def observe(self) -> None:
-        self.observe_args().run(_observe)
+        self.observe_args().run(_observe_block, 0, self.Y.shape[0])
 
     def channel_values(self, i: int) -> dict[str, float]:
         u, x, p1, p2 = self.channel_names

@@ -163,7 +163,7 @@ define_kernel_args(ForceTrackingArgs, ForceTrackingArgsType)
 # through the unit's arrays (numba's parfor passes would treat them as loop-local once inlined),
 # and the unit's fields are read once per block, not once per copy
 @nb.njit(cache=True, error_model="numpy")
-def _observe_block(lo, hi, a):
+def _observe_block(a, lo, hi):
     """Sensed force, observation and reward of copies ``lo:hi``; ``a`` the batch's :class:`ForceTrackingArgs`."""
     Y, P, REF, K, NOISE, last_a, prev_a = a.Y, a.P, a.REF, a.K, a.NOISE, a.last_a, a.prev_a
     e_scale, rate_pen, preview, obs, reward, meas = a.error_scale, a.rate_pen, a.preview, a.obs, a.reward, a.meas
@@ -185,11 +185,6 @@ def _observe_block(lo, hi, a):
         reward[i] = -(e * e) - rate_pen * da * da
 
 
-@nb.njit(cache=True, error_model="numpy")
-def _observe(a):
-    _observe_block(0, a.Y.shape[0], a)
-
-
 @nb.njit(cache=True, error_model="numpy", parallel=True)
 def _step_observe_parallel(a):
     """One env step of every copy in one parallel region: each block of copies is stepped by the
@@ -199,7 +194,7 @@ def _step_observe_parallel(a):
         lo, hi = step_block(step_serial, c, Y, U, P, dt, NSUB, W, clamps)
         for i in range(lo, hi):
             K[i] += 1
-        _observe_block(lo, hi, a)
+        _observe_block(a, lo, hi)
 
 
 @njit_noalloc
@@ -323,7 +318,7 @@ class ForceActuatorBatch(PlantBatch):
     kernel_args_cls = ForceTrackingArgs
 
     def observe(self) -> None:
-        self.observe_args().run(_observe)
+        self.observe_args().run(_observe_block, 0, self.Y.shape[0])
 
     def channel_values(self, i: int) -> dict[str, float]:
         return {"i": float(self.U[i, 0]), "f": float(self.meas[i])}

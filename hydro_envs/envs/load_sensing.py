@@ -140,7 +140,7 @@ define_kernel_args(LoadSensingArgs, LoadSensingArgsType)
 # through the unit's arrays (numba's parfor passes would treat them as loop-local once inlined),
 # and the unit's fields are read once per block, not once per copy
 @nb.njit(cache=True, error_model="numpy")
-def _observe_block(lo, hi, a):
+def _observe_block(a, lo, hi):
     """Sensors, observation and reward of copies ``lo:hi``; ``a`` the batch's :class:`LoadSensingArgs`."""
     Y, P, REF, FF, K, NOISE, last_a, prev_a = a.Y, a.P, a.REF, a.FF, a.K, a.NOISE, a.last_a, a.prev_a
     dpm, m_weight, rate_pen, preview, obs_low, obs_high = a.dpm, a.margin_weight, a.rate_pen, a.preview, a.obs_low, a.obs_high
@@ -179,11 +179,6 @@ def _observe_block(lo, hi, a):
         reward[i] = -(e * e) - m_weight * me * me - rate_pen * (d0 * d0 + d1 * d1)
 
 
-@nb.njit(cache=True, error_model="numpy")
-def _observe(a):
-    _observe_block(0, a.Y.shape[0], a)
-
-
 @nb.njit(cache=True, error_model="numpy", parallel=True)
 def _step_observe_parallel(a):
     """One env step of every copy in one parallel region: each block of copies is stepped by the
@@ -193,7 +188,7 @@ def _step_observe_parallel(a):
         lo, hi = step_block(step_serial, c, Y, U, P, dt, NSUB, W, clamps)
         for i in range(lo, hi):
             K[i] += 1
-        _observe_block(lo, hi, a)
+        _observe_block(a, lo, hi)
 
 
 @njit_noalloc
@@ -321,7 +316,7 @@ class LoadSensingBatch(PlantBatch):
     kernel_args_cls = LoadSensingArgs
 
     def observe(self) -> None:
-        self.observe_args().run(_observe)
+        self.observe_args().run(_observe_block, 0, self.Y.shape[0])
 
     def channel_values(self, i: int) -> dict[str, float]:
         return {

@@ -152,7 +152,7 @@ define_kernel_args(ShakingTableArgs, ShakingTableArgsType)
 # through the unit's arrays (numba's parfor passes would treat them as loop-local once inlined),
 # and the unit's fields are read once per block, not once per copy
 @nb.njit(cache=True, error_model="numpy")
-def _observe_block(lo, hi, a):
+def _observe_block(a, lo, hi):
     """Sensors, observation and reward of copies ``lo:hi`` after a step (or a reset); ``a`` the batch's
     :class:`ShakingTableArgs` (``dt``: the differentiation step of the velocity filter).
 
@@ -219,17 +219,12 @@ def _observe_block(lo, hi, a):
         reward[i] = -(e * e) - rate_pen * da * da - pos_pen * xr * xr
 
 
-@nb.njit(cache=True, error_model="numpy")
-def _observe_serial(a):
-    _observe_block(0, a.Y.shape[0], a)
-
-
 @nb.njit(cache=True, error_model="numpy", parallel=True)
 def _observe_parallel(a):
     n = a.Y.shape[0]
     for c in nb.prange(n_blocks(n)):
         lo, hi = block_bounds(c, n)
-        _observe_block(lo, hi, a)
+        _observe_block(a, lo, hi)
 
 
 @nb.njit(cache=True, error_model="numpy", parallel=True)
@@ -245,7 +240,7 @@ def _step_observe_parallel(a):
         step_block(step_serial, c, Y, U, P, dt, NSUB, W, clamps)
         for i in range(lo, hi):
             K[i] += 1
-        _observe_block(lo, hi, a)
+        _observe_block(a, lo, hi)
 
 
 def observation_space(error_scale: float, accel_scale: float, velocity_scale: float) -> spaces.Box:
@@ -423,7 +418,10 @@ class ShakingTableBatch(PlantBatch):
         return {"a_range": ACCELEROMETER_RANGE, "v_range": VELOCITY_RANGE}
 
     def observe(self) -> None:
-        self.observe_args().run(_observe_parallel if self.parallel else _observe_serial)
+        if self.parallel:
+            self.observe_args().run(_observe_parallel)
+        else:
+            self.observe_args().run(_observe_block, 0, self.Y.shape[0])
 
     def channel_values(self, i: int) -> dict[str, float]:
         return {"u": float(self.U[i, 0]), "x": float(self.meas[i, 0]), "a": float(self.meas[i, 1])}
