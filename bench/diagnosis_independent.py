@@ -8,7 +8,8 @@ them with scipy's Radau; none of the workflow's kernels, controllers or noise co
 * ``tests/test_diagnosis_unexplained.py``: a rigid axis under a PD loop (the slider's physics),
   effect-free with mains hum and a position offset, with Coulomb friction, with a backlash
   (diagnosed with the whole catalogue and with the catalogue minus backlash, where it is an
-  effect outside it) and with a position-dependent spring (outside the catalogue);
+  effect outside it), with a position-dependent spring and with a worn-seal band of doubled
+  Coulomb friction (both outside the catalogue);
 * ``tests/test_diagnosis_base_from_data.py``: a 60 kg axis with Coulomb friction and a constant
   force, diagnosed with the base model read off the record (the last third held out);
 * ``tests/test_diagnosis_supply_droop.py``: the servo cylinder (002 eq (8)) and the pneumatic
@@ -70,6 +71,9 @@ def _cases(fit: float, hold: float):
             dict(base=base_for(slider, None), effects=WITHOUT_BACKLASH), [], True),
         "axis spring (outside the catalogue)": (
             "slider", lambda: _axis("spring", 2, fit, hold),
+            dict(base=base_for(slider, None)), [], True),
+        "axis worn-seal band (outside the catalogue)": (
+            "slider", lambda: _axis("worn_seal", 6, fit, hold),
             dict(base=base_for(slider, None)), [], True),
         "heavy axis coulomb + force, base from data": (
             "slider", lambda: ([heavy_axis_record(11, fit + hold, f0=-3.0)], None),
