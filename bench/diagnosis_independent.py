@@ -6,7 +6,8 @@ The generators live in ``tests/`` (each writes its plant's equations out again a
 them with scipy's Radau; none of the workflow's kernels, controllers or noise code):
 
 * ``tests/test_diagnosis_unexplained.py``: a rigid axis under a PD loop (the slider's physics),
-  effect-free with mains hum and a position offset, with Coulomb friction, with a backlash
+  effect-free with mains hum and a position offset, with Coulomb friction, with Stribeck friction
+  (002 eq (1)), with a backlash
   (diagnosed with the whole catalogue and with the catalogue minus backlash, where it is an
   effect outside it), with a position-dependent spring and with a worn-seal band of doubled
   Coulomb friction (both outside the catalogue);
@@ -72,6 +73,12 @@ def _cases(fit: float, hold: float):
         "axis spring (outside the catalogue)": (
             "slider", lambda: _axis("spring", 2, fit, hold),
             dict(base=base_for(slider, None)), [], True),
+        "axis stribeck 20 N, 5 mm/s": (
+            "slider", lambda: _axis(None, 6, fit, hold, stribeck=(20.0, 5e-3)),
+            dict(base=base_for(slider, "stribeck")), ["stribeck"], False),
+        "axis stribeck 16 N, 2 mm/s": (
+            "slider", lambda: _axis(None, 6, fit, hold, stribeck=(16.0, 2e-3)),
+            dict(base=base_for(slider, "stribeck")), ["stribeck"], False),
         "axis worn-seal band (outside the catalogue)": (
             "slider", lambda: _axis("worn_seal", 6, fit, hold),
             dict(base=base_for(slider, None)), [], True),

@@ -175,6 +175,27 @@ def test_position_dependent_friction_is_unexplained_not_averaged_into_one_coulom
     assert res.residual[-1]["floors"]["x"] > UNEXPLAINED_FACTOR
 
 
+@pytest.mark.slow  # 100-130 s; fails today (issue 56 item 3): the refit stops in a local minimum
+@pytest.mark.parametrize("fs, vs", [(20.0, 5e-3), (16.0, 2e-3)])
+def test_stribeck_on_an_independent_axis_record_is_named_within_tolerance(fs, vs):
+    """Stribeck friction of 002 eq (1) on the Radau axis (20 s fit, 10 s held out), the base
+    model with its Coulomb level: named alone, F_s and v_s within 25 %, the residual explained.
+    Measured: (20 N, 5 mm/s) -> F_s 19.6 N, v_s 4.1 mm/s and a spurious 1.2 ms sensor delay at
+    120 floors; (16 N, 2 mm/s) -> 14.5 N, 4.0 mm/s at 284 floors. From the catalogue start
+    (v_s 4 mm/s) the joint refit ends at NRMSE 0.35 (mass 1.63 kg, viscous 43 N s/m) where the
+    truth scores 1.5e-3, and with the base held at the truth the (F_s, v_s) fit still stops at
+    3.9 mm/s: the free-run cost of the stick-slip loop has local minima there."""
+    spec = diagnosis_plant("slider")
+    fit = axis_record(None, 6, 20.0, stribeck=(fs, vs))
+    hold = axis_record(None, 1006, 10.0, stribeck=(fs, vs))
+    res = diagnose("slider", [fit], [hold], base=base_for(spec, "stribeck"), maps=False)
+    assert [e["name"] for e in res.effects] == ["stribeck"], (res.verdict, res.effects)
+    got = res.effects[0]["parameters"]
+    assert got["static_friction"] == pytest.approx(fs, rel=0.25)
+    assert got["stribeck_velocity"] == pytest.approx(vs, rel=0.25)
+    assert res.verdict == "named" and res.residual[-1]["floors"]["x"] <= UNEXPLAINED_FACTOR
+
+
 def test_effect_free_record_with_hum_and_offset_gives_none():
     res = _run(None, 3, hum=1e-6, offset=2e-3)
     assert res.verdict == "none", (res.verdict, res.reason, res.effects)
