@@ -184,7 +184,11 @@ def test_stribeck_on_an_independent_axis_record_is_named_within_tolerance(fs, vs
     120 floors; (16 N, 2 mm/s) -> 14.5 N, 4.0 mm/s at 284 floors. From the catalogue start
     (v_s 4 mm/s) the joint refit ends at NRMSE 0.35 (mass 1.63 kg, viscous 43 N s/m) where the
     truth scores 1.5e-3, and with the base held at the truth the (F_s, v_s) fit still stops at
-    3.9 mm/s: the free-run cost of the stick-slip loop has local minima there."""
+    3.9 mm/s. The free run replays the recorded force, and the recorded force peaks just above
+    the rig's breakaway force at each breakaway: a model with F_s a little higher stays stuck
+    for the rest of the window, one a little lower breaks away early. The cost is a cliff in F_s
+    (weighted cost at v_s = 5 mm/s: 1.3e5 at the true 20 N, 2.6e11 at 22 N, 2.0e11 at 18 N) and
+    a narrow valley in v_s beside it (1.9e9 at 4.6 mm/s, 2.4e10 at 5.4 mm/s)."""
     spec = diagnosis_plant("slider")
     fit = axis_record(None, 6, 20.0, stribeck=(fs, vs))
     hold = axis_record(None, 1006, 10.0, stribeck=(fs, vs))
