@@ -22,6 +22,8 @@ and builds it with ``MyTaskArgs.make({"Y": ..., ...})`` (a missing or extra name
 
 from __future__ import annotations
 
+import re
+import types as types_mod
 from collections.abc import Mapping
 from typing import Any, ClassVar
 
@@ -80,10 +82,22 @@ def _unit_from_tuple(typingctx: Any, unit_typeref: Any, values: Any) -> Any:
     return unit_type(unit_typeref, values), codegen
 
 
-@numba.njit(cache=True)
 def _new_unit(unit_typeref: Any, values: Any) -> Any:
-    """The unit of type ``unit_typeref`` holding ``values`` (cached on disk per unit type)."""
+    """The unit of type ``unit_typeref`` holding ``values`` (the template of each unit class's
+    compiled constructor, :func:`_constructor`)."""
     return _unit_from_tuple(unit_typeref, values)  # type: ignore[call-arg]
+
+
+def _constructor(proxy: type) -> Any:
+    """``proxy``'s compiled constructor, cached on disk under a name of its own
+    (``new_unit.<module>.<class>``): one shared constructor would keep every unit type it ever
+    built in one cache index, and a process that cannot import one of those types (a unit
+    defined in a test module) could not read the index at all."""
+    name = re.sub(r"[^A-Za-z0-9_.]", "_", f"new_unit.{proxy.__module__}.{proxy.__qualname__}")
+    f = types_mod.FunctionType(_new_unit.__code__, _new_unit.__globals__, "new_unit")
+    f.__qualname__ = name
+    f.__doc__ = _new_unit.__doc__
+    return numba.njit(cache=True)(f)
 
 
 class KernelArgs(structref.StructRefProxy):
@@ -93,6 +107,8 @@ class KernelArgs(structref.StructRefProxy):
     fields: ClassVar[tuple[str, ...]] = ()
     #: the registered numba type class of the unit (set by :func:`define_kernel_args`)
     numba_type_class: ClassVar[type[KernelArgsType]]
+    #: the unit's compiled constructor (set by :func:`define_kernel_args`, :func:`_constructor`)
+    constructor: ClassVar[Any]
 
     @classmethod
     def make(cls, values: Mapping[str, Any]) -> KernelArgs:
@@ -103,7 +119,7 @@ class KernelArgs(structref.StructRefProxy):
             raise ValueError(f"{cls.__name__}: missing fields {missing}, unknown fields {extra}")
         ordered = tuple(values[f] for f in cls.fields)
         unit_type = cls.numba_type_class([(f, numba.typeof(v)) for f, v in zip(cls.fields, ordered)])
-        return _new_unit(unit_type, ordered)  # type: ignore[no-any-return]
+        return cls.constructor(unit_type, ordered)  # type: ignore[no-any-return]
 
     def run(self, kernel: Any, *ints: int) -> None:
         """``kernel(self, *ints)`` for a compiled (``numba.njit``) kernel of this unit (and integer
@@ -125,3 +141,4 @@ def define_kernel_args(proxy: type[KernelArgs], numba_type: type[KernelArgsType]
     """Bind ``proxy`` (fields in ``proxy.fields``) to its registered ``numba_type``."""
     structref.define_proxy(proxy, numba_type, list(proxy.fields))
     proxy.numba_type_class = numba_type
+    proxy.constructor = _constructor(proxy)
