@@ -45,7 +45,7 @@ def ifas_constants(e0, p0, m, alpha, kappa):
     return m / e0, 1.0 / m, 1.0 / kappa, math.log(p0), (1.0 - alpha) / e0, alpha / kappa
 
 
-@numba.njit(cache=True, error_model="numpy", inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def ifas_bulk_modulus_scaled(p, p0, p_floor, alpha, m_over_e0, inv_m, inv_kappa, ln_p0, oil_over_e0,
                              alpha_over_kappa):
     """IFAS effective bulk modulus [Pa], 003 eq (13), from the terms of :func:`ifas_constants`
@@ -93,7 +93,7 @@ def modified_ifas_shape_constants(lambda_1, lambda_2, mu, p_lt):
     return (amp if p_lt >= 0.0 else -amp), c * c, 1.0 + c * c, x_far
 
 
-@numba.njit(cache=True, error_model="numpy", inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def modified_ifas_shape_fast(p_a, p_b, lambda_1, mu, p_lt, amp, c2, one_plus_c2, x_far):
     """Load-pressure shape h(P_a, P_b) of 003 eq (19) with one ``exp``, from the terms of
     :func:`modified_ifas_shape_constants` (``mu >= 0``).

@@ -61,7 +61,7 @@ def regularized_signed_sqrt(dp, dp_tr):
     return dp / math.sqrt(math.sqrt(dp * dp + dp_tr * dp_tr))
 
 
-@numba.njit(cache=True, error_model="numpy", inline="always")
+@numba.njit(cache=True, error_model="numpy")  # a call: compiled once, not at each of its dozen call sites
 def regularized_signed_sqrt_slope_bound(dp, dp_tr):
     """Upper bound ``(dp^2 + dp_tr^2)^(-1/4)`` [Pa^-1/2] of the slope of
     :func:`regularized_signed_sqrt` at ``dp``.

@@ -50,7 +50,7 @@ def relief_valve_opening(dp, p_crack, p_override):
     return s
 
 
-@numba.njit(cache=True, error_model="numpy", inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def pressure_relief_flow(dp, p_crack, p_override, q_rated):
     """Flow [m^3/s] through a pressure-relief valve at the drop ``dp`` across it.
 

@@ -277,14 +277,14 @@ def local_mode_substeps(y0, x, p, h, m):
     prvl = p[I_PRVL]
     if (y0[PL] - prvl) * (x[PL] - prvl) < 0.0 or (y0[PL] - prvl - p[I_POVL]) * (x[PL] - prvl - p[I_POVL]) < 0.0:
         return m  # the port relief's kinks (cracking, full opening)
-    if max(y0[PL], x[PL]) > prvl:  # the port relief open: its rate, not the short cut's bound
-        return local_substeps(h * max(local_mode_rate(y0, p), local_mode_rate(x, p)), STABLE_H_LAMBDA, m)
-    # short cut, same answer: with every drop at least dp_min the rate is at most C / sqrt(dp_min)
-    # + G (.bounds.orifice_rate_coefficients), stable if dp_min (stable / h - G)^2 >= C^2
-    room = STABLE_H_LAMBDA / h - p[D_LEAKRATE]
-    dp_min = min(_smallest_drop(y0, p), _smallest_drop(x, p))
-    if room > 0.0 and dp_min * room * room >= p[D_DROPRATE] * p[D_DROPRATE]:
-        return 1
+    if max(y0[PL], x[PL]) <= prvl:  # the port relief closed (open: its rate, not the short cut's bound)
+        # short cut, same answer: with every drop at least dp_min the rate is at most C / sqrt(dp_min)
+        # + G (.bounds.orifice_rate_coefficients), stable if dp_min (stable / h - G)^2 >= C^2
+        room = STABLE_H_LAMBDA / h - p[D_LEAKRATE]
+        dp_min = min(_smallest_drop(y0, p), _smallest_drop(x, p))
+        if room > 0.0 and dp_min * room * room >= p[D_DROPRATE] * p[D_DROPRATE]:
+            return 1
+    # the rates, written once: numba compiles every inlined copy apart
     return local_substeps(h * max(local_mode_rate(y0, p), local_mode_rate(x, p)), STABLE_H_LAMBDA, m)
 
 

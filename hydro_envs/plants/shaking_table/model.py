@@ -170,7 +170,7 @@ FIT_OUTPUTS = ("x", "a")
 
 
 # ---------------------------------------------------------------------------- kernels
-@nb.njit(cache=True, error_model="numpy", inline="always")
+@njit_noalloc
 def _ifas(pr, p):
     """IFAS modulus (eq (13)) [Pa] at pressure ``pr`` from ``p``'s derived IFAS terms."""
     return ifas_bulk_modulus_scaled(pr, p[I_P0], p[I_PFLOOR], p[I_ALPHA], p[D_IFAS_M_E0], p[D_IFAS_INV_M],
@@ -223,7 +223,7 @@ def valve_flows(xv, pa, pb, p):
     return r * qa, r * qb
 
 
-@nb.njit(cache=True, error_model="numpy", inline="always")
+@njit_noalloc
 def relief_flow(pr, p):
     """Flow [m^3/s] out of a chamber at pressure ``pr`` through its port relief to tank
     (:func:`~hydro_envs.laws.relief.pressure_relief_flow`; 0 below ``relief_pressure``)."""
