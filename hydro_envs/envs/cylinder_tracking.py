@@ -72,9 +72,9 @@ def _observe_block(a, lo, hi):
     quant, e_scale, rate_pen, preview, obs_low, obs_high = a.quant, a.error_scale, a.rate_pen, a.preview, a.obs_low, a.obs_high
     ix, ip1, ip2, i_stroke, i_supply = a.ix, a.ip1, a.ip2, a.i_stroke, a.i_supply
     obs, reward, meas = a.obs, a.reward, a.meas
+    n_ref = REF.shape[1]
+    n_noise = NOISE.shape[1]
     for i in range(lo, hi):
-        n_ref = REF.shape[1]
-        n_noise = NOISE.shape[1]
         k = K[i]
         half = 0.5 * P[i, i_stroke]
         ps = P[i, i_supply]

@@ -167,8 +167,8 @@ def _observe_block(a, lo, hi):
     """Sensed force, observation and reward of copies ``lo:hi``; ``a`` the batch's :class:`ForceTrackingArgs`."""
     Y, P, REF, K, NOISE, last_a, prev_a = a.Y, a.P, a.REF, a.K, a.NOISE, a.last_a, a.prev_a
     e_scale, rate_pen, preview, obs, reward, meas = a.error_scale, a.rate_pen, a.preview, a.obs, a.reward, a.meas
+    n_ref = REF.shape[1]
     for i in range(lo, hi):
-        n_ref = REF.shape[1]
         k = K[i]
         fmax = P[i, plant.I_A1] * P[i, plant.I_PS]
         f_true = P[i, plant.I_KS] * Y[i, plant.XS]

@@ -23,7 +23,6 @@ and builds it with ``MyTaskArgs.make({"Y": ..., ...})`` (a missing or extra name
 from __future__ import annotations
 
 import re
-import types as types_mod
 from collections.abc import Mapping
 from typing import Any, ClassVar
 
@@ -32,6 +31,8 @@ from numba.core import cgutils, types
 from numba.experimental import structref
 from numba.experimental.jitclass.base import imp_dtor
 from numba.extending import intrinsic
+
+from hydro_envs.sim.binding import function_instance
 
 __all__ = ["BATCH_FIELDS", "KernelArgsType", "KernelArgs", "define_kernel_args"]
 
@@ -94,10 +95,7 @@ def _constructor(proxy: type) -> Any:
     built in one cache index, and a process that cannot import one of those types (a unit
     defined in a test module) could not read the index at all."""
     name = re.sub(r"[^A-Za-z0-9_.]", "_", f"new_unit.{proxy.__module__}.{proxy.__qualname__}")
-    f = types_mod.FunctionType(_new_unit.__code__, _new_unit.__globals__, "new_unit")
-    f.__qualname__ = name
-    f.__doc__ = _new_unit.__doc__
-    return numba.njit(cache=True)(f)
+    return numba.njit(cache=True)(function_instance(_new_unit, name, "new_unit", _new_unit.__globals__))
 
 
 class KernelArgs(structref.StructRefProxy):

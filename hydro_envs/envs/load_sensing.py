@@ -145,8 +145,8 @@ def _observe_block(a, lo, hi):
     Y, P, REF, FF, K, NOISE, last_a, prev_a = a.Y, a.P, a.REF, a.FF, a.K, a.NOISE, a.last_a, a.prev_a
     dpm, m_weight, rate_pen, preview, obs_low, obs_high = a.dpm, a.margin_weight, a.rate_pen, a.preview, a.obs_low, a.obs_high
     obs, reward, meas = a.obs, a.reward, a.meas
+    n_ref = REF.shape[1]
     for i in range(lo, hi):
-        n_ref = REF.shape[1]
         k = min(K[i], n_ref - 1)
         j = K[i] % NOISE.shape[1]
         vd = REF[i, k]

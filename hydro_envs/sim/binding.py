@@ -31,7 +31,7 @@ from hydro_envs.jit import NOALLOC_OPTIONS
 from hydro_envs.sim.rk4 import in_blocks, rhs_along, rk4_advance, rk4_advance_lookahead, rk4_trajectory
 from hydro_envs.sim.rk4 import rk4_trajectory_lookahead
 
-__all__ = ["bind_rk4"]
+__all__ = ["bind_rk4", "function_instance"]
 
 _PARALLEL = {"cache": True, "error_model": "numpy", "parallel": True}
 _njit: Any = nb.njit  # the options are passed as mappings
@@ -81,7 +81,7 @@ def _derivatives(X, U, P, OUT):
         rhs_along(rhs, X[i], U[i], P[i], OUT[i])  # type: ignore[name-defined]  # noqa: F821
 
 
-def _instance(template: Callable[..., Any], name: str, kernel: str, namespace: dict[str, Any]) -> Any:
+def function_instance(template: Callable[..., Any], name: str, kernel: str, namespace: dict[str, Any]) -> Any:
     """``template``'s code as a new function reading ``namespace``, qualified ``<name>.<kernel>``."""
     code = template.__code__.replace(co_name=kernel)
     f = types.FunctionType(code, namespace, kernel)
@@ -109,13 +109,13 @@ def bind_rk4(name: str, rhs: Any, guard: Any, lookahead: tuple[Any, Any] | None 
     if lookahead is not None:
         ns["refinement"], ns["refinement_count"] = lookahead
     serial = _njit(**NOALLOC_OPTIONS)(
-        _instance(_step_serial if lookahead is None else _step_serial_lookahead, name, "step_serial", ns))
+        function_instance(_step_serial if lookahead is None else _step_serial_lookahead, name, "step_serial", ns))
     ns["step_serial"] = serial
     return KernelSet(
         step_serial=serial,
-        step_parallel=_njit(**_PARALLEL)(_instance(_step_parallel, name, "step_parallel", ns)),
+        step_parallel=_njit(**_PARALLEL)(function_instance(_step_parallel, name, "step_parallel", ns)),
         trajectories=_njit(**_PARALLEL)(
-            _instance(_trajectories if lookahead is None else _trajectories_lookahead, name, "trajectories", ns)),
-        derivatives=_njit(**_PARALLEL)(_instance(_derivatives, name, "derivatives", ns)),
+            function_instance(_trajectories if lookahead is None else _trajectories_lookahead, name, "trajectories", ns)),
+        derivatives=_njit(**_PARALLEL)(function_instance(_derivatives, name, "derivatives", ns)),
         rhs=rhs, guard=guard, for_params=for_params, name=name,
     )

@@ -167,9 +167,9 @@ def _observe_block(a, lo, hi):
     e_scale, a_scale, v_scale, a_range, v_range = a.error_scale, a.accel_scale, a.velocity_scale, a.a_range, a.v_range
     rate_pen, pos_pen, preview, obs_low, obs_high = a.rate_pen, a.pos_pen, a.preview, a.obs_low, a.obs_high
     obs, reward, meas = a.obs, a.reward, a.meas
+    n_ref = REF.shape[1]
+    n_noise = NOISE.shape[1]
     for i in range(lo, hi):
-        n_ref = REF.shape[1]
-        n_noise = NOISE.shape[1]
         k = K[i]
         ahead = min(k + PREFETCH_SAMPLES, n_ref - 1)  # load the lines the reference streams enter next
         prefetch_row_element(REF, i, ahead)
