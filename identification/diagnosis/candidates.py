@@ -114,32 +114,36 @@ START_STRIDE = 3
 # 26, costing more than the rest of the grid, at a value no refit from it would keep
 
 
-def _grid_start(spec: DiagnosisPlant, model: Model, name: str, records: Sequence[Record],
-                sigma: dict[str, float], fitted: Model) -> dict[str, float] | None:
-    """A third start for effect ``name``'s parameters when the warm and cold refits stuck in a
-    local minimum: the best point of a grid over the plausibility bounds (interior points,
-    log-spaced for log parameters) added to ``model`` (the cold-start parameters): the grid's
-    best on every ``START_STRIDE``-th window of ``records``, if its weighted simulation residual
-    on all windows is already below that of the best refit ``fitted``; else None. The
-    output-error cost of an effect that changes an integrating plant's free run is far from
-    quadratic: from the catalogue start (10 um) a hidden 34 um servo-valve overlap was fitted
-    as 27.5 um, held-out NRMSE 0.15 instead of 0.004; the grid point 40 um is below that fit's
-    cost, and the refit from it finds 34 um. (Taking the grid's best point as *the* cold start
-    instead lost a slider Stribeck case: a coarse grid point of a correlated pair (F_S, v_S)
-    led to a worse minimum than the catalogue start.)"""
+def _grid_points(spec: DiagnosisPlant, model: Model, name: str, records: Sequence[Record],
+                 around: dict[str, float] | None = None) -> list[dict[str, float]]:
+    """Start points of effect ``name``'s parameters: the realisation's own (read off the longest
+    record, :attr:`Realisation.start_points`; ``around``: its finer set about that point), else
+    the interior points of a grid over the plausibility bounds (log-spaced for log parameters;
+    ``around`` gives none)."""
     r = effect(name).on(spec.name)
+    if r.start_points is not None:
+        rec = max(records, key=lambda x: x.n)
+        return list(r.start_points(model.params, rec.channels, rec.inputs, rec.dt, around=around))
+    if around is not None:
+        return []
     n = START_GRID_POINTS[min(len(r.parameters), len(START_GRID_POINTS)) - 1]
     axes = []
     for p in r.parameters:
         lo, hi = p.bounds
         pts = np.geomspace(lo, hi, n + 2)[1:-1] if p.log else np.linspace(lo, hi, n + 2)[1:-1]
         axes.append([(p.field, float(v)) for v in pts])
-    values: list[dict[str, float] | None] = [None]
-    models = [fitted]
-    plant, dt = registry.get(type(fitted.params).plant), records[0].dt
-    n_fit = substeps(plant, fitted.params, dt)
-    for combo in itertools.product(*axes):
-        vals = dict(combo)
+    return [dict(combo) for combo in itertools.product(*axes)]
+
+
+def _grid_best(spec: DiagnosisPlant, model: Model, name: str, points: Sequence[dict[str, float]],
+               records: Sequence[Record], sigma: dict[str, float], n_fit: int) -> tuple[dict[str, float] | None, float]:
+    """The point of ``points`` (effect ``name`` added to ``model``) with the lowest weighted
+    simulation residual on every ``START_STRIDE``-th window, and that residual; points that are
+    not valid parameters or need more than ``FIT_MAX_SUBSTEP_RATIO * n_fit`` sub-steps are
+    skipped."""
+    plant, dt = registry.get(type(model.params).plant), records[0].dt
+    values, models = [], []
+    for vals in points:
         try:
             m = with_effect(spec, model, name, vals)
         except ParameterError:  # e.g. a static level below the Coulomb level
@@ -148,14 +152,40 @@ def _grid_start(spec: DiagnosisPlant, model: Model, name: str, records: Sequence
             continue
         models.append(m)
         values.append(vals)
-    if len(models) == 1:
+    if not models:
+        return None, math.inf
+    costs = _weighted_costs(spec, models, records, sigma, stride=START_STRIDE)[0]
+    k = int(np.argmin(costs))
+    return values[k], float(costs[k])
+
+
+def _grid_start(spec: DiagnosisPlant, model: Model, name: str, records: Sequence[Record],
+                sigma: dict[str, float], fitted: Model) -> dict[str, float] | None:
+    """A third start for effect ``name``'s parameters when the warm and cold refits stuck in a
+    local minimum: the best of its start points (:func:`_grid_points`; with the realisation's own
+    points, then the best of their finer set about the best) added to ``model`` (the cold-start
+    parameters), on every ``START_STRIDE``-th window of ``records``, if its weighted simulation
+    residual on all windows is already below that of the best refit ``fitted``; else None. The
+    output-error cost of an effect that changes an integrating plant's free run is far from
+    quadratic: from the catalogue start (10 um) a hidden 34 um servo-valve overlap was fitted
+    as 27.5 um, held-out NRMSE 0.15 instead of 0.004; the grid point 40 um is below that fit's
+    cost, and the refit from it finds 34 um. (Taking the grid's best point as *the* cold start
+    instead lost a slider Stribeck case: a coarse grid point of a correlated pair (F_S, v_S)
+    led to a worse minimum than the catalogue start.)"""
+    n_fit = substeps(registry.get(type(fitted.params).plant), fitted.params, records[0].dt)
+    best, cost = _grid_best(spec, model, name, _grid_points(spec, model, name, records), records, sigma, n_fit)
+    if best is None:
         return None
+    finer = _grid_points(spec, model, name, records, around=best)
+    if finer:
+        fine, fine_cost = _grid_best(spec, model, name, finer, records, sigma, n_fit)
+        if fine is not None and fine_cost < cost:
+            best = fine
     # the grid's best point on every START_STRIDE-th window, then against the refit on every
     # window: on a third of the windows the refit (26 um for a hidden 34 um servo overlap) can
     # look better than the grid point (40 um) that leads to the truth on all of them
-    k = 1 + int(np.argmin(_weighted_costs(spec, models[1:], records, sigma, stride=START_STRIDE)[0]))
-    full, _ = _weighted_costs(spec, [fitted, models[k]], records, sigma)
-    return values[k] if full[1] < full[0] else None
+    full, _ = _weighted_costs(spec, [fitted, with_effect(spec, model, name, best)], records, sigma)
+    return best if full[1] < full[0] else None
 
 
 def _best_start(spec: DiagnosisPlant, models: Sequence[Model], values: Sequence[Any],

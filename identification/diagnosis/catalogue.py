@@ -91,6 +91,10 @@ class Realisation:
     channels: tuple[str, ...] = ()  # sensor effects: the channels they act on
     present: Any = None  # optional ``params -> bool``; default: a field differs from ``null``
     diagnosable: bool = True  # False: kept for its null/ties only, never proposed (reason in source)
+    # optional ``(params, channels, inputs, dt, around=None) -> [ {field: value} ]``: start points
+    # of a refit read off a record, in place of the grid over the bounds; ``around`` (the best of
+    # them) asks for a finer set about it
+    start_points: Any = None
 
     def is_present(self, params: Any) -> bool:
         """True when ``params`` already carry this effect."""
