@@ -66,8 +66,10 @@ def test_start_points_span_the_ridge_and_refine_about_a_point():
     peaks = np.array([friction_peak(dataclasses.replace(base, **c)) for c in coarse])
     truth = friction_peak(P)
     assert peaks.min() < truth < peaks.max()
-    fine = stribeck_starts(base, rec.channels, rec.inputs, rec.dt, around=coarse[40])
-    centre = friction_peak(dataclasses.replace(base, **coarse[40]))
-    fine_peaks = np.array([friction_peak(dataclasses.replace(base, **c)) for c in fine])
-    assert len(fine) == 11 * 5 and np.all(np.abs(fine_peaks / centre - 1) <= 0.0251)
+    for level, (n, step) in enumerate([(11 * 9, 0.0251), (11 * 5, 0.0051)], start=1):
+        fine = stribeck_starts(base, rec.channels, rec.inputs, rec.dt, around=coarse[40], level=level)
+        centre = friction_peak(dataclasses.replace(base, **coarse[40]))
+        fine_peaks = np.array([friction_peak(dataclasses.replace(base, **c)) for c in fine])
+        assert len(fine) == n and np.all(np.abs(fine_peaks / centre - 1) <= step)
+    assert stribeck_starts(base, rec.channels, rec.inputs, rec.dt, around=coarse[40], level=3) == []
     assert stribeck_starts(base, {}, rec.inputs, rec.dt) == []

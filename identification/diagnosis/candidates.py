@@ -114,17 +114,21 @@ START_STRIDE = 3
 # 26, costing more than the rest of the grid, at a value no refit from it would keep
 
 
+# at most this many levels of a realisation's own start points (:func:`_grid_points`)
+MAX_START_LEVELS = 8
+
+
 def _grid_points(spec: DiagnosisPlant, model: Model, name: str, records: Sequence[Record],
-                 around: dict[str, float] | None = None) -> list[dict[str, float]]:
+                 around: dict[str, float] | None = None, level: int = 0) -> list[dict[str, float]]:
     """Start points of effect ``name``'s parameters: the realisation's own (read off the longest
-    record, :attr:`Realisation.start_points`; ``around``: its finer set about that point), else
-    the interior points of a grid over the plausibility bounds (log-spaced for log parameters;
-    ``around`` gives none)."""
+    record, :attr:`Realisation.start_points`; ``level`` > 0: its finer set about ``around``),
+    else the interior points of a grid over the plausibility bounds (log-spaced for log
+    parameters; no finer set)."""
     r = effect(name).on(spec.name)
     if r.start_points is not None:
         rec = max(records, key=lambda x: x.n)
-        return list(r.start_points(model.params, rec.channels, rec.inputs, rec.dt, around=around))
-    if around is not None:
+        return list(r.start_points(model.params, rec.channels, rec.inputs, rec.dt, around=around, level=level))
+    if level > 0:
         return []
     n = START_GRID_POINTS[min(len(r.parameters), len(START_GRID_POINTS)) - 1]
     axes = []
@@ -163,7 +167,7 @@ def _grid_start(spec: DiagnosisPlant, model: Model, name: str, records: Sequence
                 sigma: dict[str, float], fitted: Model) -> dict[str, float] | None:
     """A third start for effect ``name``'s parameters when the warm and cold refits stuck in a
     local minimum: the best of its start points (:func:`_grid_points`; with the realisation's own
-    points, then the best of their finer set about the best) added to ``model`` (the cold-start
+    points, then the best of each finer set about the best before) added to ``model`` (the cold-start
     parameters), on every ``START_STRIDE``-th window of ``records``, if its weighted simulation
     residual on all windows is already below that of the best refit ``fitted``; else None. The
     output-error cost of an effect that changes an integrating plant's free run is far from
@@ -176,11 +180,13 @@ def _grid_start(spec: DiagnosisPlant, model: Model, name: str, records: Sequence
     best, cost = _grid_best(spec, model, name, _grid_points(spec, model, name, records), records, sigma, n_fit)
     if best is None:
         return None
-    finer = _grid_points(spec, model, name, records, around=best)
-    if finer:
+    for level in range(1, MAX_START_LEVELS):
+        finer = _grid_points(spec, model, name, records, around=best, level=level)
+        if not finer:
+            break
         fine, fine_cost = _grid_best(spec, model, name, finer, records, sigma, n_fit)
         if fine is not None and fine_cost < cost:
-            best = fine
+            best, cost = fine, fine_cost
     # the grid's best point on every START_STRIDE-th window, then against the refit on every
     # window: on a third of the windows the refit (26 um for a hidden 34 um servo overlap) can
     # look better than the grid point (40 um) that leads to the truth on all of them

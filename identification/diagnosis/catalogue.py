@@ -91,9 +91,9 @@ class Realisation:
     channels: tuple[str, ...] = ()  # sensor effects: the channels they act on
     present: Any = None  # optional ``params -> bool``; default: a field differs from ``null``
     diagnosable: bool = True  # False: kept for its null/ties only, never proposed (reason in source)
-    # optional ``(params, channels, inputs, dt, around=None) -> [ {field: value} ]``: start points
-    # of a refit read off a record, in place of the grid over the bounds; ``around`` (the best of
-    # them) asks for a finer set about it
+    # optional ``(params, channels, inputs, dt, around=None, level=0) -> [ {field: value} ]``: start
+    # points of a refit read off a record, in place of the grid over the bounds; ``level`` > 0 a
+    # finer set about ``around`` (the best of the level before), [] when there is none
     start_points: Any = None
 
     def is_present(self, params: Any) -> bool:

@@ -103,33 +103,38 @@ def measured_friction_peak(params, position: np.ndarray, force: np.ndarray, dt: 
     return max(medians) if medians else float("nan")
 
 
-#: breakaway forces of the coarse scan: these factors times the measured peak (2.5 % steps; the
-#: binned medians read the peak low), then 0.5 % steps around the best; Stribeck velocities
-#: [m/s] of the coarse scan, then factors of sqrt(2) around the best
-PEAK_FACTORS_COARSE = np.geomspace(0.95, 1.25, 12)
-PEAK_FACTORS_FINE = np.geomspace(1 / 1.025, 1.025, 11)
-VS_COARSE = np.geomspace(1e-3, 1.6e-2, 9)
-VS_FINE = np.geomspace(1 / 1.41, 1.41, 5)
+#: the scans of :func:`stribeck_starts`, coarse to fine: (breakaway-force factors, Stribeck-velocity
+#: factors). The first scan's factors multiply the measured peak (2.5 % steps from 0.95 to 1.25:
+#: the binned medians read the peak low) and give the Stribeck velocities (1-16 mm/s, steps of
+#: sqrt(2)); each later one multiplies the best point of the scan before (0.5 % and 9 % steps,
+#: then 0.1 % and 4.4 %). Along the ridge the cost varies smoothly with v_S; across it a true
+#: model's basin is about 0.5 % of the breakaway force wide (16 N / 2 mm/s: cost x700 at +-0.1 N)
+PEAK_SCANS = (
+    (np.geomspace(0.95, 1.25, 12), np.geomspace(1e-3, 1.6e-2, 9)),
+    (np.geomspace(1 / 1.025, 1.025, 11), np.geomspace(1 / 1.41, 1.41, 9)),
+    (np.geomspace(1 / 1.005, 1.005, 11), np.geomspace(1 / 1.09, 1.09, 5)),
+)
 
 
-def stribeck_starts(params, channels, inputs, dt, around=None) -> list[dict[str, float]]:
+def stribeck_starts(params, channels, inputs, dt, around=None, level=0) -> list[dict[str, float]]:
     """Start points (``static_friction``, ``stribeck_velocity``) of a Stribeck refit, on the
     ridge of the output-error cost: a free run that replays the recorded force breaks away when
     that force passes the law's breakaway force (:func:`friction_peak`), so a model whose
     breakaway force is 1 % off sticks or slides through whole windows (cost up to 1e6 times the
     truth's), while along the ridge of equal breakaway force the cost varies smoothly with v_S.
-    The points: breakaway forces around :func:`measured_friction_peak` times each Stribeck
-    velocity of the scan; ``around`` (a point of the first scan) gives the finer scan about it."""
-    if "x" not in channels:
+    Scan ``level`` of :data:`PEAK_SCANS`: the first about :func:`measured_friction_peak`, each
+    later one about ``around`` (the best point of the scan before); [] past the last."""
+    if "x" not in channels or level >= len(PEAK_SCANS):
         return []
-    if around is None:
-        peak = measured_friction_peak(params, channels["x"], inputs[:, 0], dt)
-        peaks, speeds = peak * PEAK_FACTORS_COARSE, VS_COARSE
+    peak_factors, speed_factors = PEAK_SCANS[level]
+    if level == 0:
+        peaks = measured_friction_peak(params, channels["x"], inputs[:, 0], dt) * peak_factors
+        speeds = speed_factors
     else:
         import dataclasses
 
-        centre = dataclasses.replace(params, **around)
-        peaks, speeds = friction_peak(centre) * PEAK_FACTORS_FINE, around["stribeck_velocity"] * VS_FINE
+        peaks = friction_peak(dataclasses.replace(params, **around)) * peak_factors
+        speeds = around["stribeck_velocity"] * speed_factors
     out = []
     for vs in speeds:
         for pk in peaks:
