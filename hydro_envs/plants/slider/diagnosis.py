@@ -10,6 +10,8 @@ outside :mod:`hydro_envs`.
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
 __all__ = ["BASES", "initial_state", "hidden_states", "controller", "settling_time", "friction_peak",
@@ -64,8 +66,6 @@ def friction_peak(params) -> float:
 def _static_for_peak(params, peak: float, vs: float) -> float | None:
     """Static friction [N] that gives the law the breakaway force ``peak`` at Stribeck velocity
     ``vs`` (the other friction fields of ``params``); None when no F_S >= F_C reaches it."""
-    import dataclasses
-
     from scipy.optimize import brentq
 
     fc = params.coulomb_friction
@@ -99,7 +99,8 @@ def measured_friction_peak(params, position: np.ndarray, force: np.ndarray, dt: 
     a = savgol_filter(position, w, 3, deriv=2, delta=dt)
     fr = np.sign(v) * (force - params.force_offset - params.mass * a - params.viscous_friction * v)
     k = np.digitize(np.abs(v), np.geomspace(1e-5, 0.1, 41)) - 1
-    medians = [float(np.median(fr[k == i])) for i in range(40) if np.count_nonzero(k == i) >= 20]
+    bins = (fr[k == i] for i in range(40))
+    medians = [float(np.median(b)) for b in bins if b.size >= 20]
     return max(medians) if medians else float("nan")
 
 
@@ -131,8 +132,6 @@ def stribeck_starts(params, channels, inputs, dt, around=None, level=0) -> list[
         peaks = measured_friction_peak(params, channels["x"], inputs[:, 0], dt) * peak_factors
         speeds = speed_factors
     else:
-        import dataclasses
-
         peaks = friction_peak(dataclasses.replace(params, **around)) * peak_factors
         speeds = around["stribeck_velocity"] * speed_factors
     out = []
