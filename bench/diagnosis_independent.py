@@ -86,6 +86,13 @@ def _cases(fit: float, hold: float):
             "slider", lambda: ([heavy_axis_record(11, fit + hold, f0=-3.0)], None),
             dict(holdout_fraction=1 - 1 / heavy), ["coulomb", "force_offset"], False),
     }
+    servo_fric = {"servo coulomb 60 N": ("coulomb", dict(fc=60.0), ["coulomb"]),
+                  "servo stribeck 80 N, 4 mm/s": ("stribeck", dict(stribeck=(80.0, 4e-3)), ["stribeck"]),
+                  "servo stribeck 80 N, 1 mm/s": ("stribeck", dict(stribeck=(80.0, 1e-3)), ["stribeck"])}
+    for name, (hidden, kw, expected) in servo_fric.items():
+        b = base_for(diagnosis_plant("servo_cylinder"), hidden)
+        out[name] = ("servo_cylinder", _servo_friction_records(servo_record, b, kw, fit, hold), dict(base=b),
+                     expected, False)
     for plant, short, make, base in (("servo_cylinder", "servo", servo_record, servo),
                                      ("rodless_cylinder", "rodless", rodless_record, rodless)):
         for droop in (False, True):
@@ -93,6 +100,10 @@ def _cases(fit: float, hold: float):
             out[name] = (plant, _supply_records(make, base, droop, fit, hold), dict(base=base),
                          ["supply_droop"] if droop else [], droop)
     return out
+
+
+def _servo_friction_records(make, base, kw, fit: float, hold: float):
+    return lambda: ([make(base, False, 2, fit, **kw)], [make(base, False, 1002, hold, **kw)])
 
 
 def _supply_records(make, base, droop: bool, fit: float, hold: float):
@@ -138,6 +149,9 @@ def main(argv=None) -> None:
         print(f"{name:44s} {verdict:12s} {','.join(named) or '-':26s} expected {','.join(expected) or 'none':22s}"
               f" {'right' if ok else 'WRONG':5s} {secs:6.1f} s {'' if secs <= TARGET_SECONDS else '> 60 s'}",
               flush=True)
+        for e in res.effects:
+            values = ", ".join(f"{k} {v:.4g}" for k, v in e["parameters"].items())
+            print(f"{'':44s}   {e['name']}: {values}", flush=True)
     if rows:
         print(f"\n{sum(r[4] for r in rows)} / {len(rows)} right; {sum(r[5] <= TARGET_SECONDS for r in rows)} / "
               f"{len(rows)} within {TARGET_SECONDS:g} s (slowest {max(r[5] for r in rows):.1f} s); "

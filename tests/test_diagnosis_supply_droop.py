@@ -60,9 +60,14 @@ def _root(dp, tr=2e4):
     return dp / (dp * dp + tr * tr) ** 0.25
 
 
-def servo_record(p, droop: bool, seed: int, duration: float) -> Record:
+def servo_record(p, droop: bool, seed: int, duration: float, fc: float | None = None,
+                 stribeck: tuple[float, float] | None = None) -> Record:
     """Closed-loop record of 002 eq (8) (values of ``p``, equations written here) fed by a
-    stiff supply (``droop=False``) or by the compensated pump and hose of the module docstring."""
+    stiff supply (``droop=False``) or by the compensated pump and hose of the module docstring.
+
+    Seal friction: LuGre whose steady state is 002 eq (1), ``F_C + (F_S - F_C) exp(-|v|/v_S)``
+    (``fc`` replaces ``p.coulomb_friction``; ``stribeck = (F_S, v_S)``, else ``F_S = F_C``), its
+    micro-damping fading over ``v_S`` or less (where a faster fade keeps it dissipative)."""
     rng = np.random.default_rng(seed)
     f = np.array([0.35, 0.8, 1.9, 3.3])
     amp = np.array([0.018, 0.006, 0.002, 0.001])
@@ -76,6 +81,9 @@ def servo_record(p, droop: bool, seed: int, duration: float) -> Record:
     p_set = p.supply_pressure
 
     s0, s1 = p.bristle_stiffness, p.bristle_damping
+    f_c = p.coulomb_friction if fc is None else fc
+    f_s, v_s = stribeck if stribeck is not None else (f_c, p.stribeck_velocity)
+    v_d = min(v_s, 0.9 * 4.0 * math.sqrt(2.0 * math.e) * f_c / s1) if s1 > 0 else v_s
 
     def rhs(t, y):
         x, v, p1, p2, xv, vv, ps, _, z = y
@@ -94,10 +102,10 @@ def servo_record(p, droop: bool, seed: int, duration: float) -> Record:
             q_p = q2
         v1 = a * x + p.line_volume_1
         v2 = a * (L - x) + p.line_volume_2
-        # Coulomb friction through the seals' bristles (LuGre, written here; micro-damping fading
-        # over the Stribeck velocity)
-        dz = v - s0 * abs(v) * z / p.coulomb_friction
-        fric = s0 * z + s1 * math.exp(-(v / p.stribeck_velocity) ** 2) * dz + p.viscous_friction * v
+        # the seals' friction through their bristles (LuGre, written here)
+        g = f_c + (f_s - f_c) * math.exp(-abs(v) / v_s)
+        dz = v - s0 * abs(v) * z / g
+        fric = s0 * z + s1 * math.exp(-(v / v_d) ** 2) * dz + p.viscous_friction * v
         q_pump = Q_MAX * min(max((p_set - ps) / DP_C, 0.0), 1.0)
         q_relief = K_RELIEF * max(ps - p_set - 2e5, 0.0)
         return [v, (a * (p1 - p2) - fric) / m,

@@ -127,7 +127,9 @@ def _grid_points(spec: DiagnosisPlant, model: Model, name: str, records: Sequenc
     r = effect(name).on(spec.name)
     if r.start_points is not None:
         rec = max(records, key=lambda x: x.n)
-        return list(r.start_points(model.params, rec.channels, rec.inputs, rec.dt, around=around, level=level))
+        own = list(r.start_points(model.params, rec.channels, rec.inputs, rec.dt, around=around, level=level))
+        if own or level > 0:  # none read off the record (e.g. a channel missing): the grid below
+            return own
     if level > 0:
         return []
     n = START_GRID_POINTS[min(len(r.parameters), len(START_GRID_POINTS)) - 1]
@@ -445,7 +447,9 @@ def _fit_candidate(spec: DiagnosisPlant, current: Model, start: Model, name: str
     catalogue start or nearer its null value, :func:`_warm_start`), and -- when the
     score test ranks the candidate as plausible (``score >= COLD_START_SCORE``), or the warm fit
     fails, or (unless the candidate is hopeless, ``score < HOPELESS_SCORE``) it ends on a
-    plausibility bound or violates a parameter relation -- again from the parameters of the
+    plausibility bound or violates a parameter relation, or the effect has start points of its own
+    (:attr:`Realisation.start_points`: its cost is known to have minima a local refit misses) --
+    again from the parameters of the
     starting model (cold start: a base fit without the effect may have bent
     the base parameters to absorb it, e.g. a heavier mass and a lower Coulomb level for missing
     Stribeck friction; skipped where the warm refit has already undone that bend,
@@ -479,7 +483,7 @@ def _fit_candidate(spec: DiagnosisPlant, current: Model, start: Model, name: str
         _, _, plausible, identifiable, _ = _judge(spec, e, warm)
         if plausible and identifiable and settles(warm):
             return warm
-    if warm is not None and score < COLD_START_SCORE:
+    if warm is not None and score < COLD_START_SCORE and e.on(spec.name).start_points is None:
         _, _, plausible, _, _ = _judge(spec, e, warm)
         if plausible:
             return warm
