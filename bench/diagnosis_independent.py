@@ -27,6 +27,7 @@ included) against the 60 s target. Prints only; no pass/fail exit status.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import pathlib
 import sys
 import time
@@ -91,7 +92,14 @@ def _cases(fit: float, hold: float):
                   "servo stribeck 80 N, 1 mm/s": ("stribeck", dict(stribeck=(80.0, 1e-3)), ["stribeck"])}
     for name, (hidden, kw, expected) in servo_fric.items():
         b = base_for(diagnosis_plant("servo_cylinder"), hidden)
-        out[name] = ("servo_cylinder", _servo_friction_records(servo_record, b, kw, fit, hold), dict(base=b),
+        out[name] = ("servo_cylinder", _friction_records(servo_record, b, kw, fit, hold), dict(base=b),
+                     expected, False)
+    rodless_fric = {"rodless coulomb 20 N": ("coulomb", dict(fc=20.0), ["coulomb"]),
+                    "rodless stribeck 35.5 N, 3.27 mm/s": ("stribeck", dict(stribeck=(35.5, 3.27e-3)), ["stribeck"])}
+    for name, (hidden, kw, expected) in rodless_fric.items():
+        # the generator's chambers are adiabatic (004 eqs (8)-(13)): so is the base model
+        b = dataclasses.replace(base_for(diagnosis_plant("rodless_cylinder"), hidden), wall_heat_transfer_coefficient=0.0)
+        out[name] = ("rodless_cylinder", _friction_records(rodless_record, b, kw, fit, hold), dict(base=b),
                      expected, False)
     for plant, short, make, base in (("servo_cylinder", "servo", servo_record, servo),
                                      ("rodless_cylinder", "rodless", rodless_record, rodless)):
@@ -102,7 +110,7 @@ def _cases(fit: float, hold: float):
     return out
 
 
-def _servo_friction_records(make, base, kw, fit: float, hold: float):
+def _friction_records(make, base, kw, fit: float, hold: float):
     return lambda: ([make(base, False, 2, fit, **kw)], [make(base, False, 1002, hold, **kw)])
 
 

@@ -164,9 +164,14 @@ def _nozzle(cd_s, p_up, p_down, t_up, kappa, r_gas):
     return sign * cd_s * p_up * f / math.sqrt(r_gas * max(t_up, 1.0))  # (Radau's Jacobian probes)
 
 
-def rodless_record(p, droop: bool, seed: int, duration: float) -> Record:
+def rodless_record(p, droop: bool, seed: int, duration: float, fc: float | None = None,
+                   stribeck: tuple[float, float] | None = None) -> Record:
     """Closed-loop record of the 004 rodless cylinder (values of ``p``, equations written here),
-    fed by a stiff supply or by the regulator and hose of the module docstring."""
+    fed by a stiff supply or by the regulator and hose of the module docstring.
+
+    Friction: the static curve of 004 eq (1), ``(F_c + (F_s - F_c) exp(-|v|/v_s)) tanh(v/v_eps)
+    + sigma2 v`` (``fc`` replaces ``p.coulomb_friction``; ``stribeck = (F_s, v_s)``, else ``F_s =
+    F_c``)."""
     rng = np.random.default_rng(seed)
     f = np.array([0.3, 0.7, 1.6, 3.1])
     amp = np.array([0.025, 0.008, 0.003, 0.001])
@@ -179,6 +184,8 @@ def rodless_record(p, droop: bool, seed: int, duration: float) -> Record:
     pe, p_set = p.exhaust_pressure, p.supply_pressure
     kv = p.spool_stroke / (p.command_max - p.command_centre)
     wv, zv = p.valve_natural_frequency, p.valve_damping
+    f_c = p.coulomb_friction if fc is None else fc
+    f_s, v_s = stribeck if stribeck is not None else (f_c, p.stribeck_velocity)
 
     def rhs(t, s):
         y, v, pa, pb, ma, mb, xv, vv, p_h, _ = s
@@ -199,7 +206,8 @@ def rodless_record(p, droop: bool, seed: int, duration: float) -> Record:
         m_be = _nozzle(s_p, pb, pe, tb if pb >= pe else ts, k, rg)
         h_a = m_pa * (ts if m_pa >= 0 else ta) - m_ae * (ta if m_ae >= 0 else ts)
         h_b = m_pb * (ts if m_pb >= 0 else tb) - m_be * (tb if m_be >= 0 else ts)
-        fric = p.coulomb_friction * math.tanh(v / p.friction_sign_velocity) + p.viscous_friction * v
+        level = f_c + (f_s - f_c) * math.exp(-abs(v) / v_s)
+        fric = level * math.tanh(v / p.friction_sign_velocity) + p.viscous_friction * v
         m_reg = (p_set - p_h) / R_PNEU
         return [v, (area * (pa - pb) - fric) / p.mass,
                 k * (rg * h_a - pa * area * v) / va, k * (rg * h_b + pb * area * v) / vb,

@@ -447,9 +447,8 @@ def _fit_candidate(spec: DiagnosisPlant, current: Model, start: Model, name: str
     catalogue start or nearer its null value, :func:`_warm_start`), and -- when the
     score test ranks the candidate as plausible (``score >= COLD_START_SCORE``), or the warm fit
     fails, or (unless the candidate is hopeless, ``score < HOPELESS_SCORE``) it ends on a
-    plausibility bound or violates a parameter relation, or the effect has start points of its own
-    (:attr:`Realisation.start_points`: its cost is known to have minima a local refit misses) --
-    again from the parameters of the
+    plausibility bound or violates a parameter relation, or the effect has its own start points
+    (:attr:`Realisation.start_points`: minima a local refit misses) -- again from the parameters of the
     starting model (cold start: a base fit without the effect may have bent
     the base parameters to absorb it, e.g. a heavier mass and a lower Coulomb level for missing
     Stribeck friction; skipped where the warm refit has already undone that bend,
