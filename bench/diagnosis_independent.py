@@ -56,7 +56,8 @@ def _cases(fit: float, hold: float):
 
     slider = diagnosis_plant("slider")
     servo = base_for(diagnosis_plant("servo_cylinder"), None)
-    rodless = base_for(diagnosis_plant("rodless_cylinder"), None)
+    # the rodless generator's chambers are adiabatic (004 eqs (8)-(13)): so is its base model, as in the tests
+    rodless = dataclasses.replace(base_for(diagnosis_plant("rodless_cylinder"), None), wall_heat_transfer_coefficient=0.0)
     heavy = (fit + hold) / fit
     out = {
         "axis effect-free, hum and offset": (
@@ -95,9 +96,10 @@ def _cases(fit: float, hold: float):
         out[name] = ("servo_cylinder", _friction_records(servo_record, b, kw, fit, hold), dict(base=b),
                      expected, False)
     rodless_fric = {"rodless coulomb 20 N": ("coulomb", dict(fc=20.0), ["coulomb"]),
-                    "rodless stribeck 35.5 N, 3.27 mm/s": ("stribeck", dict(stribeck=(35.5, 3.27e-3)), ["stribeck"])}
+                    "rodless stribeck 35.5 N, 3.27 mm/s": ("stribeck", dict(stribeck=(35.5, 3.27e-3)), ["stribeck"]),
+                    "rodless stribeck 35.5 N, 1 mm/s": ("stribeck", dict(stribeck=(35.5, 1e-3)), ["stribeck"]),
+                    "rodless presliding 1e5 N/m": ("presliding", dict(bristle_stiffness=1e5), ["presliding"])}
     for name, (hidden, kw, expected) in rodless_fric.items():
-        # the generator's chambers are adiabatic (004 eqs (8)-(13)): so is the base model
         b = dataclasses.replace(base_for(diagnosis_plant("rodless_cylinder"), hidden), wall_heat_transfer_coefficient=0.0)
         out[name] = ("rodless_cylinder", _friction_records(rodless_record, b, kw, fit, hold), dict(base=b),
                      expected, False)

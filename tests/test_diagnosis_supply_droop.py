@@ -165,13 +165,16 @@ def _nozzle(cd_s, p_up, p_down, t_up, kappa, r_gas):
 
 
 def rodless_record(p, droop: bool, seed: int, duration: float, fc: float | None = None,
-                   stribeck: tuple[float, float] | None = None) -> Record:
+                   stribeck: tuple[float, float] | None = None, bristle_stiffness: float = 0.0) -> Record:
     """Closed-loop record of the 004 rodless cylinder (values of ``p``, equations written here),
     fed by a stiff supply or by the regulator and hose of the module docstring.
 
     Friction: the static curve of 004 eq (1), ``(F_c + (F_s - F_c) exp(-|v|/v_s)) tanh(v/v_eps)
     + sigma2 v`` (``fc`` replaces ``p.coulomb_friction``; ``stribeck = (F_s, v_s)``, else ``F_s =
-    F_c``)."""
+    F_c``); with ``bristle_stiffness`` sigma0 > 0 LuGre with that curve (no tanh) as its steady
+    state: ``dz/dt = v - sigma0 |v| z / g(v)``, ``F = sigma0 z + sigma1 exp(-(v/v_d)^2) dz/dt +
+    sigma2 v``, sigma1 = ``p.bristle_damping`` fading over v_s or less (where a faster fade keeps
+    it dissipative)."""
     rng = np.random.default_rng(seed)
     f = np.array([0.3, 0.7, 1.6, 3.1])
     amp = np.array([0.025, 0.008, 0.003, 0.001])
@@ -186,9 +189,11 @@ def rodless_record(p, droop: bool, seed: int, duration: float, fc: float | None 
     wv, zv = p.valve_natural_frequency, p.valve_damping
     f_c = p.coulomb_friction if fc is None else fc
     f_s, v_s = stribeck if stribeck is not None else (f_c, p.stribeck_velocity)
+    sig0, sig1 = bristle_stiffness, p.bristle_damping
+    v_d = min(v_s, 0.9 * 4.0 * math.sqrt(2.0 * math.e) * f_c / sig1) if sig1 > 0 else v_s
 
     def rhs(t, s):
-        y, v, pa, pb, ma, mb, xv, vv, p_h, _ = s
+        y, v, pa, pb, ma, mb, xv, vv, p_h, _, z = s
         r = centre + np.sum(amp * np.sin(w_ref * t + ph))
         dr = np.sum(amp * w_ref * np.cos(w_ref * t + ph))
         u = float(np.clip(p.command_centre + 150.0 * (r - y) + dr / 0.3, 0.0, p.command_max))
@@ -207,26 +212,31 @@ def rodless_record(p, droop: bool, seed: int, duration: float, fc: float | None 
         h_a = m_pa * (ts if m_pa >= 0 else ta) - m_ae * (ta if m_ae >= 0 else ts)
         h_b = m_pb * (ts if m_pb >= 0 else tb) - m_be * (tb if m_be >= 0 else ts)
         level = f_c + (f_s - f_c) * math.exp(-abs(v) / v_s)
-        fric = level * math.tanh(v / p.friction_sign_velocity) + p.viscous_friction * v
+        if sig0 > 0.0:
+            dz = v - sig0 * abs(v) * z / level
+            fric = sig0 * z + sig1 * math.exp(-(v / v_d) ** 2) * dz + p.viscous_friction * v
+        else:
+            dz = 0.0
+            fric = level * math.tanh(v / p.friction_sign_velocity) + p.viscous_friction * v
         m_reg = (p_set - p_h) / R_PNEU
         return [v, (area * (pa - pb) - fric) / p.mass,
                 k * (rg * h_a - pa * area * v) / va, k * (rg * h_b + pb * area * v) / vb,
                 m_pa - m_ae, m_pb - m_be,
                 vv, -wv * wv * xv - 2.0 * zv * wv * vv + kv * wv * wv * (u - p.command_centre),
-                rg * ts / V_PNEU_HOSE * (m_reg - m_pa - m_pb) if droop else 0.0, u]
+                rg * ts / V_PNEU_HOSE * (m_reg - m_pa - m_pb) if droop else 0.0, u, dz]
 
     y0 = centre + float(np.sum(amp * np.sin(ph)))
     p0 = 0.4e6
     va0 = area * y0 + p.dead_volume_a
     vb0 = area * (p.stroke - y0) + p.dead_volume_b
-    s0 = [y0, 0.0, p0, p0, p0 * va0 / (rg * ts), p0 * vb0 / (rg * ts), 0.0, 0.0, p_set, 0.0]
+    s0 = [y0, 0.0, p0, p0, p0 * va0 / (rg * ts), p0 * vb0 / (rg * ts), 0.0, 0.0, p_set, 0.0, 0.0]
     n = int(round(duration / DT)) + 1
     tt = DT * np.arange(n + 1)
     with np.errstate(over="ignore", invalid="ignore"):  # Radau's finite-difference Jacobian probes far
         sol = solve_ivp(rhs, (0.0, tt[-1]), s0, method="Radau", t_eval=tt, rtol=1e-7,
-                        atol=[1e-10, 1e-8, 1, 1, 1e-11, 1e-11, 1e-10, 1e-7, 1, 1e-9])
+                        atol=[1e-10, 1e-8, 1, 1, 1e-11, 1e-11, 1e-10, 1e-7, 1, 1e-9, 1e-12])
     assert sol.success, sol.message
-    u = np.diff(sol.y[-1]) / DT
+    u = np.diff(sol.y[9]) / DT
     chans = {"y": sol.y[0, :n] + 1e-6 * rng.standard_normal(n),
              "pa": sol.y[2, :n] + 500.0 * rng.standard_normal(n),
              "pb": sol.y[3, :n] + 500.0 * rng.standard_normal(n)}
