@@ -15,13 +15,16 @@ them with scipy's Radau; none of the workflow's kernels, controllers or noise co
   force, diagnosed with the base model read off the record (the last third held out);
 * ``tests/test_diagnosis_supply_droop.py``: the servo cylinder (002 eq (8)) and the pneumatic
   rodless cylinder (004) with a stiff supply and with a supply that droops through a hose (the
-  hose's lag is outside the catalogue's static droop).
+  hose's lag is outside the catalogue's static droop); with Coulomb and Stribeck friction (the
+  servo's seals LuGre with 002 eq (1) as steady state, the rodless cylinder's the static curve of
+  004 eq (1), or LuGre bristles: ``presliding``); friction and the drooping supply at once.
 
 Each case runs :func:`identification.diagnosis.diagnose` with its default ``max_effects`` (3)
 and prints the verdict, the effects named, what is expected, whether the outcome is right
 (named right, ``none`` on effect-free data, an off-catalogue effect ``unexplained`` or
-ambiguous, never another name) and the seconds the diagnosis took (the record's generation not
-included) against the 60 s target. Prints only; no pass/fail exit status.
+ambiguous, never another name), the fitted values of the effects named, and the seconds the
+diagnosis took (the record's generation not included) against the 60 s target. Prints only; no
+pass/fail exit status.
 """
 
 from __future__ import annotations
@@ -103,6 +106,17 @@ def _cases(fit: float, hold: float):
         b = dataclasses.replace(base_for(diagnosis_plant("rodless_cylinder"), hidden), wall_heat_transfer_coefficient=0.0)
         out[name] = ("rodless_cylinder", _friction_records(rodless_record, b, kw, fit, hold), dict(base=b),
                      expected, False)
+    # two effects at once: friction and a supply drooping through a hose (its lag is outside the catalogue)
+    two = {"servo stribeck 80 N, 4 mm/s + drooping supply": (
+               "servo_cylinder", servo_record, base_for(diagnosis_plant("servo_cylinder"), "stribeck"),
+               dict(stribeck=(80.0, 4e-3)), ["stribeck", "supply_droop"]),
+           "rodless coulomb 20 N + drooping supply": (
+               "rodless_cylinder", rodless_record,
+               dataclasses.replace(base_for(diagnosis_plant("rodless_cylinder"), "coulomb"),
+                                   wall_heat_transfer_coefficient=0.0),
+               dict(fc=20.0), ["coulomb", "supply_droop"])}
+    for name, (plant, make, b, kw, expected) in two.items():
+        out[name] = (plant, _friction_records(make, b, kw, fit, hold, droop=True), dict(base=b), expected, False)
     for plant, short, make, base in (("servo_cylinder", "servo", servo_record, servo),
                                      ("rodless_cylinder", "rodless", rodless_record, rodless)):
         for droop in (False, True):
@@ -112,8 +126,8 @@ def _cases(fit: float, hold: float):
     return out
 
 
-def _friction_records(make, base, kw, fit: float, hold: float):
-    return lambda: ([make(base, False, 2, fit, **kw)], [make(base, False, 1002, hold, **kw)])
+def _friction_records(make, base, kw, fit: float, hold: float, droop: bool = False):
+    return lambda: ([make(base, droop, 2, fit, **kw)], [make(base, droop, 1002, hold, **kw)])
 
 
 def _supply_records(make, base, droop: bool, fit: float, hold: float):

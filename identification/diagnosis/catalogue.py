@@ -93,7 +93,9 @@ class Realisation:
     diagnosable: bool = True  # False: kept for its null/ties only, never proposed (reason in source)
     # optional ``(params, channels, inputs, dt, around=None, level=0) -> [ {field: value} ]``: start
     # points of a refit read off a record, in place of the grid over the bounds; ``level`` > 0 a
-    # finer set about ``around`` (the best of the level before), [] when there is none
+    # finer set about ``around`` (the best of the level before), [] when there is none (at level 0:
+    # the grid over the bounds instead). An effect that has them is refitted from them even when
+    # its score test ranks it low (examples: ``stribeck_starts`` of the slider and the servo)
     start_points: Any = None
 
     def is_present(self, params: Any) -> bool:
