@@ -61,9 +61,10 @@ def _root(dp, tr=2e4):
 
 
 def servo_record(p, droop: bool, seed: int, duration: float, fc: float | None = None,
-                 stribeck: tuple[float, float] | None = None) -> Record:
+                 stribeck: tuple[float, float] | None = None, hose_volume: float = V_HOSE) -> Record:
     """Closed-loop record of 002 eq (8) (values of ``p``, equations written here) fed by a
-    stiff supply (``droop=False``) or by the compensated pump and hose of the module docstring.
+    stiff supply (``droop=False``) or by the compensated pump and a hose of ``hose_volume`` [m^3]
+    (module docstring; its lag ``hose_volume R / beta``).
 
     Seal friction: LuGre whose steady state is 002 eq (1), ``F_C + (F_S - F_C) exp(-|v|/v_S)``
     (``fc`` replaces ``p.coulomb_friction``; ``stribeck = (F_S, v_S)``, else ``F_S = F_C``), its
@@ -111,7 +112,7 @@ def servo_record(p, droop: bool, seed: int, duration: float, fc: float | None = 
         return [v, (a * (p1 - p2) - fric) / m,
                 p.bulk_modulus / v1 * (q1 - a * v), p.bulk_modulus / v2 * (q2 + a * v),
                 vv, -wv * wv * xv - 2 * zv * wv * vv + p.spool_gain * wv * wv * u,
-                p.bulk_modulus / V_HOSE * (q_pump - q_p - q_relief) if droop else 0.0, u, dz]
+                p.bulk_modulus / hose_volume * (q_pump - q_p - q_relief) if droop else 0.0, u, dz]
 
     pm = 0.5 * (p.supply_pressure + p.tank_pressure)
     x0 = centre + float(np.sum(amp * np.sin(ph)))
