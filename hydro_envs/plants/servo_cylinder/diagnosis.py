@@ -92,8 +92,8 @@ def measured_breakaway(params, channels, dt: float) -> float:
 #: the scans of :func:`stribeck_starts`, coarse to fine: (static-friction factors, Stribeck-velocity
 #: factors). The first scan's factors multiply the measured level (0.95-1.5 in 4 % steps: the binned
 #: medians read the static level low or not at all) and give the Stribeck velocities (0.75-30 mm/s,
-#: steps of 1.6); each later one multiplies the best point of the scan before (4 % and 6 % steps,
-#: then 1 % and 2 %). Where a position loop reverses quickly the bristles never reach the static
+#: steps of 1.6); each later one multiplies the best point of the scan before (1 % and 12 % steps
+#: over +-4 % and +-60 %, then 0.25 % and 4 % over +-1 % and +-12 %). Where a position loop reverses quickly the bristles never reach the static
 #: level, and the Stribeck velocity acts through the micro-damping that fades over it: on the
 #: independent record with F_S 80 N, v_S 1 mm/s the friction read off it stays below 48 N, the cost
 #: varies by 2 % over F_S 41-90 N at v_S 1 mm/s and rises by 40 % from v_S 1 to 4 mm/s, and a refit
@@ -106,15 +106,15 @@ PEAK_SCANS = (
 
 
 def stribeck_starts(params, channels, inputs, dt, around=None, level=0) -> list[dict[str, float]]:
-    """Start points (``static_friction``, ``stribeck_velocity``) of a Stribeck refit on the
-    ridge of equal breakaway force: scan ``level`` of :data:`PEAK_SCANS`, the first about
-    :func:`measured_breakaway`, each later one about ``around`` (the best point of the scan
-    before); [] past the last scan or without the pressures; points below the Coulomb level
-    left out."""
+    """Start points (``static_friction``, ``stribeck_velocity``) of a Stribeck refit: scan
+    ``level`` of :data:`PEAK_SCANS`, the first about the static level of
+    :func:`measured_breakaway` over a wide range of Stribeck velocities, each later one about
+    ``around`` (the best point of the scan before); [] past the last scan or without the
+    pressures; points below the Coulomb level left out."""
     if level >= len(PEAK_SCANS):
         return []
     fs_factors, speed_factors = PEAK_SCANS[level]
-    if level == 0:
+    if level == 0:  # the first scan's speed factors are the velocities [m/s] themselves
         fs0, vs0 = measured_breakaway(params, channels, dt), 1.0
     else:
         fs0, vs0 = around["static_friction"], around["stribeck_velocity"]
