@@ -158,7 +158,14 @@ def test_rodless_loops_are_stable_without_dry_friction_over_the_randomisation():
 
     spec = load_randomization("rodless_cylinder", RodlessCylinderParams)
     nominal = RodlessCylinderParams()
-    flags = [np.array(f, bool) for f in itertools.product((False, True), repeat=len(spec.entries))]
+    # the dry-friction levels are zeroed in the dry-free linearisation: their corners would repeat
+    # the same plants (the worst margins over all 128 corners and over these 32 are the same)
+    dry = set(registry.get("rodless_cylinder").without_dry_friction({}))
+    free = [k for k, e in enumerate(spec.entries) if e.name not in dry]
+    flags = []
+    for f in itertools.product((False, True), repeat=len(free)):
+        flags.append(np.zeros(len(spec.entries), bool))
+        flags[-1][free] = f
     plants = [_rodless_plant(spec.corner(f)) for f in flags]
     plants += [_rodless_plant(nominal, 0.1), _rodless_plant(nominal, 0.9)]
     loops = rodless_loops(nominal)
