@@ -73,3 +73,15 @@ def test_start_points_span_the_ridge_and_refine_about_a_point():
         assert len(fine) == n and np.all(np.abs(fine_peaks / centre - 1) <= step)
     assert stribeck_starts(base, rec.channels, rec.inputs, rec.dt, around=coarse[40], level=3) == []
     assert stribeck_starts(base, {}, rec.inputs, rec.dt) == []
+
+
+def test_binned_friction_peak_is_the_largest_bin_median_of_enough_samples():
+    from hydro_envs.data.friction_reading import binned_friction_peak
+
+    rng = np.random.default_rng(0)
+    speed = np.concatenate([np.full(50, 2e-4), np.full(50, -3e-3), np.full(19, 5e-2), np.full(5, 1.0)])
+    friction = np.concatenate([12.0 + rng.normal(0, 0.1, 50), 15.0 + rng.normal(0, 0.1, 50),
+                               np.full(19, 40.0), np.full(5, 90.0)])
+    # the 19-sample bin and the speeds above 0.1 m/s do not count; the sign of the speed does not matter
+    assert binned_friction_peak(speed, friction) == pytest.approx(15.0, abs=0.05)
+    assert np.isnan(binned_friction_peak(speed[100:], friction[100:]))

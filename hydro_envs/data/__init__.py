@@ -2,6 +2,7 @@
 
 See :mod:`hydro_envs.data.measured` for the file format and the loader,
 :mod:`hydro_envs.data.foreign` for other layouts and the column map,
+:mod:`hydro_envs.data.friction_reading` for the static friction level read off a record,
 :mod:`hydro_envs.data.units` for unit conversion, :mod:`hydro_envs.data.checks` for the
 plausibility checks and :mod:`hydro_envs.data.channels` for the channels of each plant.
 """

@@ -17,6 +17,7 @@ import math
 
 import numpy as np
 
+from hydro_envs.data.friction_reading import binned_friction_peak
 from hydro_envs.plants.servo_cylinder.params import ServoCylinderParams
 
 __all__ = ["BASES", "initial_state", "controller", "measured_breakaway", "stribeck_starts"]
@@ -64,8 +65,8 @@ def measured_breakaway(params, channels, dt: float) -> float:
     the friction force ``A (p1 - p2) - m a - d v - F_L`` (002 eq (7); velocity, acceleration and
     pressures from a cubic Savitzky-Golay fit over :data:`PEAK_WINDOW`) signed with the velocity,
     over the asymmetry's level ``1 + a sgn v`` and less the pressure term ``c_p |p1 - p2|``, its
-    median in each of 40 log-spaced bins of |v| (10 um/s - 0.1 m/s, bins of at least 20 samples;
-    samples within 1 mm of an end stop left out), the largest of them. The law's level at v -> 0
+    largest median over the speed bins of :func:`~hydro_envs.data.friction_reading.binned_friction_peak`
+    (samples within 1 mm of an end stop left out). The law's level at v -> 0
     is ``F_S`` (002 eq (1)); the medians read it low where the Stribeck dip is narrow, and the
     caller scans above it. NaN without the three channels."""
     from scipy.signal import savgol_filter
@@ -83,10 +84,7 @@ def measured_breakaway(params, channels, dt: float) -> float:
     fr = s * (params.piston_area * dp - params.mass * a - params.viscous_friction * v - params.load_force)
     fr = fr / (1.0 + params.friction_asymmetry * s) - params.friction_pressure_coefficient * np.abs(dp)
     inside = (x > 1e-3) & (x < params.stroke - 1e-3)
-    k = np.digitize(np.abs(v[inside]), np.geomspace(1e-5, 0.1, 41)) - 1
-    frs = fr[inside]
-    medians = [float(np.median(frs[k == i])) for i in range(40) if np.count_nonzero(k == i) >= 20]
-    return max(medians) if medians else float("nan")
+    return binned_friction_peak(v[inside], fr[inside])
 
 
 #: the scans of :func:`stribeck_starts`, coarse to fine: (static-friction factors, Stribeck-velocity

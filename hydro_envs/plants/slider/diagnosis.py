@@ -14,6 +14,8 @@ import dataclasses
 
 import numpy as np
 
+from hydro_envs.data.friction_reading import binned_friction_peak
+
 __all__ = ["BASES", "initial_state", "hidden_states", "controller", "settling_time", "friction_peak",
            "measured_friction_peak", "stribeck_starts"]
 
@@ -88,8 +90,8 @@ PEAK_WINDOW = 0.015
 def measured_friction_peak(params, position: np.ndarray, force: np.ndarray, dt: float) -> float:
     """Breakaway force [N] read off a record: the friction force ``f - F_0 - m a - b v``
     (velocity and acceleration from a cubic Savitzky-Golay fit over :data:`PEAK_WINDOW`), signed
-    with the velocity, its median in each of 40 log-spaced bins of |v| (10 um/s - 0.1 m/s, bins of
-    at least 20 samples), the largest of them. The medians smooth the narrow peak of a Stribeck
+    with the velocity, its largest median over the speed bins of
+    :func:`~hydro_envs.data.friction_reading.binned_friction_peak`. The medians smooth the narrow peak of a Stribeck
     curve: 16.8 N for a true 17.6 N on the independent axis record of the tests; the caller
     scans around it."""
     from scipy.signal import savgol_filter
@@ -98,10 +100,7 @@ def measured_friction_peak(params, position: np.ndarray, force: np.ndarray, dt: 
     v = savgol_filter(position, w, 3, deriv=1, delta=dt)
     a = savgol_filter(position, w, 3, deriv=2, delta=dt)
     fr = np.sign(v) * (force - params.force_offset - params.mass * a - params.viscous_friction * v)
-    k = np.digitize(np.abs(v), np.geomspace(1e-5, 0.1, 41)) - 1
-    bins = (fr[k == i] for i in range(40))
-    medians = [float(np.median(b)) for b in bins if b.size >= 20]
-    return max(medians) if medians else float("nan")
+    return binned_friction_peak(v, fr)
 
 
 #: the scans of :func:`stribeck_starts`, coarse to fine: (breakaway-force factors, Stribeck-velocity
