@@ -29,7 +29,7 @@ from identification.diagnosis.floor import (
 from identification.diagnosis.models import Model
 from identification.diagnosis.synthetic import base_for
 from identification.diagnosis.workflow import prepare
-from test_diagnosis_unexplained import WITHOUT_BACKLASH, _run, axis_record
+from test_diagnosis_unexplained import _run, axis_record, backlash_outside_the_catalogue
 
 DT = 1e-3
 
@@ -104,7 +104,7 @@ def test_effect_free_gives_none_and_backlash_outside_the_catalogue_unexplained_w
     assert free.verdict == "none", (free.verdict, free.reason)
     assert free.noise_floor["x"]["lines_hz"] == [50.0]
     assert free.residual[-1]["floors"]["x"] <= free.noise_floor["x"]["factor"]
-    back = _run("backlash", 1, effects=WITHOUT_BACKLASH)
+    back = backlash_outside_the_catalogue()[0]
     assert back.verdict in ("unexplained", "ambiguous"), (back.verdict, back.reason)
     if back.verdict == "unexplained":
         assert back.mismatch["factor"] == back.noise_floor["x"]["factor"] and "noise floors" in back.reason

@@ -18,6 +18,7 @@ work is an error that says why (no sentinel value reported as a shrink).
 
 from __future__ import annotations
 
+import functools
 import json
 from types import SimpleNamespace
 
@@ -127,9 +128,17 @@ def _run(effect, seed, *, base_effect=None, records=False, effects=None, **kw):
 WITHOUT_BACKLASH = ["coulomb", "stribeck", "force_offset", "sensor_delay"]
 
 
+@functools.lru_cache(maxsize=None)
+def backlash_outside_the_catalogue():
+    """(result, fit record, held-out record) of the backlash record diagnosed with
+    :data:`WITHOUT_BACKLASH`: run once per session, read by this module, ``test_diagnosis_threshold``
+    and ``test_diagnosis_stable`` (none of them changes it)."""
+    return _run("backlash", 1, records=True, effects=WITHOUT_BACKLASH)
+
+
 @pytest.fixture(scope="module")
 def backlash_run():
-    return _run("backlash", 1, records=True, effects=WITHOUT_BACKLASH)
+    return backlash_outside_the_catalogue()
 
 
 @pytest.fixture(scope="module")
