@@ -434,3 +434,35 @@ def test_grid_start_is_judged_on_every_window():
     assert res.effects and res.effects[0]["name"] == "valve_lap"
     fitted = res.effects[0]["final_parameters"]["valve_overlap"]
     assert fitted == pytest.approx(case.drawn["valve_overlap"], rel=0.02)
+
+
+@pytest.mark.parametrize("leader_settles", [False, True])
+def test_candidates_far_below_the_rounds_leader_get_the_warm_refit_only(monkeypatch, leader_settles):
+    """``refit``: after an acceptable leader that leaves more than a correct model's residual, a
+    candidate whose signature is < LEAD_RIVAL_RATIO of the leader's is refitted warm only (one
+    above it gets every start); after a leader that settles the round, the rivals get the warm
+    refit only and those below SETTLED_RIVAL_RATIO none."""
+    from types import SimpleNamespace
+
+    from identification.diagnosis import workflow as W
+    from identification.diagnosis.candidates import Candidate
+
+    warm_only: dict[str, bool] = {}
+
+    def fake_refit(data, bf, run, e, s, warm, scores):
+        warm_only[e.name] = warm
+        return Candidate(e.name, s, {}, {}, {}, {}, 0.5, 0.5 if e.name == "lead" else 0.0, True, True, [], 0.0,
+                         model=object())
+
+    monkeypatch.setattr(W, "_refit_one", fake_refit)
+    sig = {"lead": 0.9, "near": 2 * W.LEAD_RIVAL_RATIO * 0.9, "far": 0.5 * W.LEAD_RIVAL_RATIO * 0.9}
+    ranked = W.Ranked([SimpleNamespace(name=n) for n in sig], sig)
+    opts = SimpleNamespace(say=lambda msg: None, accept_gain=ACCEPT_GAIN)
+    out = W.refit(None, None, SimpleNamespace(accepted=[]), ranked, SimpleNamespace(settles=lambda m: leader_settles),
+                  opts)
+    assert [c.name for c in out] == ["lead", "near", "far"]
+    if leader_settles:
+        assert warm_only == {"lead": False, "near": True}  # "far" is not refitted
+        assert out[2].reasons == [W.NOT_REFITTED]
+    else:
+        assert warm_only == {"lead": False, "near": False, "far": True}
