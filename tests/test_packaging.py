@@ -52,11 +52,9 @@ assert "{target}" in str(config_root()), config_root()
 from agents.benchmark_cli import SHIPPED_CONFIGS, load_config, config_path
 names = sorted(f.stem for f in SHIPPED_CONFIGS.glob("*.yaml"))
 assert len(names) >= 14, names
-for name in names:  # every shipped benchmark config found by name and loaded from the wheel
-    assert "{target}" in str(config_path(name)), config_path(name)
-    load_config(config_path(name))
 from agents.benchmark_cli import _policy_path, _preflight_policies
-for name in names:  # every policy a config names ships in the wheel and loads for its env
+for name in names:  # every shipped config found by name and loaded from the wheel, with the policies it names
+    assert "{target}" in str(config_path(name)), config_path(name)
     cfg = load_config(config_path(name))
     runs = [_policy_path(str(r)) for r in cfg.get("policies") or []]
     assert all("{target}" in r for r in runs), runs

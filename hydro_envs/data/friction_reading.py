@@ -9,12 +9,27 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["SPEED_BINS", "MIN_BIN_SAMPLES", "binned_friction_peak"]
+__all__ = ["SMOOTHING_WINDOW", "SPEED_BINS", "MIN_BIN_SAMPLES", "smoothing_samples", "smoothed", "binned_friction_peak"]
 
+#: Savitzky-Golay window [s] of the velocity, acceleration and pressures the friction is computed from
+SMOOTHING_WINDOW = 0.015
 #: edges [m/s] of the 40 log-spaced speed bins, 10 um/s - 0.1 m/s
 SPEED_BINS = np.geomspace(1e-5, 0.1, 41)
 #: bins with fewer samples than this are left out
 MIN_BIN_SAMPLES = 20
+
+
+def smoothing_samples(dt: float) -> int:
+    """Samples in :data:`SMOOTHING_WINDOW` at sample time ``dt`` [s]: odd, at least 7."""
+    return max(7, int(round(SMOOTHING_WINDOW / dt)) | 1)
+
+
+def smoothed(x: np.ndarray, dt: float, deriv: int = 0) -> np.ndarray:
+    """``x`` (sampled every ``dt`` s) or its ``deriv``-th time derivative from a cubic
+    Savitzky-Golay fit over :func:`smoothing_samples`."""
+    from scipy.signal import savgol_filter
+
+    return savgol_filter(np.asarray(x, float), smoothing_samples(dt), 3, deriv=deriv, delta=dt)
 
 
 def binned_friction_peak(speed: np.ndarray, friction: np.ndarray) -> float:

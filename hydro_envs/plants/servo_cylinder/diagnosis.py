@@ -17,7 +17,7 @@ import math
 
 import numpy as np
 
-from hydro_envs.data.friction_reading import binned_friction_peak
+from hydro_envs.data.friction_reading import binned_friction_peak, smoothed, smoothing_samples
 from hydro_envs.plants.servo_cylinder.params import ServoCylinderParams
 
 __all__ = ["BASES", "initial_state", "controller", "measured_breakaway", "stribeck_starts"]
@@ -56,30 +56,22 @@ def _reference_centre(p):
     return 0.5 * p.stroke
 
 
-#: Savitzky-Golay window [s] of the velocity, acceleration and pressures in :func:`measured_breakaway`
-PEAK_WINDOW = 0.015
-
-
 def measured_breakaway(params, channels, dt: float) -> float:
     """Static friction level [N] read off a record with the position and both chamber pressures:
     the friction force ``A (p1 - p2) - m a - d v - F_L`` (002 eq (7); velocity, acceleration and
-    pressures from a cubic Savitzky-Golay fit over :data:`PEAK_WINDOW`) signed with the velocity,
+    pressures smoothed by :func:`~hydro_envs.data.friction_reading.smoothed`) signed with the velocity,
     over the asymmetry's level ``1 + a sgn v`` and less the pressure term ``c_p |p1 - p2|``, its
     largest median over the speed bins of :func:`~hydro_envs.data.friction_reading.binned_friction_peak`
     (samples within 1 mm of an end stop left out). The law's level at v -> 0
     is ``F_S`` (002 eq (1)); the medians read it low where the Stribeck dip is narrow, and the
     caller scans above it. NaN without the three channels."""
-    from scipy.signal import savgol_filter
-
     if not all(k in channels for k in ("x", "p1", "p2")):
         return float("nan")
     x = np.asarray(channels["x"], float)
-    w = max(7, int(round(PEAK_WINDOW / dt)) | 1)
-    if x.size < 2 * w:
+    if x.size < 2 * smoothing_samples(dt):
         return float("nan")
-    v = savgol_filter(x, w, 3, deriv=1, delta=dt)
-    a = savgol_filter(x, w, 3, deriv=2, delta=dt)
-    dp = savgol_filter(np.asarray(channels["p1"], float) - np.asarray(channels["p2"], float), w, 3)
+    v, a = smoothed(x, dt, 1), smoothed(x, dt, 2)
+    dp = smoothed(np.asarray(channels["p1"], float) - np.asarray(channels["p2"], float), dt)
     s = np.sign(v)
     fr = s * (params.piston_area * dp - params.mass * a - params.viscous_friction * v - params.load_force)
     fr = fr / (1.0 + params.friction_asymmetry * s) - params.friction_pressure_coefficient * np.abs(dp)

@@ -14,7 +14,7 @@ import dataclasses
 
 import numpy as np
 
-from hydro_envs.data.friction_reading import binned_friction_peak
+from hydro_envs.data.friction_reading import binned_friction_peak, smoothed
 
 __all__ = ["BASES", "initial_state", "hidden_states", "controller", "settling_time", "friction_peak",
            "measured_friction_peak", "stribeck_starts"]
@@ -83,22 +83,14 @@ def _static_for_peak(params, peak: float, vs: float) -> float | None:
     return float(brentq(gap, fc, hi, xtol=1e-9 * hi))
 
 
-#: Savitzky-Golay window [s] of the velocity and acceleration in :func:`measured_friction_peak`
-PEAK_WINDOW = 0.015
-
-
 def measured_friction_peak(params, position: np.ndarray, force: np.ndarray, dt: float) -> float:
     """Breakaway force [N] read off a record: the friction force ``f - F_0 - m a - b v``
-    (velocity and acceleration from a cubic Savitzky-Golay fit over :data:`PEAK_WINDOW`), signed
+    (velocity and acceleration from :func:`~hydro_envs.data.friction_reading.smoothed`), signed
     with the velocity, its largest median over the speed bins of
     :func:`~hydro_envs.data.friction_reading.binned_friction_peak`. The medians smooth the narrow peak of a Stribeck
     curve: 16.8 N for a true 17.6 N on the independent axis record of the tests; the caller
     scans around it."""
-    from scipy.signal import savgol_filter
-
-    w = max(7, int(round(PEAK_WINDOW / dt)) | 1)
-    v = savgol_filter(position, w, 3, deriv=1, delta=dt)
-    a = savgol_filter(position, w, 3, deriv=2, delta=dt)
+    v, a = smoothed(position, dt, 1), smoothed(position, dt, 2)
     fr = np.sign(v) * (force - params.force_offset - params.mass * a - params.viscous_friction * v)
     return binned_friction_peak(v, fr)
 
